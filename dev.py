@@ -1,0 +1,103 @@
+#!/usr/bin/env python3
+"""Set up tendrilkit's environment and run its main jobs, with only python3 present.
+
+    python3 dev.py demo     # environment + the four phantom experiments, reconstructed, with reports
+    python3 dev.py test     # environment + the whole test suite (pytest and notebook checks)
+    python3 dev.py setup    # environment only (.venv/ from environment.lock)
+
+The environment is ``.venv/`` installed from the hash-pinned ``environment.lock``
+(with uv when it can be installed, else with pip ``--require-hashes``). It is
+reused while the lock file is unchanged.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent
+VENV = ROOT / ".venv"
+LOCK = ROOT / "environment.lock"
+STAMP = VENV / ".lock-sha256"
+PY = VENV / "bin" / "python"
+UV_VERSION = "0.13.9"
+
+
+def _say(msg: str) -> None:
+    print(f"[dev] {msg}", flush=True)
+
+
+def _run(cmd: list[str], **kw) -> int:
+    return subprocess.call([str(c) for c in cmd], cwd=ROOT, **kw)
+
+
+def _make_venv() -> None:
+    try:
+        venv.EnvBuilder(with_pip=True, clear=True).create(VENV)
+    except Exception as e:  # Debian without python3-venv: ensurepip is missing
+        if shutil.which("apt-get") and os.geteuid() == 0:
+            _say(f"python3 -m venv failed ({e.__class__.__name__}); installing Debian's python3-venv")
+            subprocess.call(["apt-get", "update", "-qq"])
+            v = f"{sys.version_info.major}.{sys.version_info.minor}"
+            if subprocess.call(["apt-get", "install", "-y", "-qq", "python3-venv", f"python{v}-venv"]) != 0:
+                subprocess.check_call(["apt-get", "install", "-y", "-qq", "python3-venv"])
+            venv.EnvBuilder(with_pip=True, clear=True).create(VENV)
+        else:
+            sys.exit(f"[dev] cannot create a virtual environment ({e}); install Debian's python3-venv")
+
+
+def setup() -> None:
+    digest = hashlib.sha256(LOCK.read_bytes()).hexdigest()
+    if PY.exists() and STAMP.exists() and STAMP.read_text().strip() == digest:
+        _say("environment is up to date (.venv)")
+        return
+    _say("creating .venv from environment.lock")
+    _make_venv()
+    env = dict(os.environ, UV_PYTHON_DOWNLOADS="never", PIP_DISABLE_PIP_VERSION_CHECK="1")
+    ok = _run([PY, "-m", "pip", "install", "-q", f"uv=={UV_VERSION}"], env=env) == 0
+    if ok:
+        ok = _run([VENV / "bin" / "uv", "pip", "sync", "-q", "--python", PY, "--require-hashes", LOCK], env=env) == 0
+    if not ok:
+        _say("uv unavailable; installing with pip --require-hashes (slower)")
+        if _run([PY, "-m", "pip", "install", "-q", "--require-hashes", "-r", LOCK], env=env) != 0:
+            sys.exit("[dev] installing environment.lock failed")
+    # the project itself, without touching the pinned dependencies
+    if _run([PY, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation", "-e", "."], env=env) != 0:
+        _say("editable install failed; tendrilkit still runs from the repository root")
+    _run([PY, "-m", "ipykernel", "install", "--sys-prefix", "--name", "python3"], stdout=subprocess.DEVNULL)
+    STAMP.write_text(digest + "\n")
+    _say("environment ready")
+
+
+def demo() -> int:
+    setup()
+    params = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "params").glob("phantom_S*.yaml"))
+    _say("generating the four phantom experiments (skipped when present)")
+    if _run([PY, "-m", "tendrilkit", "phantom", "--site", "all", "--out", "data/phantoms"]) != 0:
+        return 1
+    _say("running the batch: " + " ".join(params))
+    return _run([PY, "-m", "tendrilkit", "batch", *params, "--reports", "reports"])
+
+
+def test() -> int:
+    setup()
+    env = dict(os.environ, TENDRILKIT_PROGRESS="0", MPLBACKEND="Agg")
+    return _run([PY, "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests", "notebooks", "--nbval-lax",
+                 "-n", "2", "--dist", "loadfile"], env=env)
+
+
+def main(argv: list[str]) -> int:
+    cmds = {"setup": lambda: (setup(), 0)[1], "demo": demo, "test": test}
+    if len(argv) != 1 or argv[0] not in cmds:
+        print(__doc__.strip())
+        return 2
+    return cmds[argv[0]]()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))

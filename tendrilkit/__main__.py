@@ -1,0 +1,3 @@
+from tendrilkit.cli import main
+
+raise SystemExit(main())

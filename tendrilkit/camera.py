@@ -1,0 +1,203 @@
+"""Pinhole cameras with OpenCV lens distortion.
+
+A :class:`Camera` maps world points (mm, world-marker frame) to pixels:
+
+.. math::
+
+    x_{cam} = R\\,x_{world} + t, \\qquad
+    (u, v) = \\mathrm{distort}(x_{cam} / z_{cam}) \\text{ through } K
+
+with OpenCV's distortion model ``dist = (k1, k2, p1, p2, k3)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+
+def _as_points(points: np.ndarray, dim: int, name: str) -> np.ndarray:
+    arr = np.asarray(points, dtype=float)
+    if arr.ndim == 1 and arr.shape[0] == dim:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != dim:
+        raise ValueError(f"{name} must have shape (n, {dim}), got {arr.shape}")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Camera:
+    """One calibrated view.
+
+    Attributes
+    ----------
+    K : (3, 3) float array
+        Intrinsic matrix, pixels.
+    dist : (5,) float array
+        OpenCV distortion ``(k1, k2, p1, p2, k3)``.
+    R : (3, 3) float array
+        World-to-camera rotation.
+    t_mm : (3,) float array
+        World-to-camera translation, mm: ``x_cam = R @ x_world + t_mm``.
+    width, height : int
+        Image size, pixels.
+    """
+
+    K: np.ndarray
+    dist: np.ndarray = field(default_factory=lambda: np.zeros(5))
+    R: np.ndarray = field(default_factory=lambda: np.eye(3))
+    t_mm: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    width: int = 1920
+    height: int = 1080
+
+    def __post_init__(self) -> None:
+        K = np.asarray(self.K, dtype=float).reshape(3, 3)
+        dist = np.zeros(5)
+        d = np.asarray(self.dist, dtype=float).ravel()
+        if d.size > 5:
+            raise ValueError(f"dist must have at most 5 coefficients, got {d.size}")
+        dist[: d.size] = d
+        object.__setattr__(self, "K", K)
+        object.__setattr__(self, "dist", dist)
+        object.__setattr__(self, "R", np.asarray(self.R, dtype=float).reshape(3, 3))
+        object.__setattr__(self, "t_mm", np.asarray(self.t_mm, dtype=float).reshape(3))
+
+    # ------------------------------------------------------------------ poses
+    @property
+    def rvec(self) -> np.ndarray:
+        """Rodrigues vector of ``R``, shape (3,)."""
+        return cv2.Rodrigues(self.R)[0].ravel()
+
+    @property
+    def center_world(self) -> np.ndarray:
+        """Optical centre in world mm, shape (3,)."""
+        return -self.R.T @ self.t_mm
+
+    @property
+    def P(self) -> np.ndarray:
+        """Projection matrix ``K [R | t]`` (3, 4) for undistorted pixels."""
+        return self.K @ np.hstack([self.R, self.t_mm[:, None]])
+
+    @property
+    def has_distortion(self) -> bool:
+        return bool(np.any(self.dist != 0))
+
+    def with_pose(self, R: np.ndarray, t_mm: np.ndarray) -> "Camera":
+        """The same intrinsics with another pose."""
+        return Camera(self.K, self.dist, R, t_mm, self.width, self.height)
+
+    # ------------------------------------------------------------- projection
+    def world_to_cam(self, points_world: np.ndarray) -> np.ndarray:
+        """Camera-frame coordinates (n, 3) mm of world points (n, 3) mm."""
+        X = _as_points(points_world, 3, "points_world")
+        return X @ self.R.T + self.t_mm
+
+    def project(self, points_world: np.ndarray, *, distort: bool = True) -> np.ndarray:
+        """Pixels (n, 2) of world points (n, 3) mm; NaN rows stay NaN.
+
+        With ``distort=False`` the ideal pinhole pixels (undistorted image).
+        """
+        Xc = self.world_to_cam(points_world)
+        z = Xc[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = Xc[:, 0] / z
+            y = Xc[:, 1] / z
+        if distort and self.has_distortion:
+            k1, k2, p1, p2, k3 = self.dist
+            r2 = x * x + y * y
+            radial = 1 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2
+            xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+            yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+            x, y = xd, yd
+        K = self.K
+        u = K[0, 0] * x + K[0, 1] * y + K[0, 2]
+        v = K[1, 1] * y + K[1, 2]
+        return np.stack([u, v], axis=1)
+
+    def undistort_points(self, points_xy: np.ndarray) -> np.ndarray:
+        """Ideal pinhole pixels (n, 2) of observed (distorted) pixels (n, 2)."""
+        xy = _as_points(points_xy, 2, "points_xy")
+        if not self.has_distortion or xy.shape[0] == 0:
+            return xy.copy()
+        out = np.full_like(xy, np.nan)
+        ok = np.all(np.isfinite(xy), axis=1)
+        if ok.any():
+            und = cv2.undistortPointsIter(
+                xy[ok].reshape(-1, 1, 2), self.K, self.dist, None, self.K,
+                (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-9),
+            )
+            out[ok] = und.reshape(-1, 2)
+        return out
+
+    def distort_points(self, points_xy: np.ndarray) -> np.ndarray:
+        """Observed pixels (n, 2) of ideal pinhole pixels (n, 2)."""
+        xy = _as_points(points_xy, 2, "points_xy")
+        if not self.has_distortion:
+            return xy.copy()
+        Kinv = np.linalg.inv(self.K)
+        rays = np.hstack([xy, np.ones((len(xy), 1))]) @ Kinv.T
+        cam = Camera(self.K, self.dist, np.eye(3), np.zeros(3), self.width, self.height)
+        return cam.project(rays)
+
+    def ray_directions_cam(self, points_xy: np.ndarray) -> np.ndarray:
+        """Unit viewing rays (n, 3) in the camera frame of observed pixels (n, 2)."""
+        und = self.undistort_points(points_xy)
+        rays = np.hstack([und, np.ones((len(und), 1))]) @ np.linalg.inv(self.K).T
+        return rays / np.linalg.norm(rays, axis=1, keepdims=True)
+
+    def in_image(self, points_xy: np.ndarray, *, margin_px: float = 0.0) -> np.ndarray:
+        """Boolean (n,) whether pixels lie inside the image."""
+        xy = _as_points(points_xy, 2, "points_xy")
+        return (
+            (xy[:, 0] >= margin_px)
+            & (xy[:, 1] >= margin_px)
+            & (xy[:, 0] <= self.width - 1 - margin_px)
+            & (xy[:, 1] <= self.height - 1 - margin_px)
+        )
+
+    # ------------------------------------------------------------ plain text
+    def to_dict(self, view: int) -> dict:
+        """The ``cameras.json`` entry of this camera (EXPERIMENT_FORMAT.md)."""
+        return {
+            "view": int(view),
+            "K": self.K.tolist(),
+            "dist": self.dist.tolist(),
+            "R": self.R.tolist(),
+            "t_mm": self.t_mm.tolist(),
+            "width": int(self.width),
+            "height": int(self.height),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Camera":
+        return cls(
+            K=np.asarray(d["K"], dtype=float),
+            dist=np.asarray(d.get("dist", [0, 0, 0, 0, 0]), dtype=float),
+            R=np.asarray(d["R"], dtype=float),
+            t_mm=np.asarray(d["t_mm"], dtype=float),
+            width=int(d.get("width", 1920)),
+            height=int(d.get("height", 1080)),
+        )
+
+
+def rotation_from_rvec(rvec: np.ndarray) -> np.ndarray:
+    """3x3 rotation of a Rodrigues vector (3,)."""
+    return cv2.Rodrigues(np.asarray(rvec, dtype=float).reshape(3, 1))[0]
+
+
+def look_at(eye_world: np.ndarray, target_world: np.ndarray, up_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World-to-camera ``(R, t)`` of a camera at ``eye`` looking at ``target``.
+
+    The image's y axis (down) is aligned as well as possible with ``-up``.
+    """
+    eye = np.asarray(eye_world, float)
+    z = np.asarray(target_world, float) - eye
+    z /= np.linalg.norm(z)
+    down = -np.asarray(up_world, float)
+    x = np.cross(down, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    R = np.stack([x, y, z])
+    return R, -R @ eye

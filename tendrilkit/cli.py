@@ -1,0 +1,104 @@
+"""Command line: ``python -m tendrilkit COMMAND ...``.
+
+Every user mistake (:class:`~tendrilkit.exceptions.ExperimentError`) is printed
+as one line ``tendrilkit: error: ...`` and the command exits with code 2; no
+traceback. Each command's body lives in the library; this module only parses
+arguments and reports.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from tendrilkit.exceptions import ExperimentError
+
+
+def _cmd_phantom(args: argparse.Namespace) -> int:
+    from tendrilkit.phantom import write_phantom_experiment
+
+    sites = ["S1", "S2", "S3", "S4"] if args.site == "all" else [args.site]
+    for site in sites:
+        out = Path(args.out) if len(sites) == 1 else Path(args.out) / site
+        path = write_phantom_experiment(site, out, n_frames=args.frames, seed=args.seed)
+        print(f"{site}: {path}")
+    return 0
+
+
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    from tendrilkit.calibration import calibrate_to_dir
+
+    summary = calibrate_to_dir(Path(args.experiment), Path(args.out))
+    print(summary)
+    return 0
+
+
+def _cmd_reconstruct(args: argparse.Namespace) -> int:
+    from tendrilkit.pipeline import run_reconstruct
+
+    return run_reconstruct(Path(args.experiment), Path(args.out), workers=args.workers,
+                           progress=not args.quiet)
+
+
+def _cmd_fit(args: argparse.Namespace) -> int:
+    from tendrilkit.fitting import run_fit
+
+    return run_fit(Path(args.curves), Path(args.out))
+
+
+def _cmd_batch(args: argparse.Namespace) -> int:
+    from tendrilkit.batch import run_batch
+
+    return run_batch([Path(p) for p in args.experiments], Path(args.reports), force=args.force,
+                     workers=args.workers)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="tendrilkit", description="3D shape of tendrils from three calibrated views (Fan et al., IJCV 2025).")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    ph = sub.add_parser("phantom", help="generate a synthetic experiment with exact ground truth")
+    ph.add_argument("--site", choices=["S1", "S2", "S3", "S4", "all"], required=True)
+    ph.add_argument("--out", required=True, help="output folder")
+    ph.add_argument("--frames", type=int, default=None, help="sequence length (default: the phantom's default)")
+    ph.add_argument("--seed", type=int, default=0)
+    ph.set_defaults(func=_cmd_phantom)
+
+    ca = sub.add_parser("calibrate", help="camera poses from the world marker; writes cameras.json")
+    ca.add_argument("experiment")
+    ca.add_argument("--out", required=True)
+    ca.set_defaults(func=_cmd_calibrate)
+
+    re_ = sub.add_parser("reconstruct", help="calibrate, segment, order, match, triangulate and fit every frame")
+    re_.add_argument("experiment")
+    re_.add_argument("--out", required=True)
+    re_.add_argument("--workers", type=int, default=None, help="processes for frames (default: all cores)")
+    re_.add_argument("--quiet", action="store_true", help="no progress bar")
+    re_.set_defaults(func=_cmd_reconstruct)
+
+    fi = sub.add_parser("fit", help="refit the piece-wise clothoid to every frame of a curves.csv")
+    fi.add_argument("curves")
+    fi.add_argument("--out", required=True)
+    fi.set_defaults(func=_cmd_fit)
+
+    ba = sub.add_parser("batch", help="run the notebooks of each experiment into reports/<experiment>/")
+    ba.add_argument("experiments", nargs="+")
+    ba.add_argument("--reports", default="reports")
+    ba.add_argument("--force", action="store_true", help="rerun finished experiments")
+    ba.add_argument("--workers", type=int, default=None)
+    ba.set_defaults(func=_cmd_batch)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except ExperimentError as e:
+        print(f"tendrilkit: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("tendrilkit: interrupted; finished frames are kept, run the same command again to continue", file=sys.stderr)
+        return 130

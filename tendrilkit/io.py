@@ -1,0 +1,201 @@
+"""The only module that touches the disk: frames in, result files out.
+
+Frames come from a video file (any container OpenCV reads) or a folder of
+numbered images (``000000.png``, ...). Result files are written atomically:
+to a temporary file in the same folder, then renamed over the target, so an
+interrupted run never leaves a half-written file.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+import cv2
+import numpy as np
+import pandas as pd
+
+from tendrilkit.camera import Camera
+from tendrilkit.exceptions import ExperimentError, FrameReadError
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+
+
+class FrameSource:
+    """Random access to the frames of one view (video file or image folder).
+
+    Frames are BGR ``uint8`` arrays of shape ``(height, width, 3)``.
+    Opening checks the source and raises :class:`ExperimentError` naming the
+    file when it is not a readable video; reading a frame that is missing or
+    broken raises :class:`FrameReadError` (the frame fails, the run goes on).
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self._cap: cv2.VideoCapture | None = None
+        self._next = 0
+        self._files: list[Path] | None = None
+        if not self.path.exists():
+            raise ExperimentError(f"{self.path}: video not found")
+        if self.path.is_dir():
+            files = [p for p in self.path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES]
+            numbered = [(int(m.group(1)), p) for p in files if (m := re.search(r"(\d+)$", p.stem))]
+            if not numbered:
+                raise ExperimentError(f"{self.path}: expected a folder of numbered images (000000.png, ...), found none")
+            numbered.sort()
+            last = numbered[-1][0]
+            by_index = dict(numbered)
+            self._files = [by_index.get(i) for i in range(last + 1)]  # None marks a missing frame
+            first = next(p for p in self._files if p is not None)
+            img = cv2.imread(str(first), cv2.IMREAD_COLOR)
+            if img is None:
+                raise ExperimentError(f"{first}: cannot decode the image")
+            self.height, self.width = img.shape[:2]
+            self.frame_count = len(self._files)
+            self.fps = None
+        else:
+            cap = cv2.VideoCapture(str(self.path))
+            ok, img = (cap.read() if cap.isOpened() else (False, None))
+            if not ok or img is None:
+                cap.release()
+                raise ExperimentError(f"{self.path}: not a video OpenCV can decode")
+            self.height, self.width = img.shape[:2]
+            self.frame_count = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+            fps = cap.get(cv2.CAP_PROP_FPS)
+            self.fps = float(fps) if fps and fps > 0 else None
+            self._cap = cap
+            self._next = 1
+            self._first = img
+
+    def read(self, index: int) -> np.ndarray:
+        """Frame ``index`` (0-based) as BGR uint8 (height, width, 3)."""
+        if index < 0:
+            raise FrameReadError(f"{self.path.name}: frame {index} is negative")
+        if self._files is not None:
+            if index >= len(self._files) or self._files[index] is None:
+                raise FrameReadError(f"{self.path.name}: frame {index} is missing")
+            img = cv2.imread(str(self._files[index]), cv2.IMREAD_COLOR)
+            if img is None:
+                raise FrameReadError(f"{self._files[index].name}: frame {index} cannot be decoded")
+            if img.shape[:2] != (self.height, self.width):
+                raise FrameReadError(f"{self._files[index].name}: frame {index} is {img.shape[1]}x{img.shape[0]}, expected {self.width}x{self.height}")
+            return img
+        assert self._cap is not None
+        if index == 0 and self._first is not None and self._next == 1:
+            return self._first.copy()
+        if index != self._next:
+            self._cap.set(cv2.CAP_PROP_POS_FRAMES, index)
+        ok, img = self._cap.read()
+        if not ok or img is None:
+            self._next = -1
+            raise FrameReadError(f"{self.path.name}: frame {index} cannot be read (the video has {self.frame_count} frames)")
+        self._next = index + 1
+        return img
+
+    def close(self) -> None:
+        if self._cap is not None:
+            self._cap.release()
+            self._cap = None
+
+    def __enter__(self) -> "FrameSource":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def open_views(paths: list[Path]) -> list[FrameSource]:
+    """One :class:`FrameSource` per view; the first unreadable one raises."""
+    sources: list[FrameSource] = []
+    try:
+        for p in paths:
+            sources.append(FrameSource(p))
+    except ExperimentError:
+        for s in sources:
+            s.close()
+        raise
+    return sources
+
+
+# ---------------------------------------------------------------- atomic writes
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; on success rename it over ``path``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+        os.replace(tmp_path, path)
+    finally:
+        if tmp_path.exists():
+            tmp_path.unlink()
+
+
+def write_csv(df: pd.DataFrame, path: str | Path, *, float_format: str = "%.6f") -> None:
+    """Write a table atomically, without index, floats at fixed precision."""
+    with atomic_path(path) as tmp:
+        df.to_csv(tmp, index=False, float_format=float_format, lineterminator="\n")
+
+
+def write_json(obj, path: str | Path) -> None:
+    """Write JSON atomically, keys in the given order, 2-space indent."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(obj, indent=2) + "\n", encoding="utf-8")
+
+
+def write_text(text: str, path: str | Path) -> None:
+    with atomic_path(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+
+
+def read_csv(path: str | Path, *, required: tuple[str, ...] = ()) -> pd.DataFrame:
+    """Read a result table; a missing file or column is an :class:`ExperimentError`."""
+    path = Path(path)
+    if not path.is_file():
+        raise ExperimentError(f"{path}: file not found")
+    try:
+        df = pd.read_csv(path)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
+        raise ExperimentError(f"{path}: not a readable CSV table ({str(e).splitlines()[0]})") from None
+    missing = [c for c in required if c not in df.columns]
+    if missing:
+        raise ExperimentError(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(required)}")
+    return df
+
+
+def check_writable_dir(path: str | Path) -> Path:
+    """Create ``path`` if needed and check that files can be written in it."""
+    path = Path(path)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".write-test.", dir=path)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as e:
+        raise ExperimentError(f"{path}: output folder cannot be written ({e.strerror})") from None
+    return path
+
+
+# ---------------------------------------------------------------- cameras.json
+def write_cameras(cameras: list[Camera], path: str | Path) -> None:
+    """``cameras.json``: one object per view, view order (EXPERIMENT_FORMAT.md)."""
+    write_json([cam.to_dict(i + 1) for i, cam in enumerate(cameras)], path)
+
+
+def read_cameras(path: str | Path) -> list[Camera]:
+    path = Path(path)
+    if not path.is_file():
+        raise ExperimentError(f"{path}: cameras file not found")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        return [Camera.from_dict(d) for d in sorted(data, key=lambda d: d["view"])]
+    except (json.JSONDecodeError, KeyError, TypeError, ValueError) as e:
+        raise ExperimentError(f"{path}: not a cameras.json file ({e.__class__.__name__}: {e})") from None

@@ -1,0 +1,394 @@
+"""Reading and validating experiment files (``../shared/EXPERIMENT_FORMAT.md``).
+
+:func:`load_experiment` returns an :class:`Experiment` whose paths are absolute.
+Every mistake raises :class:`~tendrilkit.exceptions.ExperimentError` with one
+line naming the file, the key, the value and what was expected. Unknown keys
+are errors.
+
+Required keys are exactly those of EXPERIMENT_FORMAT.md. The optional sections
+``segmentation``, ``skeleton``, ``ordering``, ``correspondence``,
+``triangulation``, ``smoothing``, ``fit`` and ``calibration`` hold tendrilkit's
+own choices; each key has a documented default (see the classes below).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import yaml
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
+
+from tendrilkit.exceptions import ExperimentError
+
+SITES = ("S1", "S2", "S3", "S4")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+PositiveFloat = Annotated[float, Field(gt=0)]
+NonNegFloat = Annotated[float, Field(ge=0)]
+
+
+class FrameRange(_Strict):
+    """0-based frame selection, ``stop`` exclusive (``null``: to the end)."""
+
+    start: int = Field(0, ge=0)
+    stop: int | None = Field(None, ge=1)
+    step: int = Field(1, ge=1)
+
+    @model_validator(mode="after")
+    def _order(self) -> "FrameRange":
+        if self.stop is not None and self.stop <= self.start:
+            raise ValueError(f"stop ({self.stop}) must be greater than start ({self.start})")
+        return self
+
+
+class CameraIntrinsics(_Strict):
+    """Pinhole intrinsics of one view, pixels; ``dist`` in OpenCV order."""
+
+    view: int = Field(ge=1)
+    fx: PositiveFloat
+    fy: PositiveFloat
+    cx: float
+    cy: float
+    dist: list[float] = Field(default_factory=lambda: [0.0] * 5)
+
+    @field_validator("dist")
+    @classmethod
+    def _dist(cls, v: list[float]) -> list[float]:
+        if len(v) not in (4, 5):
+            raise ValueError(f"expected 4 or 5 coefficients (k1, k2, p1, p2[, k3]), got {len(v)}")
+        return list(v) + [0.0] * (5 - len(v))
+
+
+class Marker(_Strict):
+    """The ArUco marker that defines the world frame."""
+
+    dictionary: str
+    id: int = Field(ge=0)
+    length_mm: PositiveFloat
+
+    @field_validator("dictionary")
+    @classmethod
+    def _dictionary(cls, v: str) -> str:
+        import cv2
+
+        if not v.startswith("DICT_") or not hasattr(cv2.aruco, v):
+            raise ValueError(f"expected a cv2.aruco predefined dictionary name such as DICT_ARUCO_ORIGINAL, got {v!r}")
+        return v
+
+
+class ViewMarks(_Strict):
+    """What a user marks on the first frame of one view (pixels)."""
+
+    view: int = Field(ge=1)
+    roi: tuple[int, int, int, int]
+    keep_out: tuple[int, int, int, int] | None = None
+    base_point: tuple[float, float]
+
+    @field_validator("roi", "keep_out")
+    @classmethod
+    def _box(cls, v):
+        if v is not None and (v[2] <= 0 or v[3] <= 0):
+            raise ValueError(f"expected [x, y, w, h] with positive width and height, got {list(v)}")
+        return v
+
+
+class Extrinsics(_Strict):
+    """Camera poses from the authors' files instead of marker detection."""
+
+    format: Literal["ijcv25"]
+    files: list[Path]
+
+
+class Segmentation(_Strict):
+    """Per-view segmentation of the tendril (paper: Pre-processing).
+
+    ``channel``: ``blue`` (dark tendril in the blue channel on a white board,
+    the reference's default) or ``hsv`` (value/saturation); ``threshold``:
+    ``otsu`` or a fixed grey level 0-255 (pixels darker than it are tendril);
+    ``opening_radius_px``: radius of the morphological opening (0: none);
+    ``min_component_px``: components smaller than this are dropped.
+    """
+
+    channel: Literal["blue", "hsv"] = "blue"
+    threshold: Literal["otsu"] | Annotated[int, Field(ge=0, le=255)] = "otsu"
+    opening_radius_px: int = Field(1, ge=0)
+    min_component_px: int = Field(50, ge=0)
+
+
+class Skeleton(_Strict):
+    """Skeleton of the mask: spurs shorter than ``prune_px`` are removed."""
+
+    prune_px: float = Field(12.0, ge=0)
+
+
+class Ordering(_Strict):
+    """Base-to-tip ordering through self-crossings.
+
+    ``method``: ``smooth`` (at every junction, the branch with the smallest
+    turn of the tangent fitted over ``tangent_window_px``) or ``paper`` (the
+    paper's two/three sub-set cases). ``overrides``: decisions forced by the
+    user, a list of ``{frame, view, junction, branch}`` entries as recorded in
+    the frame's ordering decisions.
+    """
+
+    method: Literal["smooth", "paper"] = "smooth"
+    tangent_window_px: float = Field(15.0, gt=0)
+    overrides: list[dict[str, Any]] = Field(default_factory=list)
+
+
+class Correspondence(_Strict):
+    """Matching of the ordered curves across views.
+
+    ``method``: ``epipolar`` (monotone matching minimising epipolar distance,
+    tendrilkit's default) or ``frechet`` (the paper: homography to the
+    reference view and discrete Fréchet coupling).
+    """
+
+    method: Literal["epipolar", "frechet"] = "epipolar"
+
+
+class Triangulation(_Strict):
+    """N-view triangulation; ``refine``: non-linear reprojection refinement."""
+
+    refine: bool = True
+
+
+class Smoothing(_Strict):
+    """Smoothing of the 3D curve before Frenet frames.
+
+    ``length_mm``: the length scale of the second-order Whittaker smoother
+    (features shorter than about this are smoothed away).
+    """
+
+    length_mm: PositiveFloat = 3.0
+
+
+class Fit(_Strict):
+    """Piece-wise clothoid fit (paper: Automatic Piece-Wise Fitting).
+
+    ``selection``: ``auto`` (exact path over all penalties, the fewest
+    segments reaching ``target_r2``) or ``fixed`` (``penalty_kappa`` and
+    ``penalty_tau``, dimensionless, see :mod:`tendrilkit.pwc`);
+    ``score``: ``l2`` (least squares) or ``l1`` (the paper's absolute error).
+    """
+
+    selection: Literal["auto", "fixed"] = "auto"
+    target_r2: float = Field(0.999, gt=0, lt=1)
+    penalty_kappa: NonNegFloat = 1.0
+    penalty_tau: NonNegFloat = 1.0
+    score: Literal["l2", "l1"] = "l2"
+
+
+class Calibration(_Strict):
+    """Marker calibration: ``bundle_adjust`` refines the rig with every
+    marker that two or more views see (world marker fixed)."""
+
+    bundle_adjust: bool = True
+
+
+class Experiment(_Strict):
+    """A validated experiment; every path is absolute."""
+
+    name: str = Field(min_length=1)
+    stimulation_site: Literal["S1", "S2", "S3", "S4"] | None = None
+    videos: list[Path] = Field(min_length=1)
+    fps: PositiveFloat
+    reference_view: int = Field(ge=1)
+    frames: FrameRange = Field(default_factory=FrameRange)
+    cameras: list[CameraIntrinsics] = Field(min_length=1)
+    marker: Marker
+    views: list[ViewMarks] = Field(min_length=1)
+    points: int = Field(200, ge=10, le=5000)
+    extrinsics: Extrinsics | None = None
+    segmentation: Segmentation = Field(default_factory=Segmentation)
+    skeleton: Skeleton = Field(default_factory=Skeleton)
+    ordering: Ordering = Field(default_factory=Ordering)
+    correspondence: Correspondence = Field(default_factory=Correspondence)
+    triangulation: Triangulation = Field(default_factory=Triangulation)
+    smoothing: Smoothing = Field(default_factory=Smoothing)
+    fit: Fit = Field(default_factory=Fit)
+    calibration: Calibration = Field(default_factory=Calibration)
+
+    source: Path | None = Field(None, exclude=True)
+
+    @field_validator("name")
+    @classmethod
+    def _name(cls, v: str) -> str:
+        bad = set('/\\:*?"<>|') & set(v)
+        if bad or v.strip() != v:
+            raise ValueError(f"expected a name usable as a folder name (no {''.join(sorted(bad)) or 'surrounding spaces'}), got {v!r}")
+        return v
+
+    @model_validator(mode="after")
+    def _counts(self) -> "Experiment":
+        n = len(self.videos)
+        if n < 2:
+            raise ValueError(f"videos: expected at least 2 views, got {n}")
+        for key, items in (("cameras", self.cameras), ("views", self.views)):
+            if len(items) != n:
+                raise ValueError(f"{key}: expected one entry per video ({n}), got {len(items)}")
+            got = [it.view for it in items]
+            if got != list(range(1, n + 1)):
+                raise ValueError(f"{key}: expected view numbers {list(range(1, n + 1))} in order, got {got}")
+        if self.reference_view > n:
+            raise ValueError(f"reference_view: expected 1..{n}, got {self.reference_view}")
+        if self.extrinsics is not None and len(self.extrinsics.files) != n:
+            raise ValueError(f"extrinsics.files: expected one file per video ({n}), got {len(self.extrinsics.files)}")
+        return self
+
+    @property
+    def n_views(self) -> int:
+        return len(self.videos)
+
+
+def _loc(loc: tuple) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
+
+
+def _lookup(data: Any, loc: tuple) -> tuple[bool, Any]:
+    cur = data
+    for part in loc:
+        try:
+            cur = cur[part]
+        except (KeyError, IndexError, TypeError):
+            return False, None
+    return True, cur
+
+
+def _user_loc(loc: tuple, data: Any) -> tuple:
+    """The part of a pydantic error location that names the user's keys.
+
+    pydantic inserts tags such as ``constrained-int`` or ``literal['otsu']``
+    for union members; they are dropped.
+    """
+    out: list = []
+    cur = data
+    for i, part in enumerate(loc):
+        if isinstance(part, int) and isinstance(cur, (list, tuple)):
+            out.append(part)
+            cur = cur[part] if part < len(cur) else None
+        elif isinstance(part, str) and isinstance(cur, dict) and part in cur:
+            out.append(part)
+            cur = cur[part]
+        elif isinstance(part, str) and ("[" in part or "-" in part or part in ("int", "float", "str", "bool", "tuple", "list", "dict", "none")):
+            continue
+        else:  # a key absent from the data (missing, or under a missing parent)
+            out.extend(loc[i:])
+            break
+    return tuple(out)
+
+
+def _format_error(err: dict, data: Any) -> str:
+    loc = _user_loc(tuple(err["loc"]), data)
+    key = _loc(loc) or "(top level)"
+    kind = err["type"]
+    found, value = _lookup(data, loc)
+    if kind == "extra_forbidden":
+        return f"unknown key {key!r}"
+    if kind == "missing":
+        return f"{key}: required key is missing"
+    msg = err["msg"]
+    if msg.startswith("Value error, "):
+        msg = msg[len("Value error, "):]
+    shown = f"{value!r}" if found else "nothing"
+    if len(shown) > 80:
+        shown = shown[:77] + "..."
+    if kind == "value_error" and msg.startswith(tuple(f"{k}:" for k in ("videos", "cameras", "views", "reference_view", "extrinsics.files"))):
+        return msg
+    return f"{key}: {msg.lower() if msg[:1].isupper() and not msg[:2].isupper() else msg} (got {shown})"
+
+
+def parse_experiment(data: Any, *, source: Path | None = None) -> Experiment:
+    """Validate an already-parsed experiment mapping; paths resolve against ``source``'s folder."""
+    where = f"{source}: " if source is not None else ""
+    if data is None:
+        raise ExperimentError(f"{where}the experiment file is empty")
+    if not isinstance(data, dict):
+        raise ExperimentError(f"{where}expected a mapping of keys (name:, videos:, ...) at the top level, got {type(data).__name__}")
+    try:
+        exp = Experiment.model_validate(data)
+    except ValidationError as e:
+        errors = e.errors()
+        first = _format_error(errors[0], data)
+        # a union (e.g. threshold: 'otsu' or 0-255) reports one error per member: say all of them
+        key = first.split(":")[0]
+        alts = [m for m in (_format_error(x, data) for x in errors[1:]) if m.split(":")[0] == key]
+        if alts:
+            reasons = [first.split(": ", 1)[1].rsplit(" (got ", 1)[0]] + [a.split(": ", 1)[1].rsplit(" (got ", 1)[0] for a in alts]
+            first = f"{key}: {' or '.join(dict.fromkeys(reasons))} (got {first.rsplit(' (got ', 1)[1]}"
+        raise ExperimentError(f"{where}{first}") from None
+    base = source.parent if source is not None else Path.cwd()
+
+    def _abs(p: Path) -> Path:
+        return p if p.is_absolute() else (base / p).resolve()
+
+    update: dict[str, Any] = {"videos": [_abs(p) for p in exp.videos], "source": source}
+    if exp.extrinsics is not None:
+        update["extrinsics"] = exp.extrinsics.model_copy(update={"files": [_abs(p) for p in exp.extrinsics.files]})
+    return exp.model_copy(update=update)
+
+
+def load_experiment(path: str | Path, *, check_files: bool = True) -> Experiment:
+    """Read and validate an experiment YAML file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The experiment file; relative paths inside it are relative to it.
+    check_files : bool, keyword-only
+        Also check that every video and extrinsics file exists.
+
+    Raises
+    ------
+    ExperimentError
+        With one line naming the file, the key, the value and what was expected.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ExperimentError(f"{path}: experiment file not found")
+    if path.is_dir():
+        raise ExperimentError(f"{path}: expected an experiment YAML file, got a folder")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise ExperimentError(f"{path}: cannot read the experiment file ({e.__class__.__name__})") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        line = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
+        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        raise ExperimentError(f"{path}: YAML syntax error at {line}{problem}") from None
+    exp = parse_experiment(data, source=path.resolve())
+    if check_files:
+        for i, v in enumerate(exp.videos):
+            if not v.exists():
+                raise ExperimentError(f"{path}: videos[{i}]: file not found: {v}")
+        if exp.extrinsics is not None:
+            for i, f in enumerate(exp.extrinsics.files):
+                if not f.exists():
+                    raise ExperimentError(f"{path}: extrinsics.files[{i}]: file not found: {f}")
+    return exp
+
+
+def experiment_to_dict(exp: Experiment) -> dict:
+    """The resolved experiment (defaults filled in) as plain data, for provenance."""
+    return exp.model_dump(mode="json")
