@@ -199,3 +199,37 @@ def read_cameras(path: str | Path) -> list[Camera]:
         return [Camera.from_dict(d) for d in sorted(data, key=lambda d: d["view"])]
     except (json.JSONDecodeError, KeyError, TypeError, ValueError) as e:
         raise ExperimentError(f"{path}: not a cameras.json file ({e.__class__.__name__}: {e})") from None
+
+
+# ------------------------------------------------------ the authors' data layout
+def read_ijcv25_extrinsics(path: str | Path) -> dict[str, np.ndarray]:
+    """One ``CamExtrPara_Corners*.csv`` of the authors (see data/ijcv25_rig/README.md).
+
+    Returns arrays with one row per video frame: ``frame`` (n,), ``marker_id``
+    (n,), ``corners_xy`` (n, 4, 2) pixels, ``R`` (n, 3, 3) marker-to-camera
+    rotation and ``t_mm`` (n, 3) marker-to-camera translation in mm.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ExperimentError(f"{path}: extrinsics file not found")
+    try:
+        a = np.loadtxt(path, delimiter=",", ndmin=2)
+    except ValueError as e:
+        raise ExperimentError(f"{path}: not an ijcv25 extrinsics CSV ({str(e).splitlines()[0]})") from None
+    if a.shape[1] != 22 or a.shape[0] == 0:
+        raise ExperimentError(f"{path}: expected rows of 22 comma-separated numbers (ijcv25 layout), got {a.shape[0]} rows of {a.shape[1]}")
+    M = a[:, 13:22].reshape(-1, 3, 3)
+    return {
+        "frame": a[:, 0].astype(int),
+        "marker_id": a[:, 1].astype(int),
+        "corners_xy": a[:, 2:10].reshape(-1, 4, 2),
+        "R": np.transpose(M, (0, 2, 1)),
+        "t_mm": -a[:, 10:13] * 1000.0,
+    }
+
+
+def read_ijcv25_intrinsics(path: str | Path) -> dict:
+    """The rig's ``intrinsics.yaml`` as a mapping (image_size, fps, marker, cameras)."""
+    import yaml
+
+    return yaml.safe_load(Path(path).read_text(encoding="utf-8"))
