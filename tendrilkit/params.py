@@ -49,7 +49,7 @@ class FrameRange(_Strict):
     @model_validator(mode="after")
     def _order(self) -> "FrameRange":
         if self.stop is not None and self.stop <= self.start:
-            raise ValueError(f"stop ({self.stop}) must be greater than start ({self.start})")
+            raise ValueError(f"expected stop ({self.stop}) greater than start ({self.start})")
         return self
 
 
@@ -84,7 +84,7 @@ class Marker(_Strict):
         import cv2
 
         if not v.startswith("DICT_") or not hasattr(cv2.aruco, v):
-            raise ValueError(f"expected a cv2.aruco predefined dictionary name such as DICT_ARUCO_ORIGINAL, got {v!r}")
+            raise ValueError("expected a cv2.aruco predefined dictionary name such as DICT_ARUCO_ORIGINAL")
         return v
 
 
@@ -100,7 +100,7 @@ class ViewMarks(_Strict):
     @classmethod
     def _box(cls, v):
         if v is not None and (v[2] <= 0 or v[3] <= 0):
-            raise ValueError(f"expected [x, y, w, h] with positive width and height, got {list(v)}")
+            raise ValueError("expected [x, y, w, h] with positive width and height")
         return v
 
 
@@ -228,7 +228,7 @@ class Experiment(_Strict):
     def _name(cls, v: str) -> str:
         bad = set('/\\:*?"<>|') & set(v)
         if bad or v.strip() != v:
-            raise ValueError(f"expected a name usable as a folder name (no {''.join(sorted(bad)) or 'surrounding spaces'}), got {v!r}")
+            raise ValueError(f"expected a name usable as a folder name (no {''.join(sorted(bad)) or 'surrounding spaces'})")
         return v
 
     @model_validator(mode="after")
@@ -273,6 +273,13 @@ def _lookup(data: Any, loc: tuple) -> tuple[bool, Any]:
     return True, cur
 
 
+_SHAPES = {
+    "roi": "4 numbers [x, y, w, h]",
+    "keep_out": "4 numbers [x, y, w, h]",
+    "base_point": "2 numbers [x, y]",
+}
+
+
 def _user_loc(loc: tuple, data: Any) -> tuple:
     """The part of a pydantic error location that names the user's keys.
 
@@ -303,6 +310,11 @@ def _format_error(err: dict, data: Any) -> str:
     found, value = _lookup(data, loc)
     if kind == "extra_forbidden":
         return f"unknown key {key!r}"
+    if kind in ("missing", "too_long") and loc and isinstance(loc[-1], int) or kind == "too_long":
+        parent = loc[:-1] if loc and isinstance(loc[-1], int) else loc
+        _, pvalue = _lookup(data, parent)
+        hint = _SHAPES.get(str(parent[-1]) if parent else "", "a different number of items")
+        return f"{_loc(parent)}: expected {hint} (got {pvalue!r})"
     if kind == "missing":
         return f"{key}: required key is missing"
     msg = err["msg"]
