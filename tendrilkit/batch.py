@@ -1,0 +1,257 @@
+"""Batch runs: the numbered notebooks of each experiment, executed with papermill.
+
+``python -m tendrilkit batch params/*.yaml`` runs, for every experiment file,
+
+1. ``reconstruct`` into ``reports/<name>/results/`` (resumable frame by frame),
+2. every per-experiment notebook ``notebooks/NN_*.ipynb`` (in number order)
+   into ``reports/<name>/``, filled with the experiment's parameters,
+3. an HTML page per executed notebook and ``provenance.json``,
+
+experiments in parallel processes, the stages of one experiment in order.
+Then the cross-site notebook (``07_compare_sites.ipynb``) runs over every
+experiment that finished, into ``reports/comparison/``.
+
+Resumable: an experiment whose ``reports/<name>/.done`` holds the same
+fingerprint (experiment file, notebooks, tendrilkit version) is skipped unless
+``--force``; every output is written to a temporary file and renamed. One
+failed experiment does not stop the others; it is reported with its reason.
+Exit code: 0 if every experiment finished, 1 otherwise, 2 for bad input.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+from tendrilkit.exceptions import ExperimentError
+
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = ROOT / "notebooks"
+CROSS_SITE = "07_compare_sites.ipynb"
+PROVENANCE_PACKAGES = ("tendrilkit", "numpy", "scipy", "pandas", "opencv-python-headless", "scikit-image",
+                       "skan", "numba", "matplotlib", "plotly", "papermill", "pydantic")
+
+
+@dataclass(frozen=True)
+class ExperimentOutcome:
+    name: str
+    experiment: str
+    status: str  # done | skipped | failed
+    seconds: float
+    frames_ok: int = 0
+    frames_failed: int = 0
+    message: str = ""
+
+
+def experiment_notebooks() -> list[Path]:
+    """The per-experiment notebooks, in number order."""
+    return sorted(p for p in NOTEBOOKS.glob("[0-9][0-9]_*.ipynb") if p.name != CROSS_SITE)
+
+
+def _sha256(paths: list[Path]) -> str:
+    h = hashlib.sha256()
+    for p in paths:
+        h.update(p.name.encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+def fingerprint(experiment_path: Path, exp_dict: dict) -> str:
+    """What decides whether a finished experiment must run again."""
+    from tendrilkit import __version__
+
+    h = hashlib.sha256()
+    h.update(json.dumps(exp_dict, sort_keys=True, default=str).encode())
+    h.update(_sha256(experiment_notebooks()).encode())
+    h.update(__version__.encode())
+    return h.hexdigest()
+
+
+def git_commit() -> str | None:
+    try:
+        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, timeout=10)
+        if out.returncode != 0:
+            return None
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return out.stdout.strip() + ("-dirty" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        return None
+
+
+def package_versions() -> dict[str, str]:
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {"python": platform.python_version()}
+    for name in PROVENANCE_PACKAGES:
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def provenance(exp_dict: dict, experiment_path: Path) -> dict:
+    """Resolved parameters, package versions and git commit (no timestamps: reports stay byte-stable)."""
+    return {
+        "experiment_file": str(experiment_path),
+        "resolved_parameters": exp_dict,
+        "packages": package_versions(),
+        "git_commit": git_commit(),
+        "notebooks": [p.name for p in experiment_notebooks()],
+    }
+
+
+def execute_notebook(src: Path, dst: Path, parameters: dict, *, cwd: Path) -> None:
+    """Run one notebook with papermill into ``dst`` (atomically) and write ``dst`` as HTML beside it."""
+    import papermill as pm
+
+    from tendrilkit.io import atomic_path
+
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(dst) as tmp:
+        tmp_nb = tmp.with_suffix(".ipynb")
+        try:
+            pm.execute_notebook(str(src), str(tmp_nb), parameters=parameters, kernel_name="python3",
+                                cwd=str(cwd), progress_bar=False, log_output=False)
+        finally:
+            if tmp_nb.exists():
+                os.replace(tmp_nb, tmp)
+    write_html(dst)
+
+
+def write_html(notebook: Path) -> Path:
+    """The executed notebook as a standalone HTML page (inputs shown, no prompts)."""
+    import nbformat
+    from nbconvert import HTMLExporter
+
+    from tendrilkit.io import write_text
+
+    nb = nbformat.read(str(notebook), as_version=4)
+    exporter = HTMLExporter(exclude_input_prompt=True, exclude_output_prompt=True)
+    body, _ = exporter.from_notebook_node(nb)
+    out = notebook.with_suffix(".html")
+    write_text(body, out)
+    return out
+
+
+def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentOutcome:
+    """Everything for one experiment; runs in a worker process."""
+    os.environ.setdefault("TENDRILKIT_PROGRESS", "0")
+    from tendrilkit.io import write_json, write_text
+    from tendrilkit.params import experiment_to_dict, load_experiment
+
+    t0 = time.perf_counter()
+    path = Path(experiment_path).resolve()
+    name = path.stem
+    try:
+        exp = load_experiment(path)
+        name = exp.name
+        exp_dict = experiment_to_dict(exp)
+        out = Path(reports_dir).resolve() / exp.name
+        stamp = out / ".done"
+        fp = fingerprint(path, exp_dict)
+        if not force and stamp.is_file() and stamp.read_text().strip() == fp:
+            ok, failed = _frame_counts(out / "results")
+            return ExperimentOutcome(name, str(path), "skipped", time.perf_counter() - t0, ok, failed, "finished earlier")
+        if stamp.exists():
+            stamp.unlink()
+        out.mkdir(parents=True, exist_ok=True)
+        from tendrilkit.pipeline import run_reconstruct
+
+        run_reconstruct(path, out / "results", workers=1, progress=False)
+        params = {"experiment_path": str(path), "results_dir": str(out / "results"), "figures_dir": str(out / "figures")}
+        for nb in experiment_notebooks():
+            execute_notebook(nb, out / nb.name, params, cwd=NOTEBOOKS)
+        write_json(provenance(exp_dict, path), out / "provenance.json")
+        write_text(fp + "\n", stamp)
+        ok, failed = _frame_counts(out / "results")
+        msg = f"{failed} frame(s) failed" if failed else ""
+        return ExperimentOutcome(name, str(path), "done", time.perf_counter() - t0, ok, failed, msg)
+    except ExperimentError as e:
+        return ExperimentOutcome(name, str(path), "failed", time.perf_counter() - t0, message=str(e))
+    except Exception as e:  # one experiment's failure must not stop the others
+        last = traceback.extract_tb(e.__traceback__)[-1] if e.__traceback__ else None
+        where = f" ({Path(last.filename).name}:{last.lineno})" if last else ""
+        first = str(e).strip().splitlines()[0] if str(e).strip() else ""
+        return ExperimentOutcome(name, str(path), "failed", time.perf_counter() - t0,
+                                 message=f"{e.__class__.__name__}: {first}{where}"[:300])
+
+
+def _frame_counts(results: Path) -> tuple[int, int]:
+    import pandas as pd
+
+    f = results / "frames.csv"
+    if not f.is_file():
+        return 0, 0
+    df = pd.read_csv(f)
+    return int((df["status"] == "ok").sum()), int((df["status"] != "ok").sum())
+
+
+def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path) -> ExperimentOutcome | None:
+    """The cross-site notebook over every finished experiment."""
+    src = NOTEBOOKS / CROSS_SITE
+    finished = [o for o in outcomes if o.status in ("done", "skipped")]
+    if not src.is_file() or not finished:
+        return None
+    t0 = time.perf_counter()
+    out = reports_dir.resolve() / "comparison"
+    params = {
+        "experiment_paths": [o.experiment for o in finished],
+        "reports_dir": str(reports_dir.resolve()),
+        "figures_dir": str(out / "figures"),
+    }
+    try:
+        execute_notebook(src, out / src.name, params, cwd=NOTEBOOKS)
+        return ExperimentOutcome("comparison", "", "done", time.perf_counter() - t0)
+    except Exception as e:
+        first = str(e).strip().splitlines()[0] if str(e).strip() else ""
+        return ExperimentOutcome("comparison", "", "failed", time.perf_counter() - t0,
+                                 message=f"{e.__class__.__name__}: {first}"[:300])
+
+
+def format_summary(outcomes: list[ExperimentOutcome]) -> str:
+    rows = [("experiment", "status", "frames ok", "failed", "time", "message")]
+    for o in outcomes:
+        rows.append((o.name, o.status, str(o.frames_ok), str(o.frames_failed), f"{o.seconds:.0f} s", o.message))
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]) - 1)]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(r[:-1], widths)) + "  " + r[-1] for r in rows]
+    return "\n".join(lines)
+
+
+def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False, workers: int | None = None) -> int:
+    """Run every experiment's notebooks into ``reports_dir``; see the module docstring."""
+    from tendrilkit.io import check_writable_dir
+    from tendrilkit.progress import progress
+
+    if not experiments:
+        raise ExperimentError("batch: no experiment files given")
+    missing = [p for p in experiments if not Path(p).is_file()]
+    if missing:
+        raise ExperimentError(f"{missing[0]}: experiment file not found")
+    check_writable_dir(reports_dir)
+    if not experiment_notebooks():
+        raise ExperimentError(f"{NOTEBOOKS}: no numbered notebooks found")
+    workers = max(1, min(workers or os.cpu_count() or 1, len(experiments)))
+    outcomes: list[ExperimentOutcome] = []
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        futures = [pool.submit(_run_one, str(p), str(reports_dir), force) for p in experiments]
+        for fut in progress(as_completed(futures), total=len(futures), desc="experiments"):
+            o = fut.result()
+            outcomes.append(o)
+            print(f"{o.name}: {o.status}{' - ' + o.message if o.message else ''}", file=sys.stderr, flush=True)
+    outcomes.sort(key=lambda o: o.name)
+    comp = run_comparison(outcomes, Path(reports_dir))
+    if comp is not None:
+        outcomes.append(comp)
+    print(format_summary(outcomes))
+    return 0 if all(o.status in ("done", "skipped") for o in outcomes) else 1
