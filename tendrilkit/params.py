@@ -32,7 +32,7 @@ SITES = ("S1", "S2", "S3", "S4")
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 PositiveFloat = Annotated[float, Field(gt=0)]
@@ -404,3 +404,30 @@ def load_experiment(path: str | Path, *, check_files: bool = True) -> Experiment
 def experiment_to_dict(exp: Experiment) -> dict:
     """The resolved experiment (defaults filled in) as plain data, for provenance."""
     return exp.model_dump(mode="json")
+
+
+def check_against_images(exp: Experiment, sizes_wh: list[tuple[int, int]]) -> None:
+    """Check the per-view marks against the views' image sizes (width, height) px.
+
+    Raises :class:`ExperimentError` naming the view and key when an ROI, a
+    keep-out box or a base point lies outside its image, or the ROI is too
+    small to hold a tendril.
+    """
+    where = f"{exp.source}: " if exp.source is not None else ""
+    if len(sizes_wh) != exp.n_views:
+        raise ExperimentError(f"{where}videos: expected {exp.n_views} readable videos, got {len(sizes_wh)}")
+    for i, (marks, (w, h)) in enumerate(zip(exp.views, sizes_wh)):
+        x, y, bw, bh = marks.roi
+        if x < 0 or y < 0 or x + bw > w or y + bh > h:
+            raise ExperimentError(f"{where}views[{i}].roi: {list(marks.roi)} reaches outside the {w}x{h} image of view {marks.view}")
+        if bw < 8 or bh < 8:
+            raise ExperimentError(f"{where}views[{i}].roi: {list(marks.roi)} is too small (at least 8x8 px)")
+        if marks.keep_out is not None:
+            kx, ky, kw, kh = marks.keep_out
+            if kx < 0 or ky < 0 or kx + kw > w or ky + kh > h:
+                raise ExperimentError(f"{where}views[{i}].keep_out: {list(marks.keep_out)} reaches outside the {w}x{h} image of view {marks.view}")
+        bx, by = marks.base_point
+        if not (0 <= bx < w and 0 <= by < h):
+            raise ExperimentError(f"{where}views[{i}].base_point: {list(marks.base_point)} is outside the {w}x{h} image of view {marks.view}")
+        if not (x - 50 <= bx <= x + bw + 50 and y - 50 <= by <= y + bh + 50):
+            raise ExperimentError(f"{where}views[{i}].base_point: {list(marks.base_point)} is far outside the roi {list(marks.roi)} of view {marks.view}")
