@@ -157,3 +157,10 @@ def test_command_line_prints_one_line_and_exits_2(tmp_path):
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1, out.stderr
     assert "cameras[0].fx" in lines[0] and "Traceback" not in out.stderr
+
+
+def test_example_ijcv25_params_file_loads():
+    exp = load_experiment(ROOT / "params" / "example_ijcv25.yaml", check_files=False)
+    assert exp.extrinsics is not None and all(f.is_file() for f in exp.extrinsics.files)
+    assert [v.suffix for v in exp.videos] == [".MOV"] * 3
+    assert exp.frames.step == 3600
