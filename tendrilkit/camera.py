@@ -124,9 +124,10 @@ class Camera:
         out = np.full_like(xy, np.nan)
         ok = np.all(np.isfinite(xy), axis=1)
         if ok.any():
-            und = cv2.undistortPointsIter(
-                xy[ok].reshape(-1, 1, 2), self.K, self.dist, None, self.K,
-                (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-9),
+            # OpenCV 5 has no undistortPointsIter; undistortPoints takes the criteria
+            und = cv2.undistortPoints(
+                xy[ok].reshape(-1, 1, 2), self.K, self.dist, R=None, P=self.K,
+                criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-9),
             )
             out[ok] = und.reshape(-1, 2)
         return out
