@@ -1,0 +1,344 @@
+"""Calibration: ArUco detection and pose, the ijcv25 loader, bundle adjustment.
+
+The unit tests render their own frames: a flat white board (the world
+marker's plane, z = 0) carrying ArUco markers, seen through a camera with lens
+distortion. Each pixel's ray (2 x 2 sub-samples) is intersected with the board
+and the board's texture is looked up with ``cv2.remap``; then a slight blur,
+noise and 8-bit quantisation.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from tendrilkit.calibration import (
+    RIG_DIR,
+    BundleReport,
+    CalibrationResult,
+    bundle_adjust,
+    calibrate,
+    calibrate_experiment,
+    calibrate_to_dir,
+    cameras_from_ijcv25,
+    detect_markers,
+    ijcv25_rig,
+    marker_object_corners,
+    marker_pose,
+    rig_agreement_px,
+)
+from tendrilkit.camera import Camera, rotation_from_rvec
+from tendrilkit.exceptions import ExperimentError
+from tendrilkit.io import read_ijcv25_extrinsics
+
+DICT = "DICT_ARUCO_ORIGINAL"
+WORLD_ID = 815
+L = 24.0
+DIST = np.array([-0.09, 0.06, 0.0008, -0.0005, 0.0])
+
+# ----------------------------------------------------------------- the scene
+TEX_MM = L / 280.0  # texel size: the world marker is 280 texels (7 cells x 40)
+BOARD = (-60.0, 200.0, -200.0, 150.0)  # x_min, x_max, y_min, y_max on the board, mm
+#: other markers on the board: id -> (centre x, centre y, side), mm
+BOARD_MARKERS = {
+    7: (70.0, -130.0, 30.0),
+    23: (165.0, -110.0, 30.0),
+    42: (160.0, 80.0, 30.0),
+    101: (20.0, 100.0, 30.0),
+    250: (-30.0, -80.0, 24.0),
+}
+
+
+def _texture(markers: dict[int, tuple[float, float, float]]) -> tuple[np.ndarray, dict[int, np.ndarray]]:
+    """Board texture (grey float) and the exact world corners (4, 3) of each marker."""
+    x0, x1, y0, y1 = BOARD
+    w, h = int(round((x1 - x0) / TEX_MM)), int(round((y1 - y0) / TEX_MM))
+    tex = np.full((h, w), 225.0, np.float32)
+    dic = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, DICT))
+    corners = {}
+    for mid, (cx, cy, side) in markers.items():
+        n = int(round(side / TEX_MM / 7)) * 7
+        col = int(round((cx - x0) / TEX_MM - n / 2))
+        row = int(round((y1 - cy) / TEX_MM - n / 2))
+        img = cv2.aruco.generateImageMarker(dic, mid, n)
+        tex[row:row + n, col:col + n] = np.where(img > 127, 225.0, 25.0)
+        # texel i covers [x0 + i*TEX_MM, x0 + (i+1)*TEX_MM)
+        left, top = x0 + col * TEX_MM, y1 - row * TEX_MM
+        s = n * TEX_MM
+        corners[mid] = np.array([[left, top, 0], [left + s, top, 0], [left + s, top - s, 0], [left, top - s, 0]])
+    return tex, corners
+
+
+def _scene(markers=None):
+    m = {WORLD_ID: (0.0, 0.0, L), **(BOARD_MARKERS if markers is None else markers)}
+    return _texture(m)
+
+
+def render(camera: Camera, tex: np.ndarray, *, rng: np.random.Generator, blur_px: float = 0.7,
+           noise: float = 2.0, ss: int = 2) -> np.ndarray:
+    """BGR frame of the board through ``camera`` (ray/board intersection + remap)."""
+    x0, x1, y0, y1 = BOARD
+    W, H = camera.width, camera.height
+    off = (np.arange(ss) + 0.5) / ss - 0.5
+    u = (np.arange(W)[None, :, None] + off[None, None, :]).repeat(H, 0)  # (H, W, ss)
+    acc = np.zeros((H, W), np.float32)
+    for dy in off:
+        xy = np.stack(np.broadcast_arrays(u, np.arange(H)[:, None, None] + dy), -1).reshape(-1, 1, 2)
+        nrm = cv2.undistortPoints(xy.astype(np.float64), camera.K, camera.dist).reshape(-1, 2)
+        rays = np.hstack([nrm, np.ones((len(nrm), 1))]) @ camera.R  # world directions (R^T r)
+        C = camera.center_world
+        s = -C[2] / rays[:, 2]
+        X = C[0] + s * rays[:, 0]
+        Y = C[1] + s * rays[:, 1]
+        mu = ((X - x0) / TEX_MM - 0.5).reshape(H, W, ss).astype(np.float32)
+        mv = ((y1 - Y) / TEX_MM - 0.5).reshape(H, W, ss).astype(np.float32)
+        for k in range(ss):
+            acc += cv2.remap(tex, mu[:, :, k].copy(), mv[:, :, k].copy(), cv2.INTER_LINEAR,
+                             borderMode=cv2.BORDER_CONSTANT, borderValue=200.0)
+    img = acc / (ss * ss)
+    if blur_px > 0:
+        img = cv2.GaussianBlur(img, (0, 0), blur_px)
+    img = img + rng.normal(0, noise, img.shape)
+    g = np.clip(np.round(img), 0, 255).astype(np.uint8)
+    return cv2.merge([g, g, g])
+
+
+def distorted_rig() -> list[Camera]:
+    return [Camera(c.K, DIST, c.R, c.t_mm, c.width, c.height) for c in ijcv25_rig()]
+
+
+def working_volume(n: int = 400, seed: int = 0) -> np.ndarray:
+    """Points 100-150 mm from the marker where the tendril hangs (below it, in front of the board)."""
+    rng = np.random.default_rng(seed)
+    P = np.column_stack([rng.uniform(40, 160, 4 * n), rng.uniform(-80, 40, 4 * n), rng.uniform(5, 60, 4 * n)])
+    d = np.linalg.norm(P, axis=1)
+    return P[(d >= 100) & (d <= 150)][:n]
+
+
+def rot_err_deg(Ra, Rb) -> float:
+    c = (np.trace(Ra.T @ Rb) - 1) / 2
+    return float(np.degrees(np.arccos(np.clip(c, -1, 1))))
+
+
+@pytest.fixture(scope="module")
+def rendered():
+    """One rendered frame per view of the distorted rig, with the exact marker corners."""
+    tex, corners = _scene()
+    rng = np.random.default_rng(1)
+    cams = distorted_rig()
+    return cams, [render(c, tex, rng=rng) for c in cams], corners
+
+
+# ---------------------------------------------------------------- detection
+def test_marker_object_corners_order():
+    c = marker_object_corners(24.0)
+    assert c.shape == (4, 3)
+    np.testing.assert_allclose(c[0], [-12, 12, 0])
+    np.testing.assert_allclose(c[2], [12, -12, 0])
+
+
+def test_detect_markers_corners_subpixel(rendered):
+    cams, images, corners = rendered
+    for cam, img in zip(cams, images):
+        det = detect_markers(img, DICT, camera=cam)
+        assert WORLD_ID in det
+        for mid, c in det.items():
+            truth = cam.project(corners[mid])
+            err = np.linalg.norm(c - truth, axis=1)
+            assert err.max() < 0.15, (mid, err)
+
+
+def test_marker_pose_round_trip(rendered):
+    cams, images, corners = rendered
+    for cam, img in zip(cams, images):
+        det = detect_markers(img, DICT, camera=cam)
+        R, t = marker_pose(det[WORLD_ID], cam, L)
+        assert rot_err_deg(R, cam.R) < 0.5
+        assert np.linalg.norm(t - cam.t_mm) < 1.0
+
+
+def test_detect_markers_rejects_bad_dictionary():
+    with pytest.raises(ValueError, match="dictionary"):
+        detect_markers(np.zeros((50, 50, 3), np.uint8), "ARUCO_ORIGINAL")
+
+
+def test_missing_world_marker_is_one_line_experiment_error(rendered):
+    cams, images, _ = rendered
+    blank = np.full_like(images[1], 220)
+    with pytest.raises(ExperimentError) as e:
+        calibrate([images[0], blank, images[2]], cams, dictionary=DICT, world_id=WORLD_ID, length_mm=L)
+    assert str(e.value) == "view 2: world marker 815 (DICT_ARUCO_ORIGINAL) not found in frame 0"
+
+
+def test_calibrate_rendered_rig_within_half_pixel(rendered):
+    cams, images, _ = rendered
+    res = calibrate(images, cams, dictionary=DICT, world_id=WORLD_ID, length_mm=L)
+    assert isinstance(res, CalibrationResult) and res.source == "bundle"
+    P = working_volume()
+    mx_single, _ = rig_agreement_px(res.single_cameras, cams, P)
+    mx, mean = rig_agreement_px(res.cameras, cams, P)
+    assert mx.max() < 0.5, (mx_single, mx)
+    assert set(res.markers.stage) == {"single", "adjusted"}
+    adj = res.markers[res.markers.stage == "adjusted"]
+    assert adj.mean_px.max() < 0.3
+    assert list(res.markers.columns[:5]) == ["view", "marker_id", "stage", "mean_px", "max_px"]
+
+
+# ------------------------------------------------------------------- ijcv25
+def test_ijcv25_loader_reproduces_stored_corners():
+    rig = ijcv25_rig()
+    L_ = 24.0
+    for i, cam in enumerate(rig):
+        ext = read_ijcv25_extrinsics(RIG_DIR / f"CamExtrPara_Corners{i + 1}.csv")
+        proj = cam.project(marker_object_corners(L_))
+        assert np.abs(proj - ext["corners_xy"][0]).max() < 0.5
+        ok, rv, tv = cv2.solvePnP(marker_object_corners(L_), ext["corners_xy"][0], cam.K, None,
+                                  flags=cv2.SOLVEPNP_IPPE_SQUARE)
+        assert np.abs(tv.ravel() - cam.t_mm).max() < 0.2
+        # marker_pose (IPPE + LM polish) agrees with the stored pose as well
+        R, t = marker_pose(ext["corners_xy"][0], cam, L_)
+        assert np.abs(t - cam.t_mm).max() < 0.5
+
+
+def test_cameras_from_ijcv25_picks_row_by_frame():
+    rig = ijcv25_rig()
+    files = [RIG_DIR / f"CamExtrPara_Corners{i + 1}.csv" for i in range(3)]
+    ext = read_ijcv25_extrinsics(files[0])
+    by_frame = cameras_from_ijcv25(files, rig, frame=int(ext["frame"][2]))
+    np.testing.assert_allclose(by_frame[0].t_mm, ext["t_mm"][2])
+    absent = cameras_from_ijcv25(files, rig, frame=0)
+    np.testing.assert_allclose(absent[0].t_mm, ext["t_mm"][0])
+
+
+def _write_experiment(tmp_path: Path, images: list[np.ndarray], cams: list[Camera], extra: str = "") -> Path:
+    lines = ["name: calib-test", "videos:"]
+    for v, img in enumerate(images):
+        d = tmp_path / f"view{v + 1}"
+        d.mkdir()
+        cv2.imwrite(str(d / "000000.png"), img)
+        lines.append(f"  - view{v + 1}")
+    lines += ["fps: 30", "reference_view: 2", "cameras:"]
+    for v, c in enumerate(cams):
+        lines.append(f"  - {{view: {v + 1}, fx: {float(c.K[0, 0])!r}, fy: {float(c.K[1, 1])!r}, cx: {float(c.K[0, 2])!r}, "
+                     f"cy: {float(c.K[1, 2])!r}, dist: {c.dist.tolist()}}}")
+    lines += [f"marker: {{dictionary: {DICT}, id: {WORLD_ID}, length_mm: {L}}}", "views:"]
+    for v in range(len(cams)):
+        lines.append(f"  - {{view: {v + 1}, roi: [800, 400, 400, 400], base_point: [1000, 450]}}")
+    p = tmp_path / "experiment.yaml"
+    p.write_text("\n".join(lines) + "\n" + extra)
+    return p
+
+
+def test_calibrate_to_dir_ijcv25_layout(tmp_path):
+    rig = ijcv25_rig()
+    small = [np.full((1080, 1920, 3), 200, np.uint8)] * 3
+    files = [str(RIG_DIR / f"CamExtrPara_Corners{i + 1}.csv") for i in range(3)]
+    exp = _write_experiment(tmp_path, small, rig, "extrinsics:\n  format: ijcv25\n  files: [" + ", ".join(files) + "]\n")
+    summary = calibrate_to_dir(exp, tmp_path / "out")
+    assert "ijcv25" in summary and "view 3" in summary
+    from tendrilkit.io import read_cameras, read_csv
+
+    got = read_cameras(tmp_path / "out" / "cameras.json")
+    for a, b in zip(got, rig):
+        np.testing.assert_allclose(a.R, b.R)
+        np.testing.assert_allclose(a.t_mm, b.t_mm)
+    t = read_csv(tmp_path / "out" / "calibration_markers.csv", required=("view", "marker_id", "stage", "mean_px", "max_px"))
+    assert (t.max_px < 0.5).all()
+
+
+def test_calibrate_to_dir_from_frames(tmp_path, rendered):
+    cams, images, _ = rendered
+    exp = _write_experiment(tmp_path, images, cams)
+    summary = calibrate_to_dir(exp, tmp_path / "out")
+    assert summary.count("\n") >= 4 and "->" in summary
+    from tendrilkit.io import read_cameras
+
+    got = read_cameras(tmp_path / "out" / "cameras.json")
+    mx, _ = rig_agreement_px(got, cams, working_volume())
+    assert mx.max() < 0.5
+
+
+# ------------------------------------------------------- bundle adjustment
+def _synthetic_markers(rng: np.random.Generator) -> dict[int, np.ndarray]:
+    """World corners of markers around the working volume, on and off the board."""
+    out = {WORLD_ID: marker_object_corners(L)}
+    for mid, (cx, cy, s) in BOARD_MARKERS.items():
+        out[mid] = marker_object_corners(s) + [cx, cy, 0.0]
+    # two on stands, tilted towards the cameras
+    for mid, c, rv in ((301, (120.0, -60.0, 40.0), (0.3, 0.2, 0.1)), (302, (60.0, 60.0, 30.0), (-0.2, 0.3, 0.0))):
+        out[mid] = marker_object_corners(20.0) @ rotation_from_rvec(np.array(rv)).T + c
+    return out
+
+
+def _observe(cams, markers, rng, sigma_px):
+    obs = {}
+    for v, cam in enumerate(cams):
+        obs[v] = {m: cam.project(X) + rng.normal(0, sigma_px, (4, 2)) for m, X in markers.items()}
+    return obs
+
+
+def test_bundle_adjust_recovers_perturbed_rig():
+    rng = np.random.default_rng(7)
+    truth = distorted_rig()
+    markers = _synthetic_markers(rng)
+    obs = _observe(truth, markers, rng, 0.05)
+    start = []
+    for c in truth:  # 1.5 degrees and 3 mm off
+        dR = rotation_from_rvec(rng.normal(size=3) * np.radians(1.5) / np.sqrt(3))
+        start.append(c.with_pose(dR @ c.R, c.t_mm + rng.normal(0, 3 / np.sqrt(3), 3)))
+    P = working_volume()
+    before, _ = rig_agreement_px(start, truth, P)
+    t0 = time.perf_counter()
+    cams, rep = bundle_adjust(start, obs, world_id=WORLD_ID, length_mm=L)
+    elapsed = time.perf_counter() - t0
+    after, mean = rig_agreement_px(cams, truth, P)
+    assert isinstance(rep, BundleReport)
+    assert before.min() > 5 and after.max() < 0.5, (before, after)
+    assert rep.rms_after_px < rep.rms_before_px and rep.rms_after_px < 0.1
+    t = rep.table
+    assert set(t.stage) == {"single", "adjusted"}
+    for stage_mean in (t[t.stage == "adjusted"].mean_px.mean(), ):
+        assert stage_mean < t[t.stage == "single"].mean_px.mean()
+    for m, s in rep.marker_lengths_mm.items():
+        true_side = np.linalg.norm(markers[m][1] - markers[m][0])
+        assert abs(s - true_side) < 0.05
+    assert elapsed < 5
+
+
+def test_bundle_adjust_single_marker_poses_improve_on_noisy_corners():
+    """From the paper's single-marker poses (IPPE on noisy corners) to the adjusted rig."""
+    rng = np.random.default_rng(3)
+    truth = distorted_rig()
+    markers = _synthetic_markers(rng)
+    obs = _observe(truth, markers, rng, 0.1)
+    single = [c.with_pose(*marker_pose(obs[v][WORLD_ID], c, L)) for v, c in enumerate(truth)]
+    P = working_volume()
+    s_max, _ = rig_agreement_px(single, truth, P)
+    cams, rep = bundle_adjust(single, obs, world_id=WORLD_ID, length_mm=L)
+    a_max, _ = rig_agreement_px(cams, truth, P)
+    assert a_max.max() < 0.5 and a_max.max() < s_max.max(), (s_max, a_max)
+
+
+def test_bundle_adjust_drops_a_wrong_detection():
+    rng = np.random.default_rng(5)
+    truth = distorted_rig()
+    markers = _synthetic_markers(rng)
+    obs = _observe(truth, markers, rng, 0.05)
+    obs[1][42] = obs[1][42] + [25.0, -10.0]  # a grossly wrong detection in view 2
+    with pytest.warns(UserWarning, match="view 2 marker 42"):
+        cams, rep = bundle_adjust(truth, obs, world_id=WORLD_ID, length_mm=L)
+    assert rep.dropped == [(2, 42)]
+    after, _ = rig_agreement_px(cams, truth, working_volume())
+    assert after.max() < 0.5
+
+
+def test_rig_agreement_px_shapes():
+    rig = ijcv25_rig()
+    mx, mean = rig_agreement_px(rig, rig, working_volume(50))
+    assert mx.shape == (3,) and np.all(mx == 0) and np.all(mean == 0)
+    with pytest.raises(ValueError, match="cameras_b"):
+        rig_agreement_px(rig, rig[:2], working_volume(5))
