@@ -1,0 +1,234 @@
+"""Per-view mask of the tendril (paper: "Pre-processing"; stage 2 of
+``../shared/REFERENCE_NOTES.md``).
+
+:func:`segment_view` works on the region of interest (ROI) only:
+
+1. a grey image in which the tendril is dark: the blue channel (a green/brown
+   tendril on a white board is dark in blue, the reference's default) or, with
+   ``channel="hsv"``, :math:`g = \\min(V, 255 - S)` (dark *or* saturated pixels
+   are low, the white board is high);
+2. a threshold: Otsu's on the ROI, or a fixed grey level (pixels darker than
+   it are tendril);
+3. the keep-out box (between the tendril and the stem) painted background, so
+   the stem cannot join the tendril's component;
+4. a morphological opening with a disk (removes speckle and one-pixel bridges);
+5. connected components (8-connected); components under ``min_component_px``
+   are dropped;
+6. the tendril's component: on the first frame the component containing, or
+   nearest to, the base point; on later frames the component whose centroid is
+   nearest the previous frame's centroid (the paper's tracking).
+
+No dialog or click anywhere: the ROI, keep-out box and base point come from the
+experiment file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from tendrilkit.exceptions import TendrilLostError
+
+__all__ = ["TendrilMask", "segment_view", "grey_image"]
+
+
+@dataclass(frozen=True, eq=False)
+class TendrilMask:
+    """The tendril's pixels in one view and frame.
+
+    Attributes
+    ----------
+    mask_roi : (h, w) bool array
+        The tendril's component in the ROI crop (``h, w`` the ROI's height and
+        width, clipped to the image).
+    roi_offset_xy : (2,) int array
+        Full-image pixel position ``(x, y)`` of the crop's pixel ``[0, 0]``.
+    centroid_xy : (2,) float array
+        Centroid of the component, full-image pixels.
+    area_px : int
+        Number of pixels of the component.
+    n_components : int
+        Components left in the ROI after dropping the small ones (1 when the
+        tendril is alone; more means the choice of component mattered).
+    """
+
+    mask_roi: np.ndarray
+    roi_offset_xy: np.ndarray
+    centroid_xy: np.ndarray
+    area_px: int
+    n_components: int
+
+
+def _box(box, name: str) -> tuple[int, int, int, int]:
+    try:
+        x, y, w, h = (int(round(float(v))) for v in box)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be 4 numbers [x, y, w, h], got {box!r}") from None
+    if w <= 0 or h <= 0:
+        raise ValueError(f"{name} must have positive width and height, got {[x, y, w, h]}")
+    return x, y, w, h
+
+
+def grey_image(image_bgr: np.ndarray, *, channel: str = "blue") -> np.ndarray:
+    """The uint8 grey image in which the tendril is dark.
+
+    Parameters
+    ----------
+    image_bgr : (h, w, 3) uint8 array
+        A BGR image (or crop), as OpenCV reads it. A (h, w) image is taken as
+        already grey.
+    channel : {"blue", "hsv"}
+        ``blue``: the blue channel; ``hsv``: :math:`\\min(V, 255 - S)`.
+
+    Returns
+    -------
+    (h, w) uint8 array
+    """
+    if image_bgr.ndim == 2:
+        return np.ascontiguousarray(image_bgr, dtype=np.uint8)
+    if channel == "blue":
+        return np.ascontiguousarray(image_bgr[:, :, 0])
+    if channel == "hsv":
+        hsv = cv2.cvtColor(image_bgr, cv2.COLOR_BGR2HSV)
+        return np.minimum(hsv[:, :, 2], 255 - hsv[:, :, 1])
+    raise ValueError(f"channel must be 'blue' or 'hsv', got {channel!r}")
+
+
+def segment_view(
+    image_bgr: np.ndarray,
+    *,
+    roi,
+    keep_out,
+    base_point_xy,
+    prev_centroid_xy=None,
+    channel: str = "blue",
+    threshold: str | int = "otsu",
+    opening_radius_px: int = 1,
+    min_component_px: int = 50,
+) -> TendrilMask:
+    """Segment the tendril in one view of one frame.
+
+    Parameters
+    ----------
+    image_bgr : (H, W, 3) uint8 array
+        The full frame, BGR (a (H, W) grey image is accepted too).
+    roi : [x, y, w, h]
+        Region of interest, full-image pixels; clipped to the image.
+    keep_out : [x, y, w, h] or None
+        Box painted background (the junction between tendril and stem).
+    base_point_xy : (2,) sequence of float
+        Where the tendril leaves the stem, full-image pixels; picks the
+        component on the first frame.
+    prev_centroid_xy : (2,) sequence of float, optional
+        The previous frame's centroid; when given, the component whose
+        centroid is nearest it is taken (the paper's tracking).
+    channel : {"blue", "hsv"}
+        See :func:`grey_image`.
+    threshold : "otsu" or int
+        Otsu's threshold on the ROI, or a fixed grey level 0-255 (darker
+        pixels are tendril).
+    opening_radius_px : int
+        Radius of the disk of the morphological opening; 0: no opening.
+    min_component_px : int
+        Components with fewer pixels are dropped.
+
+    Returns
+    -------
+    TendrilMask
+
+    Raises
+    ------
+    TendrilLostError
+        No component of at least ``min_component_px`` pixels in the ROI.
+    ValueError
+        Malformed arguments (shape, box, threshold).
+    """
+    img = np.asarray(image_bgr)
+    if img.dtype != np.uint8 or img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] != 3):
+        raise ValueError(f"image_bgr must be a (H, W, 3) or (H, W) uint8 array, got {img.shape} {img.dtype}")
+    H, W = img.shape[:2]
+    x, y, w, h = _box(roi, "roi")
+    x0, y0 = max(x, 0), max(y, 0)
+    x1, y1 = min(x + w, W), min(y + h, H)
+    if x1 - x0 < 2 or y1 - y0 < 2:
+        raise ValueError(f"roi {[x, y, w, h]} does not overlap the {W}x{H} image")
+    if threshold != "otsu" and not (isinstance(threshold, (int, np.integer)) and 0 <= threshold <= 255):
+        raise ValueError(f"threshold must be 'otsu' or an integer 0-255, got {threshold!r}")
+    if opening_radius_px < 0 or min_component_px < 0:
+        raise ValueError(
+            f"opening_radius_px and min_component_px must be >= 0, got {opening_radius_px}, {min_component_px}"
+        )
+
+    grey = grey_image(img[y0:y1, x0:x1], channel=channel)
+    if threshold == "otsu":
+        _, fg = cv2.threshold(grey, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
+    else:
+        # tendril: grey < threshold
+        _, fg = cv2.threshold(grey, int(threshold) - 1, 255, cv2.THRESH_BINARY_INV)
+
+    if keep_out is not None:
+        kx, ky, kw, kh = _box(keep_out, "keep_out")
+        a0, b0 = max(kx - x0, 0), max(ky - y0, 0)
+        a1, b1 = min(kx + kw - x0, fg.shape[1]), min(ky + kh - y0, fg.shape[0])
+        if a1 > a0 and b1 > b0:
+            fg[b0:b1, a0:a1] = 0
+
+    if opening_radius_px > 0:
+        r = int(opening_radius_px)
+        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+        fg = cv2.morphologyEx(fg, cv2.MORPH_OPEN, kernel)
+
+    n, labels, stats, centroids = cv2.connectedComponentsWithStats(fg, connectivity=8, ltype=cv2.CV_32S)
+    keep = [k for k in range(1, n) if stats[k, cv2.CC_STAT_AREA] >= max(min_component_px, 1)]
+    if not keep:
+        raise TendrilLostError(
+            f"no component of at least {min_component_px} px in the roi {[x, y, w, h]}"
+        )
+    offset = np.array([x0, y0])
+    keep_arr = np.array(keep)
+    cents = centroids[keep_arr] + offset  # full-image xy
+
+    if prev_centroid_xy is not None:
+        p = np.asarray(prev_centroid_xy, dtype=float).reshape(2)
+        best = int(keep_arr[np.argmin(np.hypot(*(cents - p).T))])
+    elif len(keep) == 1:
+        best = keep[0]
+    else:
+        best = _nearest_component(labels, stats, keep_arr, np.asarray(base_point_xy, float).reshape(2) - offset)
+
+    mask = labels == best
+    return TendrilMask(
+        mask_roi=mask,
+        roi_offset_xy=offset,
+        centroid_xy=centroids[best] + offset,
+        area_px=int(stats[best, cv2.CC_STAT_AREA]),
+        n_components=len(keep),
+    )
+
+
+def _nearest_component(labels: np.ndarray, stats: np.ndarray, keep: np.ndarray, p_xy: np.ndarray) -> int:
+    """The label (among ``keep``) with the pixel nearest ``p_xy`` (crop pixels).
+
+    Components whose bounding box is farther than the best pixel distance so
+    far are skipped, so only a few components are scanned pixel by pixel.
+    """
+    bx = stats[keep, cv2.CC_STAT_LEFT]
+    by = stats[keep, cv2.CC_STAT_TOP]
+    bw = stats[keep, cv2.CC_STAT_WIDTH]
+    bh = stats[keep, cv2.CC_STAT_HEIGHT]
+    dx = np.maximum(np.maximum(bx - p_xy[0], p_xy[0] - (bx + bw - 1)), 0)
+    dy = np.maximum(np.maximum(by - p_xy[1], p_xy[1] - (by + bh - 1)), 0)
+    box_d = np.hypot(dx, dy)
+    best, best_d = int(keep[0]), np.inf
+    for i in np.argsort(box_d):
+        if box_d[i] > best_d:
+            break
+        k = int(keep[i])
+        sl = labels[by[i] : by[i] + bh[i], bx[i] : bx[i] + bw[i]]
+        rr, cc = np.nonzero(sl == k)
+        d = np.hypot(cc + bx[i] - p_xy[0], rr + by[i] - p_xy[1]).min()
+        if d < best_d:
+            best, best_d = k, d
+    return best

@@ -1,0 +1,866 @@
+"""Skeleton graph, pruning and base-to-tip ordering through self-crossings
+(paper: "Ordering the Points"; stages 3-4 of ``../shared/REFERENCE_NOTES.md``).
+
+:func:`order_skeleton` turns the tendril's mask of one view into an ordered
+centreline, base to tip:
+
+1. **Skeleton.** The mask is cropped to its bounding box and thinned
+   (:func:`skimage.morphology.skeletonize`); the tube width ``w`` is twice the
+   median distance-transform value on the skeleton.
+2. **Graph.** :class:`skan.Skeleton` splits the skeleton into *branches*
+   (pixel paths between endpoints and junction pixels). Spurs (a branch ending
+   in an endpoint, attached to a junction, shorter than ``prune_px``) are
+   removed, repeatedly. Junctions joined by a branch shorter than
+   ``merge_width * w`` are one crossing (an X crossing thins to two Y
+   junctions joined by a short branch); they are contracted into one node, and
+   short closed branches at a junction (pin holes) are dropped.
+3. **Walk.** From the endpoint nearest the base point, the walk follows
+   branches; at a node with several unused branches it takes one (a
+   *decision*) and every branch is used once: the tendril's centreline is an
+   Euler trail of the graph (at an X crossing the tendril passes twice, in and
+   out along opposite branches). Two rules pick the branch:
+
+   - ``method="smooth"`` (default, any number of crossings): the branch with
+     the smallest turn of the tangent. Tangents are lines fitted (principal
+     axis) to the ``tangent_window_px`` of skeleton just outside the junction
+     zone (radius ``span/2 + zone_width * w`` around the crossing, where the
+     skeleton bends toward the junction and says nothing about the tendril).
+     Candidates are tried smoothest first; a choice that cannot lead to a walk
+     using every branch is revised (depth-first search), so the first complete
+     walk found is the smoothest one.
+   - ``method="paper"`` (at most one crossing): the paper's sub-set cases.
+     With a closed loop at the crossing and a tip branch (three sub-sets), the
+     tip branch :math:`\\mathcal{S}_3` is the one whose far end is farthest
+     from the crossing :math:`p_c` and comes last; the direction through the
+     loop is chosen by the angle between lines fitted to the last :math:`N_1`
+     skeleton points before :math:`p_c` and the first :math:`N_2` after it,
+
+     .. math::
+
+        \\alpha_j = \\operatorname{atan2}\\left(\\det[\\vec L_{N_1}; \\vec L_j],
+        \\; \\vec L_{N_1} \\cdot \\vec L_j\\right), \\quad j = N_2, N_2^*,
+
+     taking :math:`\\mathcal{S}_2` if :math:`|\\alpha_{N_2}| \\le
+     |\\alpha_{N_2^*}|`. (The paper's equation compares the signed angles,
+     which picks the right loop direction only for one sense of rotation; the
+     magnitudes are what its text and figure describe.) :math:`N_1 = N_2 =`
+     ``tangent_window_px`` points.
+
+   Every decision is recorded (:class:`Decision`) and can be overridden:
+   ``overrides`` entries ``{frame, view, junction, branch}`` force, at the
+   ``junction``-th decision met (0-based) of that frame and view, the
+   ``branch``-th candidate (0-based, candidates listed smoothest first).
+4. **Centreline.** Along the walk, the skeleton inside every junction zone is
+   replaced by a cubic Hermite bridge between the tangents of the branches
+   just outside it (the skeleton bends toward the junction; the bridge
+   follows the tendril). The ends are extended along their tangents to the
+   mask boundary: the skeleton of a tube stops short of a cut end (the base at
+   the keep-out box) by about the half-width; at the tip the extension stops
+   ``tip_inset`` half-widths before the boundary. The path is smoothed
+   (Gaussian, ``smooth_px``) and resampled every pixel of arc length.
+
+:func:`process_view` is segmentation (:func:`tendrilkit.segmentation.segment_view`)
+followed by :func:`order_skeleton`.
+
+Failures are named exceptions: :class:`~tendrilkit.exceptions.EmptySkeletonError`
+(nothing to order), :class:`~tendrilkit.exceptions.AmbiguousOrderingError` (no
+endpoint to start from, a walk that leaves a long part of the skeleton unused,
+an override that does not fit, more than one crossing with ``method="paper"``).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any, Iterable, Mapping
+
+import cv2
+import numpy as np
+import skan
+from scipy.ndimage import gaussian_filter1d
+from skimage.morphology import skeletonize
+
+from tendrilkit.exceptions import AmbiguousOrderingError, EmptySkeletonError
+from tendrilkit.segmentation import segment_view
+
+__all__ = ["Decision", "OrderedCenterline", "ViewCenterline", "order_skeleton", "process_view"]
+
+_MAX_STEPS = 20000  # cap on the depth-first search over walks
+
+
+@dataclass(frozen=True, eq=False)
+class Decision:
+    """One choice of branch at a junction.
+
+    Attributes
+    ----------
+    frame, view : int
+        Frame (0-based) and view (1-based).
+    junction : int
+        Index of this decision among the decisions of the walk, in the order
+        met (0-based); the ``junction`` of an override.
+    junction_xy : (2,) float array
+        Centre of the junction (crossing), full-image pixels.
+    candidates : tuple of (int, float)
+        ``(branch_id, angle_deg)`` for every unused branch leaving the
+        junction, smoothest first: ``angle_deg`` is the signed turn from the
+        incoming tangent to the branch's tangent (degrees, positive
+        counter-clockwise in image axes). ``branch_id`` indexes
+        :attr:`OrderedCenterline.branches_xy`; a closed branch (loop) leaving
+        and returning to the junction appears twice, the reversed direction as
+        ``-1 - branch_id``.
+    chosen : int
+        Index of the chosen candidate (the ``branch`` of an override).
+    method : str
+        ``smooth``, ``paper`` or ``override``.
+    """
+
+    frame: int
+    view: int
+    junction: int
+    junction_xy: np.ndarray
+    candidates: tuple
+    chosen: int
+    method: str
+
+    def as_dict(self) -> dict:
+        """Plain data (for JSON/CSV), e.g. to write the decisions of a run."""
+        return {
+            "frame": int(self.frame),
+            "view": int(self.view),
+            "junction": int(self.junction),
+            "junction_x_px": float(self.junction_xy[0]),
+            "junction_y_px": float(self.junction_xy[1]),
+            "candidates": [[int(b), round(float(a), 2)] for b, a in self.candidates],
+            "chosen": int(self.chosen),
+            "method": self.method,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class OrderedCenterline:
+    """The ordered 2D centreline of one view.
+
+    Attributes
+    ----------
+    points_xy : (n, 2) float array
+        Full-image pixels (distorted, as observed), base (row 0) to tip, about
+        one pixel apart.
+    decisions : tuple of Decision
+        Every branch choice of the walk, in the order met.
+    n_crossings : int
+        Junctions the walk passes more than once (self-crossings; a tip
+        touching the tendril counts).
+    width_px : float
+        Tube width estimated from the skeleton's distance transform.
+    branches_xy : tuple of (k, 2) float arrays
+        The pruned skeleton's branches (full-image pixels), indexed by the
+        ``branch_id`` of the decisions.
+    unused_px : float
+        Skeleton length the walk left out (0 for a complete walk).
+    """
+
+    points_xy: np.ndarray
+    decisions: tuple
+    n_crossings: int
+    width_px: float
+    branches_xy: tuple
+    unused_px: float
+
+
+@dataclass(frozen=True, eq=False)
+class ViewCenterline:
+    """Result of :func:`process_view` for one view and frame.
+
+    Attributes
+    ----------
+    points_xy : (n, 2) float array
+        Ordered centreline base to tip, full-image (distorted) pixels.
+    centroid_xy : (2,) float array
+        Centroid of the tendril's mask (the next frame's tracking point).
+    decisions : tuple of Decision
+    n_crossings : int
+    area_px : int
+        Pixels of the tendril's mask.
+    width_px : float
+        Estimated tube width, pixels.
+    """
+
+    points_xy: np.ndarray
+    centroid_xy: np.ndarray
+    decisions: tuple
+    n_crossings: int
+    area_px: int
+    width_px: float
+
+
+# ---------------------------------------------------------------------------
+# graph
+
+
+class _Graph:
+    """Nodes (xy, kind) and branches (u, v, pixel path xy) of a skeleton."""
+
+    def __init__(self) -> None:
+        self.node_xy: list[np.ndarray] = []
+        self.node_junction: list[bool] = []  # came from junction pixels
+        self.node_span: list[float] = []
+        self.edges: list[list] = []  # [u, v, pts_xy (k, 2), length]
+
+    def degrees(self) -> np.ndarray:
+        deg = np.zeros(len(self.node_xy), int)
+        for u, v, _, _ in self.edges:
+            deg[u] += 1
+            deg[v] += 1
+        return deg
+
+
+def _path_length(pts: np.ndarray) -> float:
+    return float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
+
+
+def _build_graph(skel: np.ndarray) -> _Graph:
+    S = skan.Skeleton(skel, keep_images=False)
+    coords_xy = S.coordinates[:, ::-1].astype(float)
+    deg = S.degrees
+    g = _Graph()
+    index: dict[int, int] = {}
+
+    def node(pix: int) -> int:
+        if pix not in index:
+            index[pix] = len(g.node_xy)
+            g.node_xy.append(coords_xy[pix].copy())
+            g.node_junction.append(bool(deg[pix] >= 3))
+            g.node_span.append(0.0)
+        return index[pix]
+
+    for path in S.paths_list():
+        path = np.asarray(path)
+        pts = coords_xy[path]
+        u, v = node(int(path[0])), node(int(path[-1]))
+        g.edges.append([u, v, pts, _path_length(pts)])
+    return g
+
+
+def _prune(g: _Graph, prune_px: float) -> None:
+    """Remove spurs (endpoint-to-junction branches shorter than ``prune_px``)."""
+    for _ in range(10):
+        deg = g.degrees()
+        drop = set()
+        for i, (u, v, _, length) in enumerate(g.edges):
+            if length >= prune_px or u == v:
+                continue
+            if (deg[u] == 1 and deg[v] >= 3) or (deg[v] == 1 and deg[u] >= 3):
+                drop.add(i)
+        if not drop or len(drop) >= len(g.edges):
+            return
+        # two spurs on one junction of degree 3 would leave a dangling path:
+        # drop them all the same (the junction then ends the remaining branch)
+        g.edges = [e for i, e in enumerate(g.edges) if i not in drop]
+        _merge_degree_two(g)
+
+
+def _merge_degree_two(g: _Graph) -> None:
+    """Join the two branches of plain skeleton nodes left with degree 2."""
+    while True:
+        deg = g.degrees()
+        cand = [n for n in range(len(deg)) if deg[n] == 2 and g.node_span[n] == 0.0]
+        done = False
+        for n in cand:
+            inc = [i for i, e in enumerate(g.edges) if e[0] == n or e[1] == n]
+            if len(inc) != 2:
+                continue  # a closed loop on itself
+            a, b = (g.edges[i] for i in inc)
+            pa = a[2] if a[1] == n else a[2][::-1]
+            ua = a[0] if a[1] == n else a[1]
+            pb = b[2] if b[0] == n else b[2][::-1]
+            vb = b[1] if b[0] == n else b[0]
+            pts = np.vstack([pa, pb[1:]])
+            g.edges = [e for i, e in enumerate(g.edges) if i not in inc]
+            g.edges.append([ua, vb, pts, _path_length(pts)])
+            g.node_junction[n] = False
+            done = True
+            break
+        if not done:
+            return
+
+
+def _contract_junctions(g: _Graph, merge_len: float) -> None:
+    """Contract branches shorter than ``merge_len`` between junction nodes."""
+    n = len(g.node_xy)
+    parent = list(range(n))
+
+    def find(a: int) -> int:
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    deg = g.degrees()
+    short = []
+    for i, (u, v, _, length) in enumerate(g.edges):
+        if length < merge_len and deg[u] >= 3 and deg[v] >= 3:
+            short.append(i)
+            parent[find(u)] = find(v)
+    if not short:
+        return
+    members: dict[int, list[int]] = {}
+    for a in range(n):
+        members.setdefault(find(a), []).append(a)
+    for root, mem in members.items():
+        if len(mem) < 2:
+            continue
+        xy = np.array([g.node_xy[m] for m in mem])
+        centre = xy.mean(axis=0)
+        g.node_xy[root] = centre
+        g.node_span[root] = float(2 * np.hypot(*(xy - centre).T).max())
+        g.node_junction[root] = True
+    short_set = set(short)
+    edges = []
+    for i, (u, v, pts, length) in enumerate(g.edges):
+        if i in short_set:
+            continue
+        edges.append([find(u), find(v), pts, length])
+    g.edges = edges
+    # pin holes: closed branches shorter than the merge length at a junction
+    g.edges = [e for e in g.edges if not (e[0] == e[1] and e[3] < 2 * merge_len and g.node_junction[e[0]])]
+
+
+def _keep_component(g: _Graph, start: int) -> float:
+    """Keep the branches connected to node ``start``; return the dropped length."""
+    adj: dict[int, set[int]] = {}
+    for u, v, _, _ in g.edges:
+        adj.setdefault(u, set()).add(v)
+        adj.setdefault(v, set()).add(u)
+    seen, stack = {start}, [start]
+    while stack:
+        a = stack.pop()
+        for b in adj.get(a, ()):
+            if b not in seen:
+                seen.add(b)
+                stack.append(b)
+    dropped = sum(e[3] for e in g.edges if e[0] not in seen)
+    g.edges = [e for e in g.edges if e[0] in seen]
+    return dropped
+
+
+# ---------------------------------------------------------------------------
+# tangents
+
+
+def _direction(pts: np.ndarray) -> np.ndarray:
+    """Unit direction of the line fitted to ``pts`` (principal axis), oriented first -> last."""
+    d = pts[-1] - pts[0]
+    if len(pts) >= 3:
+        c = pts - pts.mean(axis=0)
+        _, _, vt = np.linalg.svd(c, full_matrices=False)
+        a = vt[0]
+        if a @ d < 0:
+            a = -a
+        d = a
+    nrm = np.hypot(*d)
+    return d / nrm if nrm > 0 else np.array([1.0, 0.0])
+
+
+def _arc(pts: np.ndarray) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+
+
+def _end_tangent(pts: np.ndarray, centre: np.ndarray, radius: float, window: float) -> np.ndarray:
+    """Direction away from the node at ``pts[0]``, fitted outside ``radius``."""
+    if radius > 0:
+        out = np.nonzero(np.hypot(*(pts - centre).T) >= radius)[0]
+        start = int(out[0]) if len(out) else max(len(pts) - 2, 0)
+    else:
+        start = 0
+    s = _arc(pts[start:])
+    sel = pts[start:][s <= window]
+    if len(sel) < 2:
+        sel = pts[max(len(pts) - 2, 0):] if len(pts) >= 2 else np.vstack([centre, pts])
+        if len(pts) >= 2 and start >= len(pts) - 1:
+            sel = pts
+    return _direction(sel)
+
+
+def _signed_angle_deg(d_in: np.ndarray, d_out: np.ndarray) -> float:
+    return float(np.degrees(np.arctan2(d_in[0] * d_out[1] - d_in[1] * d_out[0], d_in @ d_out)))
+
+
+# ---------------------------------------------------------------------------
+# walk
+
+
+def _parse_overrides(overrides: Iterable, frame: int, view: int) -> dict[int, int]:
+    out: dict[int, int] = {}
+    for o in overrides or ():
+        get = o.get if isinstance(o, Mapping) else (lambda k, _o=o: getattr(_o, k))
+        try:
+            f, v, j, b = (int(get(k)) for k in ("frame", "view", "junction", "branch"))
+        except (TypeError, ValueError, AttributeError, KeyError):
+            raise ValueError(f"overrides: expected entries {{frame, view, junction, branch}} of integers, got {o!r}") from None
+        if f == frame and v == view:
+            out[j] = b
+    return out
+
+
+def order_skeleton(
+    mask_roi: np.ndarray,
+    *,
+    offset_xy=(0, 0),
+    base_point_xy,
+    prune_px: float = 12.0,
+    method: str = "smooth",
+    tangent_window_px: float = 15.0,
+    overrides: Iterable = (),
+    frame: int = 0,
+    view: int = 1,
+    zone_width: float = 1.0,
+    merge_width: float = 4.0,
+    smooth_px: float = 1.5,
+    tip_inset: float = 1.0,
+    max_unused_fraction: float = 0.1,
+) -> OrderedCenterline:
+    """Order the skeleton of a tendril's mask from base to tip.
+
+    Parameters
+    ----------
+    mask_roi : (h, w) bool array
+        The tendril's mask (one component) in the ROI crop.
+    offset_xy : (2,) sequence of int
+        Full-image position of ``mask_roi[0, 0]``.
+    base_point_xy : (2,) sequence of float
+        Full-image base point; the walk starts at the endpoint nearest it.
+    prune_px : float
+        Spurs shorter than this (pixels of skeleton) are removed.
+    method : {"smooth", "paper"}
+        Branch choice at junctions (see the module docstring).
+    tangent_window_px : float
+        Length of skeleton (pixels) the tangents are fitted to.
+    overrides : iterable of mappings
+        ``{frame, view, junction, branch}`` entries; those of this frame and
+        view force the ``branch``-th candidate at the ``junction``-th decision.
+    frame, view : int
+        Recorded in the decisions; select the overrides.
+    zone_width : float
+        Junction-zone radius beyond half the crossing's span, in tube widths.
+    merge_width : float
+        Junctions joined by a branch shorter than this many tube widths are
+        one crossing.
+    smooth_px : float
+        Gaussian smoothing of the pixel path (sigma, pixels of arc length).
+    tip_inset : float
+        The tip end is extended to the mask boundary minus ``tip_inset``
+        half-widths (0: to the boundary).
+    max_unused_fraction : float
+        A walk leaving more than this fraction of the skeleton (and more than
+        ``2 * prune_px``) unused raises :class:`AmbiguousOrderingError`.
+
+    Returns
+    -------
+    OrderedCenterline
+
+    Raises
+    ------
+    EmptySkeletonError, AmbiguousOrderingError
+    """
+    mask = np.asarray(mask_roi)
+    if mask.ndim != 2:
+        raise ValueError(f"mask_roi must be a 2D array, got shape {mask.shape}")
+    if method not in ("smooth", "paper"):
+        raise ValueError(f"method must be 'smooth' or 'paper', got {method!r}")
+    if tangent_window_px <= 0:
+        raise ValueError(f"tangent_window_px must be > 0, got {tangent_window_px}")
+    m8 = (mask != 0).view(np.uint8) if mask.dtype == bool else (mask != 0).astype(np.uint8)
+    bx, by, bw, bh = cv2.boundingRect(m8)
+    if bw == 0 or bh == 0:
+        raise EmptySkeletonError("the tendril's mask is empty")
+    pad = 2
+    crop = np.zeros((bh + 2 * pad, bw + 2 * pad), np.uint8)
+    crop[pad:-pad, pad:-pad] = m8[by : by + bh, bx : bx + bw]
+    off = np.asarray(offset_xy, dtype=float).reshape(2) + (bx - pad, by - pad)
+    base = np.asarray(base_point_xy, dtype=float).reshape(2) - off
+    overrides_here = _parse_overrides(overrides, int(frame), int(view))
+
+    skel = skeletonize(crop.astype(bool))
+    n_skel = int(np.count_nonzero(skel))
+    if n_skel < 3:
+        raise EmptySkeletonError(f"the mask thins to {n_skel} skeleton pixel(s)")
+    dt = cv2.distanceTransform(crop, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    half = float(np.median(dt[skel]))
+    width = 2.0 * half
+
+    g = _build_graph(skel)
+    _prune(g, prune_px)
+    _contract_junctions(g, merge_width * width)
+    _merge_degree_two(g)
+    if not g.edges:
+        raise EmptySkeletonError("no skeleton branch left after pruning")
+
+    deg = g.degrees()
+    ends = [n for n in range(len(deg)) if deg[n] == 1]
+    if not ends:
+        raise AmbiguousOrderingError("the skeleton has no free end (a closed ring): cannot tell base from tip")
+    node_xy = np.array(g.node_xy)
+    start = ends[int(np.argmin(np.hypot(*(node_xy[ends] - base).T)))]
+    _keep_component(g, start)
+    total_len = sum(e[3] for e in g.edges)
+    deg = g.degrees()
+
+    radius = np.array(
+        [0.5 * g.node_span[n] + zone_width * width if (deg[n] >= 3 or g.node_span[n] > 0 or g.node_junction[n]) else 0.0 for n in range(len(deg))]
+    )
+    n_junctions = int(np.sum(deg >= 3))
+    if method == "paper" and n_junctions > 1:
+        raise AmbiguousOrderingError(
+            f"method 'paper' handles at most one crossing, the skeleton has {n_junctions} junctions (use method 'smooth')"
+        )
+
+    # tangents at both ends of every branch, pointing away from the node
+    tangent = {}
+    for i, (u, v, pts, _) in enumerate(g.edges):
+        for end, nd, p in ((0, u, pts), (1, v, pts[::-1])):
+            if method == "paper":
+                s = _arc(p)
+                tangent[i, end] = _direction(p[s <= tangent_window_px] if np.sum(s <= tangent_window_px) >= 2 else p[:2])
+            else:
+                tangent[i, end] = _end_tangent(p, node_xy[nd], radius[nd], tangent_window_px)
+
+    incident: dict[int, list[tuple[int, int]]] = {}
+    for i, (u, v, _, _) in enumerate(g.edges):
+        incident.setdefault(u, []).append((i, 0))  # leave u through end 0 (forward)
+        incident.setdefault(v, []).append((i, 1))  # leave v through end 1 (reversed)
+
+    def far_end_distance(i: int, end: int, nd: int) -> float:
+        u, v, pts, _ = g.edges[i]
+        far = pts[-1] if end == 0 else pts[0]
+        return float(np.hypot(*(far - node_xy[nd])))
+
+    def candidates(nd: int, d_in: np.ndarray | None, used: set) -> list:
+        out = []
+        for i, end in incident.get(nd, ()):
+            if i in used:
+                continue
+            ang = _signed_angle_deg(d_in, tangent[i, end]) if d_in is not None else 0.0
+            bid = i if end == 0 else (-1 - i if g.edges[i][0] == g.edges[i][1] else i)
+            out.append([i, end, bid, ang])
+        if method == "paper" and len(out) >= 3:
+            tip = out[max(range(len(out)), key=lambda k: far_end_distance(out[k][0], out[k][1], nd))]
+            out.sort(key=lambda c: (c is tip, abs(c[3])))
+        else:
+            out.sort(key=lambda c: abs(c[3]))
+        return out
+
+    best: dict[str, Any] = {"covered": -1.0, "trail": None, "decisions": None}
+    steps = [0]
+
+    def dfs(nd: int, d_in, used: set, trail: list, decs: list, covered: float) -> bool:
+        steps[0] += 1
+        cands = candidates(nd, d_in, used)
+        if not cands:
+            if covered > best["covered"] + 1e-6:
+                best.update(covered=covered, trail=list(trail), decisions=list(decs))
+            return covered >= total_len - 1e-6
+        if steps[0] > _MAX_STEPS:
+            return False
+        order = list(range(len(cands)))
+        kind = method
+        if len(cands) >= 2:
+            j = len(decs)
+            if j in overrides_here:
+                b = overrides_here[j]
+                if not 0 <= b < len(cands):
+                    raise AmbiguousOrderingError(
+                        f"ordering.overrides: frame {frame} view {view} junction {j}: branch {b} is not among the {len(cands)} candidates"
+                    )
+                order, kind = [b], "override"
+        for k in order:
+            i, end, bid, ang = cands[k]
+            used.add(i)
+            trail.append((i, end))
+            if len(cands) >= 2:
+                decs.append((nd, tuple((c[2], c[3]) for c in cands), k, kind))
+            nxt = g.edges[i][1] if end == 0 else g.edges[i][0]
+            if dfs(nxt, -tangent[i, 1 - end], used, trail, decs, covered + g.edges[i][3]):
+                return True
+            if len(cands) >= 2:
+                decs.pop()
+            trail.pop()
+            used.discard(i)
+        return False
+
+    complete = dfs(start, None, set(), [], [], 0.0)
+    trail, decs = best["trail"], best["decisions"]
+    unused = total_len - best["covered"]
+    if not complete and unused > max(max_unused_fraction * total_len, 2 * prune_px):
+        raise AmbiguousOrderingError(
+            f"no walk from the base uses the whole skeleton: {unused:.0f} of {total_len:.0f} px left out"
+        )
+    if not complete and unused > 0:
+        warnings.warn(f"frame {frame} view {view}: ordering leaves {unused:.0f} px of skeleton out", stacklevel=2)
+
+    # node passages and the oriented pixel paths
+    visits: dict[int, int] = {}
+    pieces = []
+    nodes_seq = [start]
+    for i, end in trail:
+        u, v, pts, _ = g.edges[i]
+        p = pts if end == 0 else pts[::-1]
+        pieces.append(p)
+        nxt = v if end == 0 else u
+        nodes_seq.append(nxt)
+    for nd in nodes_seq:
+        visits[nd] = visits.get(nd, 0) + 1
+    n_crossings = sum(1 for nd, c in visits.items() if c >= 2 and deg[nd] >= 3)
+
+    path = _bridge(pieces, nodes_seq, node_xy, radius, tangent_window_px)
+    path = _extend_ends(path, crop, half, tangent_window_px, tip_inset, extend_tip=deg[nodes_seq[-1]] == 1)
+    path = _smooth_resample(path, smooth_px)
+
+    decisions = tuple(
+        Decision(
+            frame=int(frame),
+            view=int(view),
+            junction=j,
+            junction_xy=node_xy[nd] + off,
+            candidates=tuple((int(b), float(a)) for b, a in cands),
+            chosen=int(k),
+            method=kind,
+        )
+        for j, (nd, cands, k, kind) in enumerate(decs)
+    )
+    return OrderedCenterline(
+        points_xy=path + off,
+        decisions=decisions,
+        n_crossings=int(n_crossings),
+        width_px=width,
+        branches_xy=tuple(e[2] + off for e in g.edges),
+        unused_px=float(max(unused, 0.0)),
+    )
+
+
+# ---------------------------------------------------------------------------
+# centreline geometry
+
+
+def _bridge(pieces: list, nodes_seq: list, node_xy: np.ndarray, radius: np.ndarray, window: float) -> np.ndarray:
+    """Concatenate the oriented branch paths, replacing junction zones by Hermite bridges."""
+    keep_parts = []
+    flags = []
+    for k, p in enumerate(pieces):
+        a, b = nodes_seq[k], nodes_seq[k + 1]
+        keep = np.ones(len(p), bool)
+        if radius[a] > 0:
+            inside = np.hypot(*(p - node_xy[a]).T) < radius[a]
+            # only the run touching the start of the piece
+            run = np.argmin(inside) if not inside.all() else len(p)
+            keep[:run] = False
+        if radius[b] > 0:
+            inside = np.hypot(*(p[::-1] - node_xy[b]).T) < radius[b]
+            run = np.argmin(inside) if not inside.all() else len(p)
+            keep[len(p) - run :] = False
+        if k > 0:
+            keep_parts.append(p[1:])
+            flags.append(keep[1:])
+        else:
+            keep_parts.append(p)
+            flags.append(keep)
+    pts = np.vstack(keep_parts)
+    keep = np.concatenate(flags)
+    if keep.all():
+        return pts
+    if not keep.any():
+        return pts  # nothing outside the zones: keep the skeleton as it is
+    out = []
+    idx = np.arange(len(pts))
+    n = len(pts)
+    i = 0
+    while i < n:
+        if keep[i]:
+            j = i
+            while j < n and keep[j]:
+                j += 1
+            out.append(pts[i:j])
+            i = j
+            continue
+        j = i
+        while j < n and not keep[j]:
+            j += 1
+        # gap [i, j): bridge from pts[i-1] to pts[j]
+        if i == 0 or j == n:
+            # a zone at an end of the walk: keep the skeleton (an end inside a crossing)
+            out.append(pts[i:j])
+            i = j
+            continue
+        left = pts[:i][keep[:i]]
+        right = pts[j:][keep[j:]]
+        p0, p1 = pts[i - 1], pts[j]
+        tl = _run_tangent(pts, keep, i - 1, -1, window)
+        tr = _run_tangent(pts, keep, j, +1, window)
+        d = float(np.hypot(*(p1 - p0)))
+        m = max(int(np.ceil(d)), 1)
+        t = np.linspace(0, 1, m + 1)[1:-1, None]
+        h00 = 2 * t**3 - 3 * t**2 + 1
+        h10 = t**3 - 2 * t**2 + t
+        h01 = -2 * t**3 + 3 * t**2
+        h11 = t**3 - t**2
+        bridge = h00 * p0 + h10 * d * tl + h01 * p1 + h11 * d * tr
+        out.append(bridge)
+        del left, right
+        i = j
+    del idx
+    return np.vstack(out)
+
+
+def _run_tangent(pts: np.ndarray, keep: np.ndarray, i: int, step: int, window: float) -> np.ndarray:
+    """Tangent (direction of travel) at ``pts[i]`` from the kept run on the side ``step``."""
+    j = i
+    run = [pts[i]]
+    length = 0.0
+    while 0 <= j + step < len(pts) and keep[j + step] and length < window:
+        length += float(np.hypot(*(pts[j + step] - pts[j])))
+        j += step
+        run.append(pts[j])
+    run = np.array(run)
+    if len(run) < 2:
+        return np.zeros(2)
+    d = _direction(run)  # oriented from pts[i] outward along `step`
+    return -d if step < 0 else d
+
+
+def _extend_ends(path: np.ndarray, crop: np.ndarray, half: float, window: float, tip_inset: float, *, extend_tip: bool) -> np.ndarray:
+    """Extend both ends along their tangents to the mask boundary (tip: minus ``tip_inset`` half-widths)."""
+    h, w = crop.shape
+
+    def reach(p: np.ndarray, d: np.ndarray) -> float:
+        step = 0.5
+        limit = 4.0 * half + 4.0
+        s = 0.0
+        while s < limit:
+            q = p + (s + step) * d
+            c, r = int(round(q[0])), int(round(q[1]))
+            if not (0 <= r < h and 0 <= c < w) or crop[r, c] == 0:
+                break
+            s += step
+        return s
+
+    def line(p: np.ndarray, d: np.ndarray, length: float) -> np.ndarray:
+        n = int(np.floor(length))
+        if n < 1:
+            return np.empty((0, 2))
+        return p + np.arange(1, n + 1)[:, None] * d
+
+    s = _arc(path)
+    if len(path) < 2:
+        return path
+    d0 = _direction(path[s <= window][::-1]) if np.sum(s <= window) >= 2 else path[0] - path[1]
+    ext0 = line(path[0], d0, reach(path[0], d0) + 0.5)
+    parts = [ext0[::-1], path]
+    if extend_tip:
+        sel = path[s >= s[-1] - window]
+        d1 = _direction(sel) if len(sel) >= 2 else path[-1] - path[-2]
+        length = reach(path[-1], d1) + 0.5 - tip_inset * half
+        parts.append(line(path[-1], d1, length))
+    return np.vstack(parts)
+
+
+def _smooth_resample(path: np.ndarray, sigma: float, spacing: float = 1.0) -> np.ndarray:
+    """Resample every ``spacing`` px of arc length and smooth (Gaussian, odd reflection at the ends)."""
+    keep = np.ones(len(path), bool)
+    keep[1:] = np.hypot(*np.diff(path, axis=0).T) > 1e-9
+    path = path[keep]
+    if len(path) < 2:
+        return path
+    s = _arc(path)
+    n = max(int(round(s[-1] / spacing)), 1) + 1
+    si = np.linspace(0, s[-1], n)
+    p = np.column_stack([np.interp(si, s, path[:, 0]), np.interp(si, s, path[:, 1])])
+    if sigma > 0 and len(p) > 3:
+        k = min(int(np.ceil(4 * sigma)), len(p) - 1)
+        head = 2 * p[0] - p[1 : k + 1][::-1]
+        tail = 2 * p[-1] - p[-k - 1 : -1][::-1]
+        q = np.vstack([head, p, tail])
+        q = gaussian_filter1d(q, sigma, axis=0, mode="nearest")
+        p = q[k : k + len(p)]
+    return p
+
+
+# ---------------------------------------------------------------------------
+
+_SEG_KEYS = ("channel", "threshold", "opening_radius_px", "min_component_px")
+_ORDER_KEYS = (
+    "prune_px",
+    "method",
+    "tangent_window_px",
+    "overrides",
+    "zone_width",
+    "merge_width",
+    "smooth_px",
+    "tip_inset",
+    "max_unused_fraction",
+)
+
+
+def process_view(
+    image_bgr: np.ndarray,
+    *,
+    roi,
+    keep_out,
+    base_point_xy,
+    prev_centroid_xy=None,
+    frame: int = 0,
+    view: int = 1,
+    **options,
+) -> ViewCenterline:
+    """Segment, skeletonise and order one view of one frame.
+
+    Parameters
+    ----------
+    image_bgr : (H, W, 3) uint8 array
+        The full frame.
+    roi, keep_out, base_point_xy, prev_centroid_xy
+        As in :func:`tendrilkit.segmentation.segment_view`.
+    frame, view : int
+        Recorded in the decisions; select the ordering overrides.
+    **options
+        Keyword options of :func:`~tendrilkit.segmentation.segment_view`
+        (``channel``, ``threshold``, ``opening_radius_px``,
+        ``min_component_px``) and of :func:`order_skeleton` (``prune_px``,
+        ``method``, ``tangent_window_px``, ``overrides``, ...): the fields of
+        the experiment file's ``segmentation``, ``skeleton`` and ``ordering``
+        sections.
+
+    Returns
+    -------
+    ViewCenterline
+
+    Raises
+    ------
+    TendrilLostError, EmptySkeletonError, AmbiguousOrderingError
+    """
+    unknown = sorted(set(options) - set(_SEG_KEYS) - set(_ORDER_KEYS))
+    if unknown:
+        raise TypeError(f"process_view() got unknown option(s) {unknown}")
+    seg = segment_view(
+        image_bgr,
+        roi=roi,
+        keep_out=keep_out,
+        base_point_xy=base_point_xy,
+        prev_centroid_xy=prev_centroid_xy,
+        **{k: options[k] for k in _SEG_KEYS if k in options},
+    )
+    oc = order_skeleton(
+        seg.mask_roi,
+        offset_xy=seg.roi_offset_xy,
+        base_point_xy=base_point_xy,
+        frame=frame,
+        view=view,
+        **{k: options[k] for k in _ORDER_KEYS if k in options},
+    )
+    return ViewCenterline(
+        points_xy=oc.points_xy,
+        centroid_xy=seg.centroid_xy,
+        decisions=oc.decisions,
+        n_crossings=oc.n_crossings,
+        area_px=seg.area_px,
+        width_px=oc.width_px,
+    )
