@@ -1,0 +1,131 @@
+"""Every plotting function returns a figure; saved files are byte-stable."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from matplotlib.figure import Figure
+
+from tendrilkit import io, plotting as pl
+from tendrilkit import sequence as sq
+
+from tests.test_sequence import make_sequence
+
+
+@pytest.fixture(scope="module")
+def seq():
+    curves, segments = make_sequence(n_frames=45, noise_mm=0.2, seed=2, n=40)
+    change = sq.shape_change(curves)
+    return {
+        "curves": curves,
+        "segments": segments,
+        "split": sq.split_points(segments, points=40),
+        "maps": sq.curvature_torsion_maps(segments, n_s=30),
+        "traj": sq.tip_trajectory(curves),
+        "change": change,
+        "response": sq.response_times(change),
+    }
+
+
+def _rep():
+    rows = [(f, v, s, 1.0 + f / 100 + v, 0.3) for f in (0, 100, 199) for v in (1, 2, 3) for s in sq.SECTIONS]
+    return pd.DataFrame(rows, columns=list(sq.REPROJECTION_COLUMNS))
+
+
+def _sites():
+    return pd.DataFrame({
+        "experiment": ["a", "b", "c", "d"], "site": ["S1", "S2", "S3", "S4"],
+        "responded": [False, True, True, True], "onset_s": [np.nan, 170.0, 160.0, 150.0],
+        "stable_s": [np.nan, 700.0, 720.0, 760.0], "amplitude_mm": [0.8, 12.0, 25.0, 30.0],
+        "tip_path_mm": [5.0, 40.0, 80.0, 90.0],
+    })
+
+
+def _matplotlib_figures(seq, only=None):
+    img = np.zeros((60, 80, 3), np.uint8)
+    img[:, :, 2] = 120
+    makers = {
+        "split": lambda: pl.plot_split_points(seq["split"]),
+        "split_point": lambda: pl.plot_split_points(seq["split"], y="point", title="S3"),
+        "maps": lambda: pl.plot_kt_maps(seq["maps"]),
+        "tip": lambda: pl.plot_tip_trajectory(seq["traj"]),
+        "evolution": lambda: pl.plot_shape_evolution(seq["curves"], max_frames=5),
+        "change": lambda: pl.plot_shape_change(seq["change"], seq["response"]),
+        "bars": lambda: pl.plot_reprojection_bars(sq.table1(_rep())),
+        "sites": lambda: pl.plot_site_comparison(_sites()),
+        "overlay": lambda: pl.plot_view_overlay(
+            img, roi=[5, 5, 60, 40], keep_out=[0, 0, 10, 10], base_point_xy=[8, 30],
+            centerline_xy=np.c_[np.linspace(8, 60, 20), np.full(20, 30.0)],
+            reprojected_xy=np.c_[np.linspace(8, 60, 20), np.full(20, 31.0)]),
+    }
+    return {k: m() for k, m in makers.items() if only is None or k == only}
+
+
+def test_matplotlib_functions_return_figures(seq):
+    figs = _matplotlib_figures(seq)
+    for name, fig in figs.items():
+        assert isinstance(fig, Figure), name
+        assert fig.axes, name
+    # the response is drawn: onset and stable lines in the legend
+    labels = [t.get_text() for t in figs["change"].axes[0].get_legend().get_texts()]
+    assert any(s.startswith("onset") for s in labels) and any(s.startswith("stable") for s in labels)
+    # tip figure: 3D path + three projections, in the paper's colours
+    assert len(figs["tip"].axes) == 4
+    assert figs["tip"].axes[1].lines[0].get_color() == "orange"
+
+
+def test_plotly_functions(seq):
+    go = pytest.importorskip("plotly.graph_objects")
+    f1 = pl.plot_tip_trajectory_3d_interactive(seq["traj"])
+    assert isinstance(f1, go.Figure)
+    assert [t.name for t in f1.data] == ["tip", "XY", "YZ", "XZ", "first", "last"]
+    pwc = seq["curves"].copy()
+    f2 = pl.plot_curves_3d_interactive(seq["curves"], pwc, frames=[0, 10, 23])
+    assert [t.name for t in f2.data] == ["frame 0", "PWC 0", "frame 10", "PWC 10", "frame 23", "PWC 23"]
+    assert f2.data[0].line.color == "#000000" and f2.data[-2].line.color == "#ff0000"
+
+
+def test_maps_with_a_failed_frame_and_no_response():
+    curves, segments = make_sequence(n_frames=6, noise_mm=0.3, seed=4, static=True, n=30)
+    frames = pd.DataFrame({"frame": range(6), "time_s": np.arange(6) * 20.0,
+                           "status": ["ok", "ok", "failed", "ok", "ok", "ok"]})
+    with pytest.warns(UserWarning):
+        maps = sq.curvature_torsion_maps(segments, n_s=10, frames=frames)
+    assert isinstance(pl.plot_kt_maps(maps), Figure)
+    change = sq.shape_change(curves)
+    fig = pl.plot_shape_change(change, sq.response_times(change))
+    assert "no response" in [t.get_text() for t in fig.axes[0].texts]
+
+
+def test_bad_input_names_argument():
+    with pytest.raises(ValueError, match="traj: missing column"):
+        pl.plot_tip_trajectory(pd.DataFrame({"x_mm": [0.0]}))
+    with pytest.raises(ValueError, match="image_bgr"):
+        pl.plot_view_overlay(np.zeros((2, 2, 4)), roi=[0, 0, 1, 1], keep_out=None, base_point_xy=[0, 0])
+
+
+def test_saved_files_are_byte_identical(seq, tmp_path):
+    for name in ("tip", "maps", "bars"):
+        blobs = []
+        for k in range(2):  # a fresh figure each time, saved twice
+            fig = _matplotlib_figures(seq, name)[name]
+            paths = io.save_figure(fig, tmp_path / f"{name}{k}")
+            assert [p.suffix for p in paths] == [".svg", ".pdf", ".png"]
+            blobs.append([p.read_bytes() for p in paths])
+        assert blobs[0] == blobs[1], name
+        svg = blobs[0][0].decode()
+        assert "<dc:date>" not in svg
+    with pytest.raises(ValueError, match="formats"):
+        io.save_figure(_matplotlib_figures(seq, "sites")["sites"], tmp_path / "x", formats=("jpg",))
+
+
+def test_plotly_html_is_byte_identical(seq, tmp_path):
+    pytest.importorskip("plotly")
+    a = io.save_figure(pl.plot_tip_trajectory_3d_interactive(seq["traj"]), tmp_path / "tip", formats=("html", "json"))
+    b1 = [p.read_bytes() for p in a]
+    a = io.save_figure(pl.plot_tip_trajectory_3d_interactive(seq["traj"]), tmp_path / "tip", formats=("html", "json"))
+    assert [p.read_bytes() for p in a] == b1
+    assert b'id="tip"' in b1[0] and b"cdn.plot.ly" not in b1[0][:2000]
+    with pytest.raises(ValueError, match="static export"):
+        io.save_figure(pl.plot_tip_trajectory_3d_interactive(seq["traj"]), tmp_path / "tip", formats=("svg",))
