@@ -179,6 +179,7 @@ def plot_kt_maps(maps, *, title: str | None = None) -> Figure:
             ax.set_title(f"{name}: no frames")
             continue
         mesh = ax.pcolormesh(x, s, np.ma.masked_invalid(M), shading="nearest", rasterized=False, **kw)
+        ax.grid(False)
         cb = fig.colorbar(mesh, ax=ax)
         cb.set_label(f"normalised {name}")
         ax.set_ylabel("normalised length")
@@ -277,10 +278,10 @@ def plot_shape_change(change: pd.DataFrame, response=None, *, measure: str = "me
                 ax.axvline(response.stable_s / scale, color="#2ca02c", ls=":",
                            label=f"stable {response.stable_s / 60:.1f} min")
         elif not response.responded:
-            ax.text(0.02, 0.92, "no response", transform=ax.transAxes, color="#d62728")
+            ax.text(0.98, 0.05, "no response", transform=ax.transAxes, color="#d62728", ha="right")
     ax.set_xlabel(xlabel)
     ax.set_ylabel("distance to the first frame (mm)")
-    ax.legend(loc="lower right")
+    ax.legend(loc="upper left")
     if title:
         ax.set_title(title)
     return fig
