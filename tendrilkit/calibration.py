@@ -130,16 +130,15 @@ def _refine_corners_edges(grey: np.ndarray, corners_xy: np.ndarray, *, cells: in
             good = (hi - lo) > 20
             mid = (lo + hi) / 2
             above = prof >= mid[:, None]
-            # the last dark-to-bright crossing before the bright end
-            edge = np.full(len(s), np.nan)
-            for j in np.flatnonzero(good):
-                idx = np.flatnonzero(~above[j, :-1] & above[j, 1:])
-                if idx.size == 0:
-                    continue
-                q = idx[-1]
-                y0, y1 = prof[j, q], prof[j, q + 1]
-                edge[j] = offs[q] + (mid[j] - y0) / (y1 - y0) * (offs[q + 1] - offs[q])
-            ok = np.isfinite(edge)
+            # the last dark-to-bright crossing before the bright end, interpolated
+            up = ~above[:, :-1] & above[:, 1:]
+            has = up.any(axis=1) & good
+            q = up.shape[1] - 1 - np.argmax(up[:, ::-1], axis=1)
+            rows = np.arange(len(s))
+            y0, y1 = prof[rows, q], prof[rows, np.minimum(q + 1, len(offs) - 1)]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                edge = offs[q] + (mid - y0) / (y1 - y0) * (offs[1] - offs[0])
+            ok = has & np.isfinite(edge)
             if ok.sum() < 6:
                 return None
             p = base[ok] + edge[ok, None] * n[None, :]
@@ -148,7 +147,7 @@ def _refine_corners_edges(grey: np.ndarray, corners_xy: np.ndarray, *, cells: in
             # total least squares line, one pass of outlier rejection
             for _pass in range(2):
                 m = p.mean(axis=0)
-                _, _, vt = np.linalg.svd(p - m)
+                _, _, vt = np.linalg.svd(p - m, full_matrices=False)
                 nrm = vt[1]
                 r = (p - m) @ nrm
                 mad = np.median(np.abs(r - np.median(r))) * 1.4826
@@ -604,6 +603,9 @@ class CalibrationResult:
     source : str
         ``markers`` (detection, single marker), ``bundle`` (detection and
         bundle adjustment) or ``ijcv25`` (the authors' stored poses).
+    bundle : BundleReport or None
+        The adjustment's report (markers on the board plane, dropped
+        observations, residuals) when it ran.
     """
 
     cameras: list[Camera]
@@ -613,6 +615,7 @@ class CalibrationResult:
     markers_world: dict[int, np.ndarray]
     frame: int | None = None
     source: str = "markers"
+    bundle: BundleReport | None = None
 
     def summary(self) -> str:
         """Per view: markers seen, mean corner error single -> adjusted."""
@@ -629,6 +632,14 @@ class CalibrationResult:
             if len(a):
                 line += f" -> {_wmean(a):.3f} px (max {a.max_px.max():.3f}) after bundle adjustment"
             lines.append(line)
+        if self.bundle is not None:
+            b = self.bundle
+            extra = f"adjusted markers: {', '.join(str(m) for m in sorted(b.markers_world))}"
+            if b.on_plane:
+                extra += f"; on the world marker's plane: {', '.join(str(m) for m in b.on_plane)}"
+            if b.dropped:
+                extra += "; dropped: " + ", ".join(f"view {v} marker {m}" for v, m in b.dropped)
+            lines.append(extra + f"; rms {b.rms_before_px:.3f} -> {b.rms_after_px:.3f} px")
         return "\n".join(lines)
 
 
@@ -733,7 +744,7 @@ def calibrate_from_observations(observations: dict[int, dict[int, np.ndarray]], 
         cams, rep = _bundle_adjust(single, observations, world_id=world_id, length_mm=length_mm)
         table = _marker_table(rep.table, rep.markers_world)
         return CalibrationResult(cameras=cams, single_cameras=single, markers=table, observations=observations,
-                                 markers_world=rep.markers_world, frame=frame, source="bundle")
+                                 markers_world=rep.markers_world, frame=frame, source="bundle", bundle=rep)
     if bundle_adjust and len(intrinsics) > 1:
         warnings.warn("bundle adjustment skipped: no marker other than the world marker is seen by two views",
                       stacklevel=2)

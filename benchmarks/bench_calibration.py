@@ -1,0 +1,100 @@
+"""Calibration accuracy and speed on rendered frames and on phantom experiments.
+
+    .venv/bin/python benchmarks/bench_calibration.py corners    # refinement methods compared
+    .venv/bin/python benchmarks/bench_calibration.py phantom [SITES] [--seeds 0,1]
+
+``corners``: the board of tests/test_calibration.py rendered through the
+IJCV25 rig with lens distortion at several blur levels; per corner refinement
+method, the corner error against the exact projection, the single-marker
+rotation error of the world marker's pose, and the calibrated rig's agreement
+with the true rig on working-volume points (single-marker and adjusted).
+
+``phantom``: writes a short phantom experiment per site and seed
+(:func:`tendrilkit.phantom.write_phantom_experiment`), calibrates it and
+compares the rig with ``ground_truth/true_cameras.json`` on the ground-truth
+centreline points.
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from tendrilkit.calibration import calibrate, calibrate_from_observations, detect_markers, marker_pose, rig_agreement_px  # noqa: E402
+
+
+def bench_corners() -> None:
+    from tests import test_calibration as T
+
+    cams = T.distorted_rig()
+    tex, corners = T._scene()
+    P = T.working_volume()
+    print(f"{'blur':>4} {'method':>8} {'corner mean':>11} {'max':>6} {'rot deg':>7} {'single px':>9} {'adjusted px':>11} {'detect ms':>9}")
+    for blur in (0.7, 1.2, 2.0):
+        rng = np.random.default_rng(11)
+        images = [T.render(c, tex, rng=rng, blur_px=blur, noise=2.5) for c in cams]
+        for method in ("none", "subpix", "contour", "apriltag", "edges"):
+            errs, rots, obs = [], [], {}
+            t0 = time.perf_counter()
+            for v, (cam, img) in enumerate(zip(cams, images)):
+                obs[v] = detect_markers(img, T.DICT, refine=method, camera=cam)
+            dt = (time.perf_counter() - t0) / len(cams) * 1000
+            for v, cam in enumerate(cams):
+                for mid, c in obs[v].items():
+                    errs.append(np.linalg.norm(c - cam.project(corners[mid]), axis=1))
+                R, _ = marker_pose(obs[v][T.WORLD_ID], cam, T.L)
+                rots.append(T.rot_err_deg(R, cam.R))
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                res = calibrate_from_observations(obs, cams, world_id=T.WORLD_ID, length_mm=T.L)
+            s, _ = rig_agreement_px(res.single_cameras, cams, P)
+            a, _ = rig_agreement_px(res.cameras, cams, P)
+            e = np.concatenate(errs)
+            print(f"{blur:4.1f} {method:>8} {e.mean():11.3f} {e.max():6.3f} {max(rots):7.3f} {s.max():9.2f} {a.max():11.3f} {dt:9.0f}")
+
+
+def bench_phantom(sites: list[str], seeds: list[int], n_frames: int = 2) -> None:
+    from tendrilkit.calibration import calibrate_experiment
+    from tendrilkit.io import read_cameras, read_csv
+    from tendrilkit.params import load_experiment
+    from tendrilkit.phantom import write_phantom_experiment
+
+    print(f"{'site':>4} {'seed':>4} {'single max px per view':>26} {'adjusted max px per view':>28} {'mean adj':>8} {'on plane':>10} {'s':>5}")
+    for site in sites:
+        for seed in seeds:
+            with tempfile.TemporaryDirectory() as d:
+                path = write_phantom_experiment(site, Path(d) / site, n_frames=n_frames, seed=seed)
+                exp = load_experiment(path)
+                t0 = time.perf_counter()
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    res = calibrate_experiment(exp)
+                dt = time.perf_counter() - t0
+                gt = Path(path).parent / "ground_truth"
+                truth = read_cameras(gt / "true_cameras.json")
+                curves = read_csv(gt / "gt_curves.csv")
+                pts = curves[["x_mm", "y_mm", "z_mm"]].to_numpy()
+                s, _ = rig_agreement_px(res.single_cameras, truth, pts)
+                a, am = rig_agreement_px(res.cameras, truth, pts)
+                n_markers = {v: len(o) for v, o in res.observations.items()}
+                print(f"{site:>4} {seed:4d} {np.array2string(s, precision=2):>26} {np.array2string(a, precision=2):>28} "
+                      f"{am.max():8.2f} {len(getattr(res, 'on_plane', []) or []):>10} {dt:5.1f}  markers/view {n_markers}")
+
+
+if __name__ == "__main__":
+    what = sys.argv[1] if len(sys.argv) > 1 else "corners"
+    if what == "corners":
+        bench_corners()
+    else:
+        sites = sys.argv[2].split(",") if len(sys.argv) > 2 and not sys.argv[2].startswith("--") else ["S1", "S2", "S3", "S4"]
+        seeds = [0]
+        if "--seeds" in sys.argv:
+            seeds = [int(x) for x in sys.argv[sys.argv.index("--seeds") + 1].split(",")]
+        bench_phantom(sites, seeds)
