@@ -691,6 +691,28 @@ class ResponseTimes:
     note: str = ""
 
 
+def running_median(y: np.ndarray, width: int) -> np.ndarray:
+    """Median over ``width`` samples centred on each sample; the window shrinks at the ends.
+
+    The first and last samples take the median of the three end samples.
+    Unlike padding with the end values, a single outlier in the last (or
+    first) sample does not survive the filter.
+    """
+    y = np.asarray(y, dtype=float)
+    h = int(width) // 2
+    if h < 1 or y.size < 3:
+        return y.copy()
+    out = median_filter(y, size=2 * h + 1, mode="nearest")
+    n = y.size
+    for i in sorted(set(range(min(h, n))) | set(range(max(n - h, 0), n))):
+        k = min(i, n - 1 - i, h)
+        if k > 0:
+            out[i] = np.median(y[i - k:i + k + 1])
+        else:  # the first / last sample: median of the three end samples
+            out[i] = np.median(y[:3]) if i == 0 else np.median(y[-3:])
+    return out
+
+
 def _crossing(t0, t1, y0, y1, level):
     if not np.isfinite(y0) or y1 == y0:
         return float(t1)
@@ -758,7 +780,7 @@ def response_times(
     if n < 3:
         return ResponseTimes(False, nan, nan, nan, nan, nan, nan, nan, measure=measure,
                              note=f"only {n} frame(s)")
-    ys = median_filter(y, size=int(median_frames), mode="nearest") if median_frames > 1 else y.copy()
+    ys = running_median(y, int(median_frames))
     d2 = np.diff(y, 2)
     noise = float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0)) if d2.size else 0.0
     early = y[1:1 + int(baseline_frames)] if n > 1 else y[:1]
