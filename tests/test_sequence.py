@@ -364,3 +364,30 @@ def test_table3_aliases_and_mapping():
     assert t3["frame"].tolist() == [0, 2, 4]
     with pytest.raises(ValueError, match="fit_metrics: none of"):
         sq.table3(pd.DataFrame({"frame": [0], "other": [1]}))
+
+
+def test_an_outlier_in_the_last_frame_does_not_decide_stability():
+    t = np.arange(0, 800, 20.0)
+    y = np.interp(t, [0, 200, 500, 800], [0, 0, 10, 10])
+    y[-1] = 14.0
+    rt = sq.response_times(pd.DataFrame({"time_s": t, "mean_mm": y}))
+    assert rt.responded and rt.plateau_mm == pytest.approx(10.0)
+    assert rt.stable_s == pytest.approx(470.0)
+
+
+def test_response_times_invariant_to_offset_and_time_shift():
+    from hypothesis import given, settings, strategies as st
+
+    t = np.arange(0, 900, 15.0)
+    y = np.interp(t, [0, 150, 600, 900], [0, 0, 20, 20]) + np.random.default_rng(0).normal(0, 0.2, t.size)
+    base = sq.response_times(pd.DataFrame({"time_s": t, "mean_mm": y}))
+
+    @settings(max_examples=25, deadline=None)
+    @given(st.floats(0, 50), st.floats(-1000, 1000))
+    def check(offset, shift):
+        r = sq.response_times(pd.DataFrame({"time_s": t + shift, "mean_mm": y + offset}), stimulus_s=shift)
+        assert r.onset_s == pytest.approx(base.onset_s, abs=1e-6)
+        assert r.stable_s == pytest.approx(base.stable_s, abs=1e-6)
+        assert r.amplitude_mm == pytest.approx(base.amplitude_mm, abs=1e-9)
+
+    check()
