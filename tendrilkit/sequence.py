@@ -464,6 +464,9 @@ def curvature_torsion_maps(
             fr_list.append(fr)
             L_list.append(L)
             t_list.append(np.nan)
+        if ok_set is not None:
+            for fr in sorted(ok_set - set(fr_list) - set(excluded)):
+                excluded[fr] = "ok in frames but absent from segments"
         tmap = {}
         if frames is not None:
             f = _canonical(frames, ("frame",), "frames")
@@ -1046,17 +1049,17 @@ def _error_table(rep: pd.DataFrame, chosen, frames, columns, what) -> pd.DataFra
     return out.reset_index().sort_values(["frame", "view"], kind="stable").reset_index(drop=True)
 
 
-def table1(reprojection: pd.DataFrame, *, frames: Sequence[int] | None = None,
-           frames_table: pd.DataFrame | None = None, columns: Mapping[str, str] | None = None) -> pd.DataFrame:
+def table1(reprojection: pd.DataFrame, *, at_frames: Sequence[int] | None = None,
+           frames: pd.DataFrame | None = None, columns: Mapping[str, str] | None = None) -> pd.DataFrame:
     """Paper Table 1: reprojection error of the reconstruction per frame and view.
 
     Parameters
     ----------
     reprojection : DataFrame
         ``frame, view, section, mean_px, std_px`` (section base / tip / entire).
-    frames : sequence of int, optional
+    at_frames : sequence of int, optional
         Frames to show; default the first, middle and last (ok) frame.
-    frames_table : DataFrame, optional
+    frames : DataFrame, optional
         The run's ``frames`` table: only ok frames are eligible.
 
     Returns
@@ -1065,11 +1068,11 @@ def table1(reprojection: pd.DataFrame, *, frames: Sequence[int] | None = None,
         ``frame, view, mean_base_px, mean_tip_px, mean_entire_px,
         std_base_px, std_tip_px, std_entire_px``.
     """
-    return _error_table(reprojection, frames, frames_table, columns, "reprojection")
+    return _error_table(reprojection, at_frames, frames, columns, "reprojection")
 
 
 def projection_errors(curves: pd.DataFrame, other: pd.DataFrame, cameras: Sequence, *,
-                      frames: Sequence[int] | None = None, n_s: int | None = None,
+                      at_frames: Sequence[int] | None = None, n_s: int | None = None,
                       columns: Mapping[str, str] | None = None) -> pd.DataFrame:
     """Pixel distances between the projections of two curve tables (paper Table 2 input).
 
@@ -1082,7 +1085,7 @@ def projection_errors(curves: pd.DataFrame, other: pd.DataFrame, cameras: Sequen
         ``curves`` and e.g. ``pwc_curves`` (same columns).
     cameras : sequence of :class:`tendrilkit.camera.Camera`
         In view order (views are reported 1-based).
-    frames : sequence of int, optional
+    at_frames : sequence of int, optional
         Default: every frame present in both tables.
 
     Returns
@@ -1093,7 +1096,7 @@ def projection_errors(curves: pd.DataFrame, other: pd.DataFrame, cameras: Sequen
     a = _split_curves(curves, None, columns, "projection_errors")
     b = _split_curves(other, None, columns, "projection_errors")
     common = sorted(set(a.frame.tolist()) & set(b.frame.tolist()))
-    fr = common if frames is None else _chosen(np.asarray(common), frames, "projection_errors")
+    fr = common if at_frames is None else _chosen(np.asarray(common), at_frames, "projection_errors")
     rows = []
     for f in fr:
         P = a.points[int(np.flatnonzero(a.frame == f)[0])]
@@ -1110,19 +1113,19 @@ def projection_errors(curves: pd.DataFrame, other: pd.DataFrame, cameras: Sequen
     return pd.DataFrame(rows, columns=list(REPROJECTION_COLUMNS))
 
 
-def table2(pwc_errors: pd.DataFrame, *, frames: Sequence[int] | None = None,
-           frames_table: pd.DataFrame | None = None, columns: Mapping[str, str] | None = None) -> pd.DataFrame:
+def table2(pwc_errors: pd.DataFrame, *, at_frames: Sequence[int] | None = None,
+           frames: pd.DataFrame | None = None, columns: Mapping[str, str] | None = None) -> pd.DataFrame:
     """Paper Table 2: projected distance between the PWC curve and the reconstruction.
 
     ``pwc_errors`` has the ``reprojection`` layout, e.g. from
     :func:`projection_errors` ``(curves, pwc_curves, cameras)``; the result has
     the layout of :func:`table1`.
     """
-    return _error_table(pwc_errors, frames, frames_table, columns, "pwc_errors")
+    return _error_table(pwc_errors, at_frames, frames, columns, "pwc_errors")
 
 
-def table3(fit_metrics: pd.DataFrame, *, frames: Sequence[int] | None = None,
-           frames_table: pd.DataFrame | None = None, columns: Mapping[str, str] | None = None) -> pd.DataFrame:
+def table3(fit_metrics: pd.DataFrame, *, at_frames: Sequence[int] | None = None,
+           frames: pd.DataFrame | None = None, columns: Mapping[str, str] | None = None) -> pd.DataFrame:
     """Paper Table 3: segments, R^2 and SSE of the PWC fit for chosen frames.
 
     Parameters
@@ -1132,8 +1135,10 @@ def table3(fit_metrics: pd.DataFrame, *, frames: Sequence[int] | None = None,
         of ``penalty_kappa, penalty_tau, n_kappa, n_tau, r2_entire, r2_base,
         r2_tip, sse_entire_mm2, sse_base_mm2, sse_tip_mm2`` (spellings in
         :data:`FIT_METRIC_ALIASES` are recognised; ``columns`` maps others).
-    frames : sequence of int, optional
+    at_frames : sequence of int, optional
         Default: first, middle and last (ok) frame.
+    frames : DataFrame, optional
+        The run's ``frames`` table: only ok frames are eligible.
 
     Returns
     -------
@@ -1143,10 +1148,10 @@ def table3(fit_metrics: pd.DataFrame, *, frames: Sequence[int] | None = None,
     """
     m = _canonical(fit_metrics, ("frame",), "fit_metrics", columns, FIT_METRIC_ALIASES,
                    optional=FIT_METRIC_COLUMNS[1:])
-    if frames_table is not None:
-        ok, _ = frame_status(frames_table)
+    if frames is not None:
+        ok, _ = frame_status(frames)
         m = m[m["frame"].isin(ok)]
-    fr = _chosen(m["frame"].to_numpy(), frames, "fit_metrics")
+    fr = _chosen(m["frame"].to_numpy(), at_frames, "fit_metrics")
     keep = [c for c in FIT_METRIC_COLUMNS if c in m.columns]
     if len(keep) == 1:
         raise ValueError(f"fit_metrics: none of {', '.join(FIT_METRIC_COLUMNS[1:])} found in "

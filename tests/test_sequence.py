@@ -329,15 +329,15 @@ def _reprojection():
 def test_table1_defaults_to_first_middle_last_ok():
     rep = _reprojection()
     frames = pd.DataFrame({"frame": range(10), "status": ["ok"] * 9 + ["failed"]})
-    t1 = sq.table1(rep, frames_table=frames)
+    t1 = sq.table1(rep, frames=frames)
     assert t1["frame"].unique().tolist() == [0, 4, 8]
     assert list(t1.columns) == ["frame", "view", "mean_base_px", "mean_tip_px", "mean_entire_px",
                                 "std_base_px", "std_tip_px", "std_entire_px"]
     row = t1[(t1.frame == 4) & (t1.view == 2)].iloc[0]
     assert row["mean_tip_px"] == pytest.approx(6.1) and row["std_entire_px"] == pytest.approx(0.2)
-    assert sq.table1(rep, frames=[1, 2])["frame"].unique().tolist() == [1, 2]
+    assert sq.table1(rep, at_frames=[1, 2])["frame"].unique().tolist() == [1, 2]
     with pytest.raises(ValueError, match="frame"):
-        sq.table1(rep, frames=[42])
+        sq.table1(rep, at_frames=[42])
 
 
 def test_table2_from_projection_errors(clean):
@@ -348,9 +348,9 @@ def test_table2_from_projection_errors(clean):
     cam = Camera(K=np.array([[1000.0, 0, 960], [0, 1000.0, 540], [0, 0, 1]]), R=R, t_mm=t)
     pwc = curves.copy()
     pwc["z_mm"] += 1.0   # 1 mm towards the camera
-    err = sq.projection_errors(curves, pwc, [cam, cam], frames=[0, 59])
+    err = sq.projection_errors(curves, pwc, [cam, cam], at_frames=[0, 59])
     assert len(err) == 2 * 2 * 3
-    same = sq.projection_errors(curves, curves, [cam], frames=[0])
+    same = sq.projection_errors(curves, curves, [cam], at_frames=[0])
     assert same["mean_px"].max() == pytest.approx(0.0, abs=1e-9)
     t2 = sq.table2(err)
     assert t2["frame"].tolist() == [0, 0, 59, 59] and np.all(t2["mean_entire_px"] > 0)
