@@ -1,0 +1,93 @@
+"""Segmentation of the tendril in one view: channel, threshold, keep-out, components, tracking."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from tendrilkit.exceptions import TendrilLostError
+from tendrilkit.segmentation import grey_image, segment_view
+
+GREEN = (40, 150, 90)  # BGR: dark in blue, saturated
+ROI = (100, 50, 400, 300)
+
+
+def scene(*, stem=True, blob=True, speck=True) -> np.ndarray:
+    img = np.full((480, 640, 3), 230, np.uint8)
+    if stem:
+        cv2.line(img, (120, 60), (120, 340), (50, 110, 60), 13)
+    cv2.line(img, (120, 200), (400, 150), GREEN, 7)  # the tendril, leaving the stem at (120, 200)
+    if blob:
+        cv2.circle(img, (420, 300), 20, GREEN, -1)  # a leaf
+    if speck:
+        cv2.circle(img, (300, 300), 2, GREEN, -1)  # 13 px: dropped
+    return img
+
+
+def test_first_frame_takes_the_component_at_the_base_point():
+    img = scene()
+    m = segment_view(img, roi=ROI, keep_out=(110, 185, 25, 30), base_point_xy=(130, 200))
+    assert m.mask_roi.shape == (300, 400) and m.mask_roi.dtype == bool
+    assert tuple(m.roi_offset_xy) == (100, 50)
+    # the keep-out box cuts the stem from the tendril (and in two): stem above, stem below,
+    # tendril, leaf; the speck is dropped
+    assert m.n_components == 4
+    ys, xs = np.nonzero(m.mask_roi)
+    assert xs.min() + 100 >= 135 - 1 and xs.max() + 100 <= 404
+    assert np.allclose(m.centroid_xy, [xs.mean() + 100, ys.mean() + 50])
+    assert m.area_px == len(xs)
+
+
+def test_without_keep_out_the_stem_joins_the_tendril():
+    m = segment_view(scene(), roi=ROI, keep_out=None, base_point_xy=(130, 200))
+    ys, xs = np.nonzero(m.mask_roi)
+    assert ys.min() + 50 < 70  # the stem's top is in the component
+
+
+def test_later_frames_track_the_nearest_centroid():
+    img = scene()
+    m = segment_view(img, roi=ROI, keep_out=(110, 185, 25, 30), base_point_xy=(130, 200), prev_centroid_xy=(415, 290))
+    assert np.hypot(*(m.centroid_xy - (420, 300))) < 2  # the leaf is now nearest
+
+
+def test_base_point_outside_every_component_takes_the_nearest():
+    m = segment_view(scene(stem=False), roi=ROI, keep_out=None, base_point_xy=(110, 215))
+    assert m.mask_roi[200 - 50, 125 - 100]
+
+
+def test_fixed_threshold_hsv_and_opening():
+    img = scene(stem=False, blob=False)
+    a = segment_view(img, roi=ROI, keep_out=None, base_point_xy=(130, 200), threshold=120)
+    b = segment_view(img, roi=ROI, keep_out=None, base_point_xy=(130, 200), channel="hsv")
+    c = segment_view(img, roi=ROI, keep_out=None, base_point_xy=(130, 200), opening_radius_px=0, min_component_px=5)
+    assert a.n_components == 1 and b.n_components == 1 and c.n_components == 2  # the speck kept
+    assert abs(a.area_px - b.area_px) < 0.1 * a.area_px
+    grey = grey_image(img, channel="hsv")
+    assert grey[150, 400] < 130 and grey[10, 10] > 200
+    # a fixed threshold darker than the tendril finds nothing
+    with pytest.raises(TendrilLostError, match="no component"):
+        segment_view(img, roi=ROI, keep_out=None, base_point_xy=(130, 200), threshold=30)
+
+
+def test_lost_and_bad_arguments():
+    blank = np.full((480, 640, 3), 230, np.uint8)
+    with pytest.raises(TendrilLostError):
+        segment_view(blank, roi=ROI, keep_out=None, base_point_xy=(130, 200))
+    img = scene()
+    with pytest.raises(ValueError, match="roi"):
+        segment_view(img, roi=(10, 10, 0, 5), keep_out=None, base_point_xy=(0, 0))
+    with pytest.raises(ValueError, match="overlap"):
+        segment_view(img, roi=(700, 10, 50, 50), keep_out=None, base_point_xy=(0, 0))
+    with pytest.raises(ValueError, match="threshold"):
+        segment_view(img, roi=ROI, keep_out=None, base_point_xy=(0, 0), threshold="mean")
+    with pytest.raises(ValueError, match="channel"):
+        segment_view(img, roi=ROI, keep_out=None, base_point_xy=(0, 0), channel="red")
+    with pytest.raises(ValueError, match="image_bgr"):
+        segment_view(img.astype(float), roi=ROI, keep_out=None, base_point_xy=(0, 0))
+
+
+def test_roi_is_clipped_to_the_image():
+    img = scene(stem=False, blob=False, speck=False)
+    m = segment_view(img, roi=(-50, -50, 500, 400), keep_out=None, base_point_xy=(130, 200))
+    assert tuple(m.roi_offset_xy) == (0, 0) and m.mask_roi.shape == (350, 450)
