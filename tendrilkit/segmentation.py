@@ -180,55 +180,42 @@ def segment_view(
         kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
         fg = cv2.morphologyEx(fg, cv2.MORPH_OPEN, kernel)
 
-    n, labels, stats, centroids = cv2.connectedComponentsWithStats(fg, connectivity=8, ltype=cv2.CV_32S)
-    keep = [k for k in range(1, n) if stats[k, cv2.CC_STAT_AREA] >= max(min_component_px, 1)]
-    if not keep:
+    # labels without cv2's statistics (those cost 4 ms on a 700 x 700 crop,
+    # the labels 0.5 ms); areas and centroids from the foreground pixels only
+    n, labels = cv2.connectedComponents(fg, connectivity=8, ltype=cv2.CV_32S)
+    rows, cols = np.nonzero(fg)
+    lab = labels[rows, cols]
+    areas = np.bincount(lab, minlength=n)
+    areas[0] = 0
+    keep = np.nonzero(areas >= max(min_component_px, 1))[0]
+    if len(keep) == 0:
         raise TendrilLostError(
             f"no component of at least {min_component_px} px in the roi {[x, y, w, h]}"
         )
     offset = np.array([x0, y0])
-    keep_arr = np.array(keep)
-    cents = centroids[keep_arr] + offset  # full-image xy
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centroids = np.column_stack(
+            [np.bincount(lab, weights=cols, minlength=n) / areas, np.bincount(lab, weights=rows, minlength=n) / areas]
+        )
 
     if prev_centroid_xy is not None:
-        p = np.asarray(prev_centroid_xy, dtype=float).reshape(2)
-        best = int(keep_arr[np.argmin(np.hypot(*(cents - p).T))])
+        p = np.asarray(prev_centroid_xy, dtype=float).reshape(2) - offset
+        best = int(keep[np.argmin(np.hypot(*(centroids[keep] - p).T))])
     elif len(keep) == 1:
-        best = keep[0]
+        best = int(keep[0])
     else:
-        best = _nearest_component(labels, stats, keep_arr, np.asarray(base_point_xy, float).reshape(2) - offset)
+        # the component with the pixel nearest the base point
+        p = np.asarray(base_point_xy, dtype=float).reshape(2) - offset
+        ok = areas[lab] >= max(min_component_px, 1)
+        d = np.hypot(cols[ok] - p[0], rows[ok] - p[1])
+        best = int(lab[ok][np.argmin(d)])
 
     mask = labels == best
     return TendrilMask(
         mask_roi=mask,
         roi_offset_xy=offset,
         centroid_xy=centroids[best] + offset,
-        area_px=int(stats[best, cv2.CC_STAT_AREA]),
+        area_px=int(areas[best]),
         n_components=len(keep),
     )
 
-
-def _nearest_component(labels: np.ndarray, stats: np.ndarray, keep: np.ndarray, p_xy: np.ndarray) -> int:
-    """The label (among ``keep``) with the pixel nearest ``p_xy`` (crop pixels).
-
-    Components whose bounding box is farther than the best pixel distance so
-    far are skipped, so only a few components are scanned pixel by pixel.
-    """
-    bx = stats[keep, cv2.CC_STAT_LEFT]
-    by = stats[keep, cv2.CC_STAT_TOP]
-    bw = stats[keep, cv2.CC_STAT_WIDTH]
-    bh = stats[keep, cv2.CC_STAT_HEIGHT]
-    dx = np.maximum(np.maximum(bx - p_xy[0], p_xy[0] - (bx + bw - 1)), 0)
-    dy = np.maximum(np.maximum(by - p_xy[1], p_xy[1] - (by + bh - 1)), 0)
-    box_d = np.hypot(dx, dy)
-    best, best_d = int(keep[0]), np.inf
-    for i in np.argsort(box_d):
-        if box_d[i] > best_d:
-            break
-        k = int(keep[i])
-        sl = labels[by[i] : by[i] + bh[i], bx[i] : bx[i] + bw[i]]
-        rr, cc = np.nonzero(sl == k)
-        d = np.hypot(cc + bx[i] - p_xy[0], rr + by[i] - p_xy[1]).min()
-        if d < best_d:
-            best, best_d = k, d
-    return best
