@@ -112,13 +112,18 @@ class Extrinsics(_Strict):
 
 
 class Segmentation(_Strict):
-    """Per-view segmentation of the tendril (paper: Pre-processing).
+    """Per-view segmentation of the tendril (paper: Pre-processing); see
+    :func:`tendrilkit.segmentation.segment_view`.
 
     ``channel``: ``blue`` (dark tendril in the blue channel on a white board,
-    the reference's default) or ``hsv`` (value/saturation); ``threshold``:
-    ``otsu`` or a fixed grey level 0-255 (pixels darker than it are tendril);
-    ``opening_radius_px``: radius of the morphological opening (0: none);
-    ``min_component_px``: components smaller than this are dropped.
+    the reference's default) or ``hsv`` (grey = min(V, 255 - S): dark or
+    saturated pixels are tendril); ``threshold``: ``otsu`` (Otsu's threshold on
+    the ROI) or a fixed grey level 0-255 (pixels darker than it are tendril);
+    ``opening_radius_px``: radius of the disk of the morphological opening (0:
+    none; the reference opens with radius 5, which erases tendrils thinner than
+    11 px); ``min_component_px``: components smaller than this are dropped.
+    The first frame takes the component at or nearest the base point, later
+    frames the component nearest the previous centroid.
     """
 
     channel: Literal["blue", "hsv"] = "blue"
@@ -128,24 +133,55 @@ class Segmentation(_Strict):
 
 
 class Skeleton(_Strict):
-    """Skeleton of the mask: spurs shorter than ``prune_px`` are removed."""
+    """Skeleton graph and centreline geometry; see :func:`tendrilkit.skeleton.order_skeleton`.
+
+    ``prune_px``: spurs (endpoint-to-junction branches) shorter than this are
+    removed; ``merge_width``: junctions joined by a branch shorter than this
+    many tube widths are one crossing (an X crossing thins to two Y
+    junctions); ``smooth_px``: Gaussian smoothing of the ordered pixel path
+    (sigma, pixels of arc length); ``tip_inset``: the tip end of the path is
+    extended along its tangent to the mask boundary less this many
+    half-widths (1: a round tip; the base end always goes to the boundary,
+    where the keep-out box cuts the tendril).
+    """
 
     prune_px: float = Field(12.0, ge=0)
+    merge_width: float = Field(4.0, ge=0)
+    smooth_px: float = Field(1.5, ge=0)
+    tip_inset: float = Field(1.0, ge=0)
+
+
+class OrderingOverride(_Strict):
+    """Force a decision: at the ``junction``-th decision (0-based, in the order
+    met) of ``frame`` (0-based) and ``view`` (1-based), take the ``branch``-th
+    candidate (0-based, candidates listed smoothest first), as recorded in the
+    frame's ordering decisions."""
+
+    frame: int = Field(ge=0)
+    view: int = Field(ge=1)
+    junction: int = Field(ge=0)
+    branch: int = Field(ge=0)
 
 
 class Ordering(_Strict):
-    """Base-to-tip ordering through self-crossings.
+    """Base-to-tip ordering through self-crossings; see :mod:`tendrilkit.skeleton`.
 
-    ``method``: ``smooth`` (at every junction, the branch with the smallest
-    turn of the tangent fitted over ``tangent_window_px``) or ``paper`` (the
-    paper's two/three sub-set cases). ``overrides``: decisions forced by the
-    user, a list of ``{frame, view, junction, branch}`` entries as recorded in
-    the frame's ordering decisions.
+    ``method``: ``smooth`` (any number of crossings: at every junction the
+    branch with the smallest turn of the tangent, tangents fitted over
+    ``tangent_window_px`` of skeleton outside the junction zone) or ``paper``
+    (the paper's two/three sub-set cases, one crossing at most);
+    ``zone_width``: radius of the junction zone beyond half the crossing's
+    span, in tube widths (the skeleton there is replaced by a smooth bridge);
+    ``max_unused_fraction``: a frame whose walk leaves more of the skeleton
+    unused fails (AmbiguousOrderingError); ``overrides``: decisions forced by
+    the user, ``{frame, view, junction, branch}`` entries.
     """
 
     method: Literal["smooth", "paper"] = "smooth"
     tangent_window_px: float = Field(15.0, gt=0)
-    overrides: list[dict[str, Any]] = Field(default_factory=list)
+    zone_width: float = Field(1.0, ge=0)
+    max_unused_fraction: float = Field(0.1, ge=0, le=1)
+    overrides: list[OrderingOverride] = Field(default_factory=list)
 
 
 class Correspondence(_Strict):
