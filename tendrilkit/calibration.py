@@ -86,62 +86,118 @@ def _line_intersection(l1: np.ndarray, l2: np.ndarray) -> np.ndarray:
     return np.linalg.solve(A, np.array([l1[2], l2[2]]))
 
 
+def _crossings(g: np.ndarray, base: np.ndarray, n: np.ndarray, centre: np.ndarray, half: float,
+               rising: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Sub-pixel edge offsets along ``n`` of profiles through ``base + o n``.
+
+    Each profile spans ``centre +- half`` px (0.25 px steps); the edge is where
+    it crosses half-way between its dark and bright ends (the last such
+    crossing, dark to bright along ``n`` if ``rising``, else bright to dark),
+    interpolated linearly. Returns the offsets (k,) (NaN: no clear edge) and
+    the profiles' mid levels (k,).
+    """
+    offs = np.arange(-half, half + 1e-9, 0.25)
+    o = centre[:, None] + offs[None, :]
+    pts = base[:, None, :] + o[:, :, None] * n[None, None, :]
+    prof = cv2.remap(g, pts[..., 0].astype(np.float32), pts[..., 1].astype(np.float32), cv2.INTER_LINEAR,
+                     borderMode=cv2.BORDER_REPLICATE)
+    if not rising:
+        prof = prof[:, ::-1]
+        o = o[:, ::-1]
+    k = max(2, len(offs) // 6)
+    lo, hi = prof[:, :k].mean(axis=1), prof[:, -k:].mean(axis=1)
+    mid = (lo + hi) / 2
+    above = prof >= mid[:, None]
+    up = ~above[:, :-1] & above[:, 1:]
+    has = up.any(axis=1) & ((hi - lo) > 20)
+    q = up.shape[1] - 1 - np.argmax(up[:, ::-1], axis=1)
+    rows = np.arange(len(base))
+    y0, y1 = prof[rows, q], prof[rows, q + 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        edge = o[rows, q] + (mid - y0) / (y1 - y0) * (o[rows, q + 1] - o[rows, q])
+    edge[~(has & np.isfinite(edge))] = np.nan
+    return edge, mid
+
+
 def _refine_corners_edges(grey: np.ndarray, corners_xy: np.ndarray, *, cells: int,
-                          camera: Camera | None, iterations: int = 2) -> np.ndarray | None:
+                          camera: Camera | None, iterations: int = 3,
+                          bias: float | None = None) -> tuple[np.ndarray, float, int] | None:
     """Corners (4, 2) from straight lines fitted to the marker's four sides.
 
     Along each side, away from the corners, intensity profiles across the edge
     give sub-pixel edge points where the profile crosses half-way between the
-    black border and the white surround (unbiased for a symmetric blur). With a
-    ``camera`` the edge points are undistorted before the line fit, so the
-    lines are straight in the pinhole image; the corners are distorted back.
-    Returns None when the edges cannot be measured (the caller keeps its own
-    corners).
+    black border and the white surround (unbiased for a symmetric blur of a
+    linear image). With a ``camera`` the edge points are undistorted before the
+    line fit, so the lines are straight in the pinhole image; the corners are
+    distorted back. Returns None when the edges cannot be measured (the caller
+    keeps its own corners).
+
+    A camera's non-linear response (gamma), defocus in a non-linear domain or
+    ink spread moves every edge of the black square outwards or inwards by the
+    same amount ``b`` (a dilation), which scales the marker and so the whole
+    rig (1 % of scale is about 10 px at the tendril). ``b`` is measured and
+    removed: where the interior cell next to the black border is white, the
+    border's inner edge is found too; the border is one cell wide (its width
+    in pixels from the homography of the current corners), so
+    ``b = (measured width - cell width) / 2``, the median over all such places
+    (at least 10, else ``b`` = 0); a given ``bias`` is used instead.
+    Returns ``(corners, b, number of places)``.
     """
     g = grey.astype(np.float32)
     c = np.asarray(corners_xy, dtype=float).copy()
     h, w = g.shape
+    U = marker_object_corners(1.0)[:, :2]  # unit square, marker x right, y up
     for _ in range(iterations):
         side = np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1)
         if side.min() < 12:
             return None
         cell = side.mean() / cells
-        half = float(np.clip(0.45 * cell, 1.5, 5.0))  # profile half-length: stays in the black border
-        offs = np.arange(-half, half + 1e-9, 0.25)
+        half = float(np.clip(0.45 * cell, 1.5, 5.0))  # profile half-length: stays in one cell
+        H = cv2.getPerspectiveTransform(U.astype(np.float32), c.astype(np.float32))
         centre = c.mean(axis=0)
-        lines = []
+        sides = []
+        widths = []
         for i in range(4):
             a, b = c[i], c[(i + 1) % 4]
-            d = (b - a) / np.linalg.norm(b - a)
+            L = np.linalg.norm(b - a)
+            d = (b - a) / L
             n = np.array([d[1], -d[0]])
             if np.dot((a + b) / 2 - centre, n) < 0:
                 n = -n  # outward
-            L = np.linalg.norm(b - a)
-            s = np.linspace(0.12 * L, 0.88 * L, max(8, int(0.76 * L)))
-            base = a[None, :] + s[:, None] * d[None, :]
-            pts = base[:, None, :] + offs[None, :, None] * n[None, None, :]
-            if pts[..., 0].min() < 1 or pts[..., 1].min() < 1 or pts[..., 0].max() > w - 2 or pts[..., 1].max() > h - 2:
+            t = np.linspace(0.12, 0.88, max(8, int(0.76 * L)))
+            base = a[None, :] + (t * L)[:, None] * d[None, :]
+            if base.min() < half + 2 or base[:, 0].max() > w - half - 3 or base[:, 1].max() > h - half - 3:
                 return None
-            prof = cv2.remap(g, pts[..., 0].astype(np.float32), pts[..., 1].astype(np.float32),
-                             cv2.INTER_LINEAR)
-            k = max(2, len(offs) // 6)
-            lo = prof[:, :k].mean(axis=1)
-            hi = prof[:, -k:].mean(axis=1)
-            good = (hi - lo) > 20
-            mid = (lo + hi) / 2
-            above = prof >= mid[:, None]
-            # the last dark-to-bright crossing before the bright end, interpolated
-            up = ~above[:, :-1] & above[:, 1:]
-            has = up.any(axis=1) & good
-            q = up.shape[1] - 1 - np.argmax(up[:, ::-1], axis=1)
-            rows = np.arange(len(s))
-            y0, y1 = prof[rows, q], prof[rows, np.minimum(q + 1, len(offs) - 1)]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                edge = offs[q] + (mid - y0) / (y1 - y0) * (offs[1] - offs[0])
-            ok = has & np.isfinite(edge)
+            outer, mid = _crossings(g, base, n, np.zeros(len(t)), half, rising=True)
+            # cell width across the border at each sample, from the homography
+            Pu = U[i][None, :] + t[:, None] * (U[(i + 1) % 4] - U[i])[None, :]
+            inward = -(U[i] + U[(i + 1) % 4]) / np.linalg.norm(U[i] + U[(i + 1) % 4])
+            p0 = cv2.perspectiveTransform(Pu[None].astype(np.float64), H)[0]
+            p1 = cv2.perspectiveTransform((Pu + inward / cells)[None].astype(np.float64), H)[0]
+            cell_px = (p0 - p1) @ n
+            # inner edge of the border where the neighbouring interior cell is white
+            tc = t * cells
+            j = np.floor(tc)
+            cand = (j >= 1) & (j <= cells - 2) & ((tc - j) > 0.2) & ((tc - j) < 0.8)
+            if cand.any():
+                probe = base[cand] - 1.5 * cell_px[cand, None] * n[None, :]
+                val = cv2.remap(g, probe[:, 0:1].astype(np.float32), probe[:, 1:2].astype(np.float32),
+                                cv2.INTER_LINEAR).ravel()
+                white = val > mid[cand]
+                idx = np.flatnonzero(cand)[white]
+                if idx.size:
+                    inner, _ = _crossings(g, base[idx], n, -cell_px[idx], half, rising=False)
+                    widths.append((outer[idx] - inner) - cell_px[idx])
+            sides.append((base, n, outer))
+        dil = np.concatenate(widths) / 2 if widths else np.array([])
+        dil = dil[np.isfinite(dil)]
+        b_used = bias if bias is not None else (float(np.median(dil)) if dil.size >= 10 else 0.0)
+        lines = []
+        for base, n, outer in sides:
+            ok = np.isfinite(outer)
             if ok.sum() < 6:
                 return None
-            p = base[ok] + edge[ok, None] * n[None, :]
+            p = base[ok] + (outer[ok] - b_used)[:, None] * n[None, :]
             if camera is not None:
                 p = camera.undistort_points(p)
             # total least squares line, one pass of outlier rejection
@@ -162,7 +218,7 @@ def _refine_corners_edges(grey: np.ndarray, corners_xy: np.ndarray, *, cells: in
         if not np.all(np.isfinite(new)) or np.abs(new - c).max() > 3.0:
             return None
         c = new
-    return c
+    return c, (float(np.median(dil)) if dil.size else np.nan), int(dil.size)
 
 
 def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "edges",
@@ -217,15 +273,17 @@ def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "edg
     if dup:
         warnings.warn(f"marker id(s) {sorted(dup)} detected more than once in one image; left out", stacklevel=2)
     cells = dic.markerSize + 2
-    for mid, c in zip(ids, corners):
-        if mid in dup:
-            continue
-        c = np.asarray(c, dtype=float).reshape(4, 2)
-        if refine == "edges":
-            r = _refine_corners_edges(grey, c, cells=cells, camera=camera)
-            if r is not None:
-                c = r
-        out[int(mid)] = c
+    found = {int(m): np.asarray(c, dtype=float).reshape(4, 2) for m, c in zip(ids, corners) if m not in dup}
+    if refine != "edges":
+        return dict(sorted(found.items()))
+    refined = {m: _refine_corners_edges(grey, c, cells=cells, camera=camera) for m, c in found.items()}
+    # a marker with too few white cells along its border takes the image's dilation
+    biases = [r[1] for r in refined.values() if r is not None and r[2] >= 10]
+    for m, c in found.items():
+        r = refined[m]
+        if r is not None and r[2] < 10 and biases:
+            r = _refine_corners_edges(grey, c, cells=cells, camera=camera, bias=float(np.median(biases)))
+        out[m] = c if r is None else r[0]
     return dict(sorted(out.items()))
 
 

@@ -152,6 +152,26 @@ def test_detect_markers_corners_subpixel(rendered):
             assert err.max() < 0.15, (mid, err)
 
 
+def test_detect_markers_no_dilation_under_gamma():
+    """A non-linear response (gamma 2.2 after the blur) shrinks every black square
+    by ~0.8 px at the half-way level; the border-width measurement removes it."""
+    tex, corners = _scene()
+    cam = distorted_rig()[1]
+    img = render(cam, tex, rng=np.random.default_rng(4), blur_px=1.5, noise=1.0)
+    img = np.clip(255 * (img / 255.0) ** (1 / 2.2), 0, 255).astype(np.uint8)
+    det = detect_markers(img, DICT, camera=cam)
+    radial = []
+    for mid, c in det.items():
+        truth = cam.project(corners[mid])
+        out = truth - truth.mean(0)
+        radial.append(np.sum((c - truth) * out / np.linalg.norm(out, axis=1)[:, None], axis=1))
+        assert np.linalg.norm(c - truth, axis=1).max() < 0.15, mid
+    assert abs(np.concatenate(radial).mean()) < 0.03
+    plain = detect_markers(img, DICT, refine="subpix")
+    truth = cam.project(corners[WORLD_ID])
+    assert np.linalg.norm(plain[WORLD_ID] - truth, axis=1).mean() > 0.3  # what OpenCV alone gives
+
+
 def test_marker_pose_round_trip(rendered):
     cams, images, corners = rendered
     for cam, img in zip(cams, images):
