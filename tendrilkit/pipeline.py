@@ -1,0 +1,597 @@
+"""Composition of the stages; the only place that catches per-frame failures.
+
+``python -m tendrilkit reconstruct EXPERIMENT.yaml --out DIR`` is
+:func:`run_reconstruct`:
+
+1. load and check the experiment; calibrate the rig once
+   (:func:`tendrilkit.calibration.calibrate_experiment`); write
+   ``DIR/cameras.json`` and ``DIR/calibration_markers.csv``;
+2. for every selected frame (``frames: {start, stop, step}``; ``stop: null``
+   is the shortest video's length), :func:`reconstruct_frame`: per view
+   segmentation and base-to-tip ordering (2D stage), matching across views
+   (``correspondence.method``), triangulation (``triangulation.refine``),
+   resampling to ``points`` points base to tip (uniform arc length), the
+   piece-wise clothoid fit, and the quality figures (reprojection error per
+   view and quarter against the extracted skeletons, paper Table 1);
+3. write the result files of EXPERIMENT_FORMAT.md (see :data:`RESULT_FILES`).
+
+Failures
+    A frame whose 2D stage, matching or fit raises a
+    :class:`~tendrilkit.exceptions.FrameError` (or meets an unexpected
+    numerical error: ``ValueError``, ``FloatingPointError``,
+    ``LinAlgError``, ``ZeroDivisionError``, ``IndexError``) is recorded as
+    ``failed`` with the reason and the run goes on. A view whose 2D stage
+    fails is left out when at least two views remain (the message says so).
+
+Tracking and workers
+    Segmentation takes, in every view, the component nearest the previous
+    frame's centroid (the paper's tracking), so a frame depends on the frames
+    before it. Frames are processed in chunks of consecutive frames, in
+    parallel processes (``cv2.setNumThreads(1)`` in each); a chunk starts
+    without a previous centroid and is accepted only if that cannot change
+    the result: in every view the chunk's first frame has a single component
+    (then the choice does not depend on the previous centroid) or the true
+    previous centroid is also none. Otherwise the chunk is recomputed from
+    the true previous centroids. The results are therefore identical, byte
+    for byte, whatever the number of workers.
+
+Resuming
+    Every finished frame is written atomically to
+    ``DIR/frames/frame_000123.json`` with a fingerprint of the run (resolved
+    experiment, video files, cameras, tendrilkit's version). Running the same
+    command again skips the frames whose file has the same fingerprint and
+    assembles the tables from the per-frame files; an interrupted run (Ctrl-C)
+    keeps its finished frames.
+
+Exit code
+    0 if every frame is ``ok``, 1 if some failed (the run still completes and
+    writes every table); user mistakes raise
+    :class:`~tendrilkit.exceptions.ExperimentError` (exit code 2 in the CLI).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import multiprocessing as mp
+import os
+import signal
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from tendrilkit.camera import Camera
+from tendrilkit.correspondence import match_epipolar, match_frechet
+from tendrilkit.exceptions import DegenerateCurveError, ExperimentError, FrameError
+from tendrilkit.frenet import resample_curve
+from tendrilkit.pwc import fit_piecewise_clothoid
+from tendrilkit.segmentation import segment_view
+from tendrilkit.skeleton import order_skeleton
+from tendrilkit.triangulation import reprojection_table, triangulate
+
+__all__ = ["FrameResult", "reconstruct_frame", "run_reconstruct", "frame_fingerprint", "RESULT_FILES"]
+
+#: The tables :func:`run_reconstruct` writes in ``DIR`` (besides ``cameras.json`` and ``frames/``).
+RESULT_FILES = ("curves.csv", "pwc_curves.csv", "frames.csv", "reprojection.csv", "ordering.csv",
+                "calibration_markers.csv")
+
+#: Numerical errors of a frame that become a ``failed`` row instead of a crash.
+_NUMERICAL_ERRORS = (ValueError, FloatingPointError, np.linalg.LinAlgError, ZeroDivisionError, IndexError)
+
+_FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True, eq=False)
+class FrameResult:
+    """The reconstruction of one frame.
+
+    Attributes
+    ----------
+    frame : int
+        0-based frame index.
+    time_s : float
+        ``frame / fps``.
+    status : str
+        ``ok`` or ``failed``.
+    message : str
+        Why it failed, or notes on an ``ok`` frame (a view left out); empty
+        otherwise.
+    points_mm : (n, 3) float array or None
+        The centreline, ``points`` points base to tip, uniform arc length, mm.
+    pwc_mm : (n, 3) float array or None
+        The piece-wise clothoid registered onto it, mm.
+    quality : dict
+        Figures of the frame (see :data:`QUALITY_COLUMNS`).
+    reprojection : list of dict
+        Rows of the paper's Table 1 (``view, section, mean_px, std_px, max_px, n_points``).
+    decisions : list of dict
+        The 2D stage's ordering decisions (:meth:`tendrilkit.skeleton.Decision.as_dict`).
+    centroids : list of (2,) list or None
+        Per view, the tendril's mask centroid (the next frame's tracking point).
+    n_components : list of int or None
+        Per view, the components the segmentation could choose from.
+    timings : dict
+        Seconds per stage (not written to the result files).
+    """
+
+    frame: int
+    time_s: float
+    status: str
+    message: str
+    points_mm: np.ndarray | None = None
+    pwc_mm: np.ndarray | None = None
+    quality: dict = field(default_factory=dict)
+    reprojection: list = field(default_factory=list)
+    decisions: list = field(default_factory=list)
+    centroids: list = field(default_factory=list)
+    n_components: list = field(default_factory=list)
+    timings: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        def arr(a):
+            return None if a is None else np.asarray(a, float).tolist()
+
+        return {
+            "frame": int(self.frame), "time_s": float(self.time_s), "status": self.status,
+            "message": self.message, "points_mm": arr(self.points_mm), "pwc_mm": arr(self.pwc_mm),
+            "quality": self.quality, "reprojection": self.reprojection, "decisions": self.decisions,
+            "centroids": self.centroids, "n_components": self.n_components,
+        }
+
+    @classmethod
+    def from_json(cls, d: dict) -> "FrameResult":
+        def arr(a):
+            return None if a is None else np.asarray(a, float).reshape(-1, 3)
+
+        return cls(frame=int(d["frame"]), time_s=float(d["time_s"]), status=d["status"], message=d["message"],
+                   points_mm=arr(d["points_mm"]), pwc_mm=arr(d["pwc_mm"]), quality=d["quality"],
+                   reprojection=d["reprojection"], decisions=d["decisions"], centroids=d["centroids"],
+                   n_components=d["n_components"])
+
+
+def quality_columns(n_views: int) -> list[str]:
+    """The quality columns of ``frames.csv``, in order, for ``n_views`` views.
+
+    ``views_used`` (views whose 2D stage succeeded), ``n_matched`` (reference
+    points matched and triangulated), ``length_mm`` (centreline length),
+    ``reproj_mean_px_v<i>`` / ``reproj_std_px_v<i>`` / ``reproj_max_px_v<i>``
+    (distance of the projected centreline to view i's skeleton, entire
+    tendril), ``tri_err_px_v<i>`` (mean reprojection error of the matched
+    points at triangulation), ``pwc_r2``, ``pwc_sse_mm2``, ``pwc_rmse_mm``,
+    ``pwc_segments_kappa``, ``pwc_segments_tau``, ``n_crossings_v<i>``.
+    """
+    cols = ["views_used", "n_matched", "length_mm"]
+    for v in range(1, n_views + 1):
+        cols += [f"reproj_mean_px_v{v}", f"reproj_std_px_v{v}", f"reproj_max_px_v{v}"]
+    cols += [f"tri_err_px_v{v}" for v in range(1, n_views + 1)]
+    cols += ["pwc_r2", "pwc_sse_mm2", "pwc_rmse_mm", "pwc_segments_kappa", "pwc_segments_tau"]
+    cols += [f"n_crossings_v{v}" for v in range(1, n_views + 1)]
+    return cols
+
+
+# ------------------------------------------------------------------ one frame
+def _options(exp) -> tuple[dict, dict]:
+    seg = exp.segmentation.model_dump()
+    order = {**exp.skeleton.model_dump(), **exp.ordering.model_dump()}
+    return seg, order
+
+
+def _fit(points_mm: np.ndarray, exp):
+    f = exp.fit
+    return fit_piecewise_clothoid(points_mm, selection=f.selection, target_r2=f.target_r2,
+                                  penalty_kappa=f.penalty_kappa, penalty_tau=f.penalty_tau, score=f.score,
+                                  smoothing_length_mm=exp.smoothing.length_mm, n_points=len(points_mm))
+
+
+def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], exp, *, frame: int = 0,
+                      prev_centroids: list | None = None, read_errors: list[str | None] | None = None,
+                      fit: bool = True) -> FrameResult:
+    """Reconstruct one frame from its views; failures become a ``failed`` result.
+
+    Parameters
+    ----------
+    images : list of (H, W, 3) uint8 arrays or None
+        The frame of every view, BGR (None: the view could not be read).
+    cameras : list of Camera
+        The calibrated rig, view order.
+    exp : tendrilkit.params.Experiment
+        Options: ``segmentation``, ``skeleton``, ``ordering``,
+        ``correspondence``, ``triangulation``, ``points``, ``smoothing``,
+        ``fit``, ``views`` (marks), ``reference_view``, ``fps``.
+    frame : int, keyword-only
+        0-based frame index (recorded, selects ordering overrides).
+    prev_centroids : list of (2,) or None, optional
+        The previous frame's mask centroid per view (tracking).
+    read_errors : list of str or None, optional
+        Why a view's image is None.
+    fit : bool
+        Run the piece-wise clothoid fit.
+
+    Returns
+    -------
+    FrameResult
+    """
+    V = len(cameras)
+    prev = list(prev_centroids) if prev_centroids is not None else [None] * V
+    read_errors = list(read_errors) if read_errors is not None else [None] * V
+    seg_opts, order_opts = _options(exp)
+    t_s = frame / exp.fps
+    timings: dict[str, float] = {}
+    centroids: list = [None] * V
+    ncomp: list = [None] * V
+    curves: list = [None] * V
+    decisions: list = []
+    notes: list[str] = []
+    crossings: list = [None] * V
+
+    t0 = time.perf_counter()
+    for v in range(V):
+        marks = exp.views[v]
+        if images[v] is None:
+            notes.append(f"view {v + 1}: {read_errors[v] or 'no image'}")
+            continue
+        try:
+            seg = segment_view(images[v], roi=marks.roi, keep_out=marks.keep_out, base_point_xy=marks.base_point,
+                               prev_centroid_xy=prev[v], **seg_opts)
+            centroids[v] = [float(c) for c in seg.centroid_xy]
+            ncomp[v] = int(seg.n_components)
+            oc = order_skeleton(seg.mask_roi, offset_xy=seg.roi_offset_xy, base_point_xy=marks.base_point,
+                                frame=frame, view=v + 1, **order_opts)
+            curves[v] = oc.points_xy
+            crossings[v] = int(oc.n_crossings)
+            decisions.extend(d.as_dict() for d in oc.decisions)
+        except FrameError as e:
+            notes.append(f"view {v + 1}: {type(e).__name__}: {e}")
+        except _NUMERICAL_ERRORS as e:
+            notes.append(f"view {v + 1}: unexpected {type(e).__name__} in the 2D stage: {e}")
+    timings["2d"] = time.perf_counter() - t0
+
+    def failed(msg: str) -> FrameResult:
+        return FrameResult(frame=frame, time_s=t_s, status="failed", message=msg, decisions=decisions,
+                           centroids=centroids, n_components=ncomp, timings=timings)
+
+    used = [v for v in range(V) if curves[v] is not None and len(curves[v]) >= 2]
+    if len(used) < 2:
+        return failed("; ".join(notes) or "fewer than two views have a centreline")
+    try:
+        ref = exp.reference_view - 1
+        if ref not in used:
+            notes.append(f"reference view {ref + 1} unavailable, view {used[0] + 1} used instead")
+            ref = used[0]
+        cams = [cameras[v] for v in used]
+        cl = [curves[v] for v in used]
+        k = exp.points
+        t0 = time.perf_counter()
+        if exp.correspondence.method == "epipolar":
+            matched = match_epipolar(cl, cams, reference=used.index(ref), k=k)
+        else:
+            matched = match_frechet(cl, cams, reference=used.index(ref), k=k, marker_length_mm=exp.marker.length_mm)
+        timings["match"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        tri = triangulate(matched, cams, refine=exp.triangulation.refine)
+        timings["triangulate"] = time.perf_counter() - t0
+        good = np.all(np.isfinite(tri.points_mm), axis=1)
+        if good.sum() < max(10, k // 10):
+            raise DegenerateCurveError(f"only {int(good.sum())} of {k} points could be triangulated")
+        t0 = time.perf_counter()
+        points = resample_curve(tri.points_mm[good], k)
+        timings["resample"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        table = reprojection_table(points, [curves[v] for v in range(V)], cameras)
+        timings["reprojection"] = time.perf_counter() - t0
+        q: dict = {c: None for c in quality_columns(V)}
+        q["views_used"] = len(used)
+        q["n_matched"] = int(good.sum())
+        q["length_mm"] = float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
+        for row in table.itertuples():
+            if row.section == "entire":
+                q[f"reproj_mean_px_v{row.view}"] = float(row.mean_px)
+                q[f"reproj_std_px_v{row.view}"] = float(row.std_px)
+                q[f"reproj_max_px_v{row.view}"] = float(row.max_px)
+        for i, v in enumerate(used):
+            e = tri.reproj_err_px[i][good]
+            e = e[np.isfinite(e)]
+            q[f"tri_err_px_v{v + 1}"] = float(e.mean()) if e.size else None
+            q[f"n_crossings_v{v + 1}"] = crossings[v]
+        pwc = None
+        if fit:
+            t0 = time.perf_counter()
+            res = _fit(points, exp)
+            timings["pwc"] = time.perf_counter() - t0
+            pwc = np.asarray(res.points_mm, float)
+            q["pwc_r2"] = float(res.scores.r2_entire)
+            q["pwc_sse_mm2"] = float(res.scores.sse_entire_mm2)
+            q["pwc_rmse_mm"] = float(res.scores.rmse_mm)
+            q["pwc_segments_kappa"] = int(res.kappa_law.n_segments)
+            q["pwc_segments_tau"] = int(res.tau_law.n_segments)
+        reproj_rows = [{k_: (v_.item() if hasattr(v_, "item") else v_) for k_, v_ in r.items()}
+                       for r in table.to_dict("records")]
+    except FrameError as e:
+        return failed("; ".join(notes + [f"{type(e).__name__}: {e}"]))
+    except _NUMERICAL_ERRORS as e:
+        return failed("; ".join(notes + [f"unexpected {type(e).__name__}: {e}"]))
+    return FrameResult(frame=frame, time_s=t_s, status="ok", message="; ".join(notes), points_mm=points,
+                       pwc_mm=pwc, quality=q, reprojection=reproj_rows, decisions=decisions,
+                       centroids=centroids, n_components=ncomp, timings=timings)
+
+
+# ------------------------------------------------------------------ chunks
+def _read_views(sources, frame: int):
+    images, errors = [], []
+    for src in sources:
+        try:
+            images.append(src.read(frame))
+            errors.append(None)
+        except FrameError as e:
+            images.append(None)
+            errors.append(f"{type(e).__name__}: {e}")
+    return images, errors
+
+
+def _next_state(state: list, res: FrameResult) -> list:
+    """Tracking state after a frame: per view, its centroid if segmented, else the previous one."""
+    return [c if c is not None else s for s, c in zip(state, res.centroids or [None] * len(state))]
+
+
+def _run_chunk(args) -> list[FrameResult]:
+    """Process consecutive frames from a tracking state (runs in a worker or in-process)."""
+    from tendrilkit.io import open_views
+
+    frames, state, exp, cameras, fit = args
+    out = []
+    sources = open_views(list(exp.videos))
+    try:
+        for f in frames:
+            images, errors = _read_views(sources, f)
+            res = reconstruct_frame(images, cameras, exp, frame=f, prev_centroids=state, read_errors=errors, fit=fit)
+            state = _next_state(state, res)
+            out.append(res)
+    finally:
+        for s in sources:
+            s.close()
+    return out
+
+
+def _worker_init() -> None:
+    import cv2
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    cv2.setNumThreads(1)
+
+
+def _speculation_holds(true_state: list, first: FrameResult) -> bool:
+    """Whether a chunk computed from no previous centroid equals the one from ``true_state``."""
+    for s, n in zip(true_state, first.n_components or [None] * len(true_state)):
+        if s is not None and n != 1:
+            return False
+    return True
+
+
+# ------------------------------------------------------------------ the run
+def frame_fingerprint(exp, cameras: list[Camera], video_info: list[dict]) -> str:
+    """SHA-256 of what determines a frame's result: resolved parameters, videos, cameras, version."""
+    from tendrilkit import __version__ as version
+    from tendrilkit.params import experiment_to_dict
+
+    payload = {
+        "format": _FORMAT_VERSION,
+        "version": version,
+        "experiment": {k: v for k, v in experiment_to_dict(exp).items() if k not in ("frames", "name")},
+        "videos": video_info,
+        "cameras": [c.to_dict(i + 1) for i, c in enumerate(cameras)],
+    }
+    text = json.dumps(payload, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _frame_path(out: Path, frame: int) -> Path:
+    return out / "frames" / f"frame_{frame:06d}.json"
+
+
+def _load_done(out: Path, frames: list[int], fp: str) -> dict[int, FrameResult]:
+    done = {}
+    for f in frames:
+        p = _frame_path(out, f)
+        if not p.is_file():
+            continue
+        try:
+            d = json.loads(p.read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError):
+            continue
+        if d.get("fingerprint") == fp:
+            try:
+                done[f] = FrameResult.from_json(d["result"])
+            except (KeyError, TypeError, ValueError):
+                continue
+    return done
+
+
+def _assemble(results: list[FrameResult], n_views: int, n_points: int) -> dict[str, pd.DataFrame]:
+    cur, pwc, rows, rep, dec = [], [], [], [], []
+    qcols = quality_columns(n_views)
+    for r in sorted(results, key=lambda r: r.frame):
+        row = {"frame": r.frame, "time_s": r.time_s, "status": r.status, "message": r.message}
+        row.update({c: (r.quality.get(c) if r.quality else None) for c in qcols})
+        rows.append(row)
+        for arr, dest in ((r.points_mm, cur), (r.pwc_mm, pwc)):
+            if arr is not None:
+                n = len(arr)
+                dest.append(pd.DataFrame({"frame": r.frame, "time_s": r.time_s, "point": np.arange(n),
+                                          "x_mm": arr[:, 0], "y_mm": arr[:, 1], "z_mm": arr[:, 2]}))
+        for t in r.reprojection:
+            rep.append({"frame": r.frame, **t})
+        for d in r.decisions:
+            dec.append({**d, "candidates": json.dumps(d.get("candidates"))})
+    ccols = ["frame", "time_s", "point", "x_mm", "y_mm", "z_mm"]
+
+    def cat(parts):
+        return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=ccols)
+
+    frames = pd.DataFrame(rows, columns=["frame", "time_s", "status", "message"] + qcols)
+    for c in qcols:
+        frames[c] = pd.to_numeric(frames[c], errors="coerce")
+    for c in ["views_used", "n_matched", "pwc_segments_kappa", "pwc_segments_tau"] + [f"n_crossings_v{v}" for v in range(1, n_views + 1)]:
+        frames[c] = frames[c].astype("Int64")
+    rcols = ["frame", "view", "section", "mean_px", "std_px", "max_px", "n_points"]
+    reproj = pd.DataFrame(rep, columns=rcols)
+    if len(reproj):
+        order = {"base": 0, "tip": 1, "entire": 2}
+        reproj = reproj.assign(_o=reproj.section.map(order)).sort_values(["frame", "view", "_o"]).drop(columns="_o")
+    dcols = ["frame", "view", "junction", "junction_x_px", "junction_y_px", "candidates", "chosen", "method"]
+    ordering = pd.DataFrame(dec, columns=dcols)
+    if len(ordering):
+        ordering = ordering.sort_values(["frame", "view", "junction"], kind="stable")
+    return {"curves.csv": cat(cur), "pwc_curves.csv": cat(pwc), "frames.csv": frames,
+            "reprojection.csv": reproj.reset_index(drop=True), "ordering.csv": ordering.reset_index(drop=True)}
+
+
+def _chunks(frames: list[int], workers: int) -> list[list[int]]:
+    if workers <= 1:
+        return [frames] if frames else []
+    size = max(2, math.ceil(len(frames) / (4 * workers)))
+    return [frames[i:i + size] for i in range(0, len(frames), size)]
+
+
+def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers: int | None = None,
+                    progress: bool = True, fit: bool = True) -> int:
+    """``python -m tendrilkit reconstruct``: every selected frame of an experiment.
+
+    Parameters
+    ----------
+    experiment_path : str or Path
+        The experiment YAML file.
+    out_dir : str or Path
+        Output folder (created): the tables of :data:`RESULT_FILES`,
+        ``cameras.json`` and ``frames/`` (one JSON file per finished frame).
+    workers : int, optional
+        Processes for frames (default: every core). The results do not
+        depend on it.
+    progress : bool
+        Progress bar on a terminal (:func:`tendrilkit.progress.progress`).
+    fit : bool
+        Fit the piece-wise clothoid (``pwc_curves.csv``).
+
+    Returns
+    -------
+    int
+        0 if every frame is ``ok``, 1 if some failed. The last line printed
+        is ``N frames: X ok, Y failed``.
+
+    Raises
+    ------
+    ExperimentError
+        The experiment file, a video or the output folder is unusable, or the
+        calibration fails.
+    """
+    from tendrilkit.calibration import calibrate_experiment
+    from tendrilkit.io import check_writable_dir, open_views, write_cameras, write_csv, write_json
+    from tendrilkit.params import check_against_images, load_experiment
+    from tendrilkit.progress import progress as progress_bar
+
+    exp = load_experiment(experiment_path)
+    out = check_writable_dir(out_dir)
+    sources = open_views(list(exp.videos))
+    try:
+        sizes = [(s.width, s.height) for s in sources]
+        counts = [s.frame_count for s in sources]
+        video_info = [{"path": str(p), "bytes": p.stat().st_size if p.is_file() else None,
+                       "frames": n, "width": w, "height": h}
+                      for p, n, (w, h) in zip(exp.videos, counts, sizes)]
+    finally:
+        for s in sources:
+            s.close()
+    check_against_images(exp, sizes)
+    n_video = min(counts)
+    fr = exp.frames
+    stop = n_video if fr.stop is None else min(fr.stop, n_video)
+    frames = list(range(fr.start, stop, fr.step))
+    if not frames:
+        raise ExperimentError(f"{exp.source}: frames: no frame selected (start {fr.start}, stop {fr.stop}, "
+                              f"step {fr.step}; the shortest video has {n_video} frames)")
+
+    calib = calibrate_experiment(exp)
+    cameras = calib.cameras
+    write_cameras(cameras, out / "cameras.json")
+    write_csv(calib.markers, out / "calibration_markers.csv")
+
+    fp = frame_fingerprint(exp, cameras, video_info)
+    done = _load_done(out, frames, fp)
+    todo = [f for f in frames if f not in done]
+    workers = max(1, int(workers) if workers is not None else (os.cpu_count() or 1))
+    workers = min(workers, max(1, len(todo)))
+    V = exp.n_views
+
+    def save(res: FrameResult) -> None:
+        write_json({"fingerprint": fp, "result": res.to_json()}, _frame_path(out, res.frame))
+        done[res.frame] = res
+
+    # runs of consecutive to-do frames (done frames between them carry the tracking state)
+    runs: list[list[int]] = []
+    pos = {f: i for i, f in enumerate(frames)}
+    for f in todo:
+        if runs and pos[f] == pos[runs[-1][-1]] + 1:
+            runs[-1].append(f)
+        else:
+            runs.append([f])
+    chunks = [c for r in runs for c in _chunks(r, workers)]
+
+    def state_before(f: int) -> list:
+        st: list = [None] * V
+        for g in frames[: pos[f]]:
+            st = _next_state(st, done[g])
+        return st
+
+    import cv2
+
+    def produce():
+        """Finished frames in frame order, each already tracked from the true previous centroids."""
+        if workers == 1:
+            for chunk in chunks:
+                yield from _iter_chunk(chunk, state_before(chunk[0]), exp, cameras, fit)
+            return
+        ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context("spawn")
+        with ctx.Pool(workers, initializer=_worker_init) as pool:
+            jobs = pool.imap(_run_chunk, [(c, [None] * V, exp, cameras, fit) for c in chunks])
+            for chunk, results in zip(chunks, jobs):
+                true_state = state_before(chunk[0])
+                if not _speculation_holds(true_state, results[0]):
+                    results = pool.apply(_run_chunk, ((chunk, true_state, exp, cameras, fit),))
+                for res in results:
+                    yield res
+
+    old_threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)  # the same single-threaded OpenCV in-process as in the workers
+    try:
+        for res in progress_bar(produce(), total=len(todo), desc=exp.name, enabled=None if progress else False):
+            save(res)
+    finally:
+        cv2.setNumThreads(old_threads)
+
+    results = [done[f] for f in frames]
+    tables = _assemble(results, V, exp.points)
+    for name, df in tables.items():
+        write_csv(df, out / name)
+    n_ok = sum(r.status == "ok" for r in results)
+    n_failed = len(results) - n_ok
+    print(f"{len(results)} frames: {n_ok} ok, {n_failed} failed")  # the command's summary line
+    return 0 if n_failed == 0 else 1
+
+
+def _iter_chunk(frames, state, exp, cameras, fit):
+    """In-process version of :func:`_run_chunk` that yields each frame as it finishes."""
+    from tendrilkit.io import open_views
+
+    sources = open_views(list(exp.videos))
+    try:
+        for f in frames:
+            images, errors = _read_views(sources, f)
+            res = reconstruct_frame(images, cameras, exp, frame=f, prev_centroids=state, read_errors=errors, fit=fit)
+            state = _next_state(state, res)
+            yield res
+    finally:
+        for s in sources:
+            s.close()

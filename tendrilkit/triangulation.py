@@ -1,0 +1,241 @@
+"""N-view triangulation and reprojection errors
+(paper: "Mapping Points Between Views" and "Accuracy of Stereo Reconstruction",
+Table 1; stage 6 of ``../shared/REFERENCE_NOTES.md``).
+
+:func:`triangulate` takes matched points of every view (observed pixels, NaN
+for a missing observation), undistorts them, solves the linear (DLT) problem
+of every point at once, then refines each point by Gauss-Newton on its
+reprojection error:
+
+.. math::
+
+    X^* = \\arg\\min_X \\sum_{v \\in \\mathcal{V}(X)}
+        \\lVert \\pi_v(X) - \\hat u_v \\rVert^2
+
+with :math:`\\pi_v` the pinhole projection of view ``v`` (undistorted pixels)
+and :math:`\\hat u_v` the undistorted observation. The per-view error returned
+is measured in observed pixels (with distortion), which is what a reader sees
+on the image.
+
+:func:`reprojection_table` is the paper's Table 1: the reconstruction is
+projected into every view and the distance of each projected point to the
+extracted 2D skeleton (polyline) is summarised per quarter: base (first
+quarter of the 3D arc length), tip (last quarter) and entire.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from tendrilkit.camera import Camera
+
+__all__ = ["Triangulated", "triangulate", "point_to_polyline_distance", "reprojection_table"]
+
+
+@dataclass(frozen=True, eq=False)
+class Triangulated:
+    """Result of :func:`triangulate`.
+
+    Attributes
+    ----------
+    points_mm : (k, 3) float array
+        World points, mm; NaN where fewer than two views observe the point.
+    reproj_err_px : (n_views, k) float array
+        Distance between the projection (with distortion) and the observation,
+        observed pixels; NaN where the view has no observation.
+    n_views : (k,) int array
+        Views used per point.
+    """
+
+    points_mm: np.ndarray
+    reproj_err_px: np.ndarray
+    n_views: np.ndarray
+
+
+def _check_views(points_xy, cameras) -> tuple[np.ndarray, list[Camera]]:
+    x = np.asarray(points_xy, dtype=float)
+    if x.ndim != 3 or x.shape[2] != 2:
+        raise ValueError(f"points_xy must have shape (n_views, k, 2), got {x.shape}")
+    cams = list(cameras)
+    if len(cams) != x.shape[0]:
+        raise ValueError(f"cameras must have one entry per view ({x.shape[0]}), got {len(cams)}")
+    return x, cams
+
+
+def _project_jac(cam: Camera, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Undistorted pixels (k, 2) of X (k, 3) and their Jacobians (k, 2, 3)."""
+    Xc = X @ cam.R.T + cam.t_mm
+    z = Xc[:, 2]
+    x, y = Xc[:, 0] / z, Xc[:, 1] / z
+    K = cam.K
+    u = np.stack([K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]], axis=1)
+    # d(x, y)/dXc
+    dn = np.zeros((len(X), 2, 3))
+    dn[:, 0, 0] = 1 / z
+    dn[:, 0, 2] = -x / z
+    dn[:, 1, 1] = 1 / z
+    dn[:, 1, 2] = -y / z
+    Kxy = K[:2, :2]
+    J = np.einsum("ab,kbc,cd->kad", Kxy, dn, cam.R)
+    return u, J
+
+
+def triangulate(points_xy: np.ndarray, cameras: list[Camera], *, refine: bool = True,
+                iterations: int = 5) -> Triangulated:
+    """Triangulate matched points seen by two or more views.
+
+    Parameters
+    ----------
+    points_xy : (n_views, k, 2) float array
+        Observed (distorted) pixels, NaN where a view has no observation.
+    cameras : list of Camera
+        One per view.
+    refine : bool, keyword-only
+        Gauss-Newton refinement of the reprojection error after the DLT.
+    iterations : int
+        Gauss-Newton iterations.
+
+    Returns
+    -------
+    Triangulated
+
+    Notes
+    -----
+    DLT in normalised camera coordinates: for each view the rows
+    :math:`x\\,p_3^T - p_1^T` and :math:`y\\,p_3^T - p_2^T` of
+    :math:`[R \\mid t]` (unit-norm rows), solved for every point at once by a
+    batched SVD; a missing view contributes zero rows.
+    """
+    x, cams = _check_views(points_xy, cameras)
+    V, k = x.shape[:2]
+    und = np.full_like(x, np.nan)
+    for v, cam in enumerate(cams):
+        ok = np.all(np.isfinite(x[v]), axis=1)
+        if ok.any():
+            und[v, ok] = cam.undistort_points(x[v, ok])
+    valid = np.all(np.isfinite(und), axis=2)  # (V, k)
+    n_views = valid.sum(axis=0)
+    A = np.zeros((k, 2 * V, 4))
+    for v, cam in enumerate(cams):
+        Rt = np.hstack([cam.R, cam.t_mm[:, None]])
+        Kinv = np.linalg.inv(cam.K)
+        n = np.hstack([np.nan_to_num(und[v]), np.ones((k, 1))]) @ Kinv.T  # normalised coords
+        r0 = n[:, 0:1] * Rt[2] - Rt[0]
+        r1 = n[:, 1:2] * Rt[2] - Rt[1]
+        r0 /= np.linalg.norm(r0, axis=1, keepdims=True)
+        r1 /= np.linalg.norm(r1, axis=1, keepdims=True)
+        m = valid[v][:, None]
+        A[:, 2 * v] = np.where(m, r0, 0.0)
+        A[:, 2 * v + 1] = np.where(m, r1, 0.0)
+    ok = n_views >= 2
+    X = np.full((k, 3), np.nan)
+    if ok.any():
+        _, _, Vt = np.linalg.svd(A[ok])
+        h = Vt[:, -1, :]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            X[ok] = h[:, :3] / h[:, 3:4]
+    if refine and ok.any():
+        Xo = X[ok]
+        uo = und[:, ok]
+        vo = valid[:, ok]
+        for _ in range(iterations):
+            H = np.zeros((len(Xo), 3, 3))
+            g = np.zeros((len(Xo), 3))
+            for v, cam in enumerate(cams):
+                u, J = _project_jac(cam, Xo)
+                r = np.where(vo[v][:, None], u - np.nan_to_num(uo[v]), 0.0)
+                Jm = np.where(vo[v][:, None, None], J, 0.0)
+                H += np.einsum("kai,kaj->kij", Jm, Jm)
+                g += np.einsum("kai,ka->ki", Jm, r)
+            H += 1e-9 * np.trace(H, axis1=1, axis2=2)[:, None, None] * np.eye(3)
+            try:
+                step = np.linalg.solve(H, -g[..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                break
+            step = np.where(np.isfinite(step), step, 0.0)
+            Xo = Xo + step
+            if np.max(np.abs(step)) < 1e-9:
+                break
+        X[ok] = Xo
+    err = np.full((V, k), np.nan)
+    for v, cam in enumerate(cams):
+        m = valid[v] & ok
+        if m.any():
+            err[v, m] = np.linalg.norm(cam.project(X[m]) - x[v, m], axis=1)
+    return Triangulated(points_mm=X, reproj_err_px=err, n_views=n_views)
+
+
+def point_to_polyline_distance(points_xy: np.ndarray, polyline_xy: np.ndarray, *, chunk: int = 64) -> np.ndarray:
+    """Distance (n,) of every point (n, 2) to a polyline (m, 2); NaN points give NaN."""
+    P = np.asarray(points_xy, dtype=float)
+    Q = np.asarray(polyline_xy, dtype=float)
+    if P.ndim != 2 or P.shape[1] != 2 or Q.ndim != 2 or Q.shape[1] != 2 or len(Q) < 1:
+        raise ValueError(f"points_xy and polyline_xy must have shapes (n, 2) and (m >= 1, 2), got {P.shape} and {Q.shape}")
+    out = np.full(len(P), np.nan)
+    if len(Q) == 1:
+        return np.linalg.norm(P - Q[0], axis=1)
+    a, b = Q[:-1], Q[1:]
+    ab = b - a
+    L2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+    fin = np.flatnonzero(np.all(np.isfinite(P), axis=1))
+    for s in range(0, len(fin), chunk):
+        idx = fin[s:s + chunk]
+        p = P[idx][:, None, :]
+        t = np.clip(np.einsum("nmc,mc->nm", p - a[None], ab) / L2[None], 0.0, 1.0)
+        c = a[None] + t[..., None] * ab[None]
+        out[idx] = np.sqrt(np.min(np.einsum("nmc,nmc->nm", p - c, p - c), axis=1))
+    return out
+
+
+def _sections(points_mm: np.ndarray) -> dict[str, np.ndarray]:
+    seg = np.linalg.norm(np.diff(points_mm, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    L = s[-1]
+    return {"base": s <= 0.25 * L, "tip": s >= 0.75 * L, "entire": np.ones(len(s), dtype=bool)}
+
+
+def reprojection_table(points_mm: np.ndarray, skeletons_xy: list[np.ndarray | None], cameras: list[Camera]) -> pd.DataFrame:
+    """The paper's Table 1: distance of the projected reconstruction to each view's skeleton.
+
+    Parameters
+    ----------
+    points_mm : (k, 3) float array
+        Reconstructed centreline, base to tip, mm (finite).
+    skeletons_xy : list of (n_v, 2) float arrays or None
+        The extracted, ordered 2D skeleton of each view, observed pixels
+        (None: the view is skipped).
+    cameras : list of Camera
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``view`` (1-based), ``section`` (``base`` | ``tip`` |
+        ``entire``), ``mean_px``, ``std_px``, ``max_px``, ``n_points``; the
+        base and tip sections are the first and last quarters of the 3D arc
+        length. Sorted by view, then base, tip, entire.
+    """
+    X = np.asarray(points_mm, dtype=float)
+    if X.ndim != 2 or X.shape[1] != 3:
+        raise ValueError(f"points_mm must have shape (k, 3), got {X.shape}")
+    if len(skeletons_xy) != len(cameras):
+        raise ValueError(f"skeletons_xy must have one entry per camera ({len(cameras)}), got {len(skeletons_xy)}")
+    sec = _sections(X)
+    rows = []
+    for v, (sk, cam) in enumerate(zip(skeletons_xy, cameras)):
+        if sk is None:
+            continue
+        d = point_to_polyline_distance(cam.project(X), np.asarray(sk, float))
+        for name in ("base", "tip", "entire"):
+            dd = d[sec[name] & np.isfinite(d)]
+            rows.append({
+                "view": v + 1,
+                "section": name,
+                "mean_px": float(dd.mean()) if dd.size else np.nan,
+                "std_px": float(dd.std()) if dd.size else np.nan,
+                "max_px": float(dd.max()) if dd.size else np.nan,
+                "n_points": int(dd.size),
+            })
+    return pd.DataFrame(rows, columns=["view", "section", "mean_px", "std_px", "max_px", "n_points"])
