@@ -394,6 +394,9 @@ class BundleReport:
     markers_world : dict[int, (4, 3) float array]
         Adjusted corners of every marker used, world mm (the world marker's
         are its fixed corners).
+    markers_world_single : dict[int, (4, 3) float array]
+        Their starting corners (squares fitted to corners triangulated with
+        the initial cameras).
     marker_lengths_mm : dict[int, float]
         Adjusted side length of every marker used.
     on_plane : list[int]
@@ -408,6 +411,7 @@ class BundleReport:
 
     table: pd.DataFrame
     markers_world: dict[int, np.ndarray]
+    markers_world_single: dict[int, np.ndarray]
     marker_lengths_mm: dict[int, float]
     on_plane: list[int]
     rms_before_px: float
@@ -627,7 +631,7 @@ def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.nd
     cams, mw = result["cameras"], result["markers_world"]
     rows = _reprojection_rows(list(cameras), obs, mw0, "single") + _reprojection_rows(cams, obs, mw, "adjusted")
     table = pd.DataFrame(rows, columns=["view", "marker_id", "stage", "mean_px", "max_px", "n_corners"])
-    return cams, BundleReport(table=table, markers_world=mw, marker_lengths_mm=result["lengths"],
+    return cams, BundleReport(table=table, markers_world=mw, markers_world_single=mw0, marker_lengths_mm=result["lengths"],
                               on_plane=sorted(result["plane"]), rms_before_px=rms0,
                               rms_after_px=result["rms1"], dropped=dropped, nfev=int(nfev))
 
@@ -705,11 +709,17 @@ def _wmean(rows: pd.DataFrame) -> float:
     return float((rows.mean_px * rows.n_corners).sum() / rows.n_corners.sum())
 
 
-def _marker_table(rows: pd.DataFrame, markers_world: dict[int, np.ndarray]) -> pd.DataFrame:
-    geo = {m: (*X.mean(0), float(np.mean(np.linalg.norm(np.roll(X, -1, 0) - X, axis=1)))) for m, X in markers_world.items()}
+def _marker_table(rows: pd.DataFrame, markers_world: dict[int, np.ndarray],
+                  markers_world_single: dict[int, np.ndarray] | None = None) -> pd.DataFrame:
+    """The reprojection rows with each marker's centre and side (per stage)."""
+    def geo(X):
+        return (*X.mean(0), float(np.mean(np.linalg.norm(np.roll(X, -1, 0) - X, axis=1))))
+
+    by_stage = {"adjusted": {m: geo(X) for m, X in markers_world.items()},
+                "single": {m: geo(X) for m, X in (markers_world_single or markers_world).items()}}
     t = rows.copy()
     for j, col in enumerate(("x_mm", "y_mm", "z_mm", "length_mm")):
-        t[col] = [geo[m][j] if m in geo else np.nan for m in t.marker_id]
+        t[col] = [by_stage[st][m][j] if m in by_stage[st] else np.nan for st, m in zip(t.stage, t.marker_id)]
     order = {"single": 0, "adjusted": 1}
     t = t.assign(_o=t.stage.map(order)).sort_values(["_o", "view", "marker_id"]).drop(columns="_o")
     return t.reset_index(drop=True)
@@ -800,7 +810,7 @@ def calibrate_from_observations(observations: dict[int, dict[int, np.ndarray]], 
               if sum(m in o for o in observations.values()) >= 2]
     if bundle_adjust and shared:
         cams, rep = _bundle_adjust(single, observations, world_id=world_id, length_mm=length_mm)
-        table = _marker_table(rep.table, rep.markers_world)
+        table = _marker_table(rep.table, rep.markers_world, rep.markers_world_single)
         return CalibrationResult(cameras=cams, single_cameras=single, markers=table, observations=observations,
                                  markers_world=rep.markers_world, frame=frame, source="bundle", bundle=rep)
     if bundle_adjust and len(intrinsics) > 1:
