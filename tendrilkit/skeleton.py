@@ -12,7 +12,10 @@ centreline, base to tip:
    in an endpoint, attached to a junction, shorter than ``prune_px``) are
    removed, repeatedly. Junctions joined by a branch shorter than
    ``merge_width * w`` are one crossing (an X crossing thins to two Y
-   junctions joined by a short branch); they are contracted into one node, and
+   junctions joined by a short branch); so are two junctions joined by a
+   longer branch (up to 15 w) when their other branches continue straight
+   through it (a shallow X crossing, whose middle is about
+   ``w / tan(angle / 2)`` long). They are contracted into one node, and
    short closed branches at a junction (pin holes) are dropped.
 3. **Walk.** From the endpoint nearest the base point, the walk follows
    branches; at a node with several unused branches it takes one (a
@@ -86,6 +89,7 @@ from tendrilkit.segmentation import segment_view
 __all__ = ["Decision", "OrderedCenterline", "ViewCenterline", "compare_centerlines", "order_skeleton", "process_view"]
 
 _MAX_STEPS = 20000  # cap on the depth-first search over walks
+_SHALLOW_X_WIDTHS = 15.0  # longest middle of a shallow X crossing, in tube widths (about 8 deg)
 
 
 @dataclass(frozen=True, eq=False)
@@ -285,8 +289,49 @@ def _merge_degree_two(g: _Graph) -> None:
             return
 
 
-def _contract_junctions(g: _Graph, merge_len: float) -> None:
-    """Contract branches shorter than ``merge_len`` between junction nodes."""
+def _is_shallow_x(g: _Graph, i: int, deg: np.ndarray, width: float, window: float, max_turn_deg: float = 35.0) -> bool:
+    """Is branch ``i`` the shared middle of a shallow X crossing?
+
+    Two tubes crossing at a small angle thin to two Y junctions joined by a
+    branch several widths long (about ``w / tan(angle / 2)``). The branch is
+    such a middle when it joins two degree-3 junctions and the two other
+    branches at one end continue, each with a turn under ``max_turn_deg``,
+    into the two other branches at the other end.
+    """
+    u, v, _, _ = g.edges[i]
+    if u == v or deg[u] != 3 or deg[v] != 3:
+        return False
+    a_xy, b_xy = g.node_xy[u], g.node_xy[v]
+    mid = b_xy - a_xy
+    if np.hypot(*mid) == 0:
+        return False
+    mid = mid / np.hypot(*mid)
+
+    def others(nd: int) -> list[np.ndarray]:
+        out = []
+        for k, (p, q, pts, _) in enumerate(g.edges):
+            if k == i:
+                continue
+            for end, node_end, path in ((0, p, pts), (1, q, pts[::-1])):
+                if node_end == nd:
+                    out.append(_end_tangent(path, g.node_xy[nd], width, window))
+        return out
+
+    ta, tb = others(u), others(v)
+    if len(ta) != 2 or len(tb) != 2:
+        return False
+    # arriving at u along -ta (heading towards v), leaving v along tb
+    if any(float(-t @ mid) < np.cos(np.radians(60)) for t in ta) or any(float(t @ mid) < np.cos(np.radians(60)) for t in tb):
+        return False
+    for pairing in (((0, 0), (1, 1)), ((0, 1), (1, 0))):
+        if all(abs(_signed_angle_deg(-ta[x], tb[y])) < max_turn_deg for x, y in pairing):
+            return True
+    return False
+
+
+def _contract_junctions(g: _Graph, merge_len: float, width: float = 0.0, window: float = 15.0, max_len: float = 0.0) -> None:
+    """Contract branches between junction nodes: those shorter than ``merge_len``
+    and, up to ``max_len``, the middles of shallow X crossings."""
     n = len(g.node_xy)
     parent = list(range(n))
 
@@ -299,7 +344,9 @@ def _contract_junctions(g: _Graph, merge_len: float) -> None:
     deg = g.degrees()
     short = []
     for i, (u, v, _, length) in enumerate(g.edges):
-        if length < merge_len and deg[u] >= 3 and deg[v] >= 3:
+        if deg[u] >= 3 and deg[v] >= 3 and (
+            length < merge_len or (length < max_len and _is_shallow_x(g, i, deg, width, window))
+        ):
             short.append(i)
             parent[find(u)] = find(v)
     if not short:
@@ -492,7 +539,7 @@ def order_skeleton(
     width = float(np.count_nonzero(crop)) / max(skel_len, 1.0)
     half = 0.5 * width
     _prune(g, prune_px)
-    _contract_junctions(g, merge_width * width)
+    _contract_junctions(g, merge_width * width, width, tangent_window_px, max_len=_SHALLOW_X_WIDTHS * width)
     _merge_degree_two(g)
     if not g.edges:
         raise EmptySkeletonError("no skeleton branch left after pruning")

@@ -89,7 +89,7 @@ def test_offset_is_added():
     check(oc, truth + (1000, 500), mean_px=0.5)
 
 
-@pytest.mark.parametrize("angle", [30, 45, 60, 90, 120, 150])
+@pytest.mark.parametrize("angle", [20, 30, 45, 60, 90, 120, 150, 160])
 def test_one_crossing_away_from_tip(angle):
     truth = crossing_curve(angle)
     oc = order_skeleton(draw(truth), base_point_xy=truth[0])
