@@ -12,6 +12,7 @@ import json
 import os
 import re
 import tempfile
+from dataclasses import dataclass
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
@@ -300,3 +301,50 @@ def save_figure(fig, stem: str | Path, *, formats: tuple[str, ...] | None = None
     else:
         raise TypeError(f"fig must be a matplotlib or plotly figure, got {type(fig).__name__}")
     return out
+
+
+@dataclass(frozen=True, eq=False)
+class Results:
+    """The result files of one ``reconstruct`` (or ``fit``) run; absent tables are ``None``.
+
+    Tables as written (EXPERIMENT_FORMAT.md and the README): ``curves``,
+    ``pwc_curves``, ``frames``, ``reprojection``, ``ordering``,
+    ``segments``, ``fit_metrics``, ``calibration_markers``; ``cameras``
+    from ``cameras.json``.
+    """
+
+    folder: Path
+    curves: pd.DataFrame | None
+    pwc_curves: pd.DataFrame | None
+    frames: pd.DataFrame | None
+    reprojection: pd.DataFrame | None
+    ordering: pd.DataFrame | None
+    segments: pd.DataFrame | None
+    fit_metrics: pd.DataFrame | None
+    calibration_markers: pd.DataFrame | None
+    cameras: list[Camera] | None
+
+
+def read_results(folder: str | Path) -> Results:
+    """Read every result table present in ``folder``."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ExperimentError(f"{folder}: results folder not found (run `python -m tendrilkit reconstruct` first)")
+
+    def opt(name: str) -> pd.DataFrame | None:
+        p = folder / f"{name}.csv"
+        return read_csv(p) if p.is_file() else None
+
+    cams = folder / "cameras.json"
+    return Results(
+        folder=folder,
+        curves=opt("curves"),
+        pwc_curves=opt("pwc_curves"),
+        frames=opt("frames"),
+        reprojection=opt("reprojection"),
+        ordering=opt("ordering"),
+        segments=opt("segments"),
+        fit_metrics=opt("fit_metrics"),
+        calibration_markers=opt("calibration_markers"),
+        cameras=read_cameras(cams) if cams.is_file() else None,
+    )
