@@ -44,7 +44,9 @@ def _cmd_reconstruct(args: argparse.Namespace) -> int:
 def _cmd_fit(args: argparse.Namespace) -> int:
     from tendrilkit.fitting import run_fit
 
-    return run_fit(Path(args.curves), Path(args.out))
+    summary = run_fit(Path(args.curves), Path(args.out))
+    print(summary)
+    return 0
 
 
 def _cmd_batch(args: argparse.Namespace) -> int:

@@ -1066,7 +1066,7 @@ class PWCFit:
         for law in (self.kappa_law, self.tau_law):
             for i, (s0, s1, v0, v1) in enumerate(law.segments()):
                 rows.append({"kind": law.kind, "segment": i, "s0_mm": s0, "s1_mm": s1,
-                             "value_s0_per_mm": v0, "value_s1_per_mm": v1})
+                             "value_s0": v0, "value_s1": v1})
         return rows
 
 
@@ -1170,7 +1170,7 @@ def fit_piecewise_clothoid(
     penalty_kappa: float = 0.01,
     penalty_tau: float = 0.01,
     score: str = "l2",
-    smoothing_length_mm: float = 3.0,
+    smoothing_length_mm: float = 20.0,
     min_segment_mm: float | None = None,
     max_segments: int = 10,
     refine: bool = True,

@@ -1,0 +1,221 @@
+"""The ``fit`` command: refit the piece-wise clothoid to every frame of a ``curves.csv``.
+
+``python -m tendrilkit fit CURVES.csv --out DIR`` calls :func:`run_fit`, which
+reads the centrelines (columns of ``../shared/EXPERIMENT_FORMAT.md``: ``frame``,
+``time_s``, ``point``, ``x_mm``, ``y_mm``, ``z_mm``), fits each frame with
+:func:`tendrilkit.pwc.fit_piecewise_clothoid` and writes, atomically (a
+temporary file in ``DIR`` then :func:`os.replace`):
+
+``pwc_curves.csv``
+    The same columns: the fitted curve registered onto each frame's
+    centreline, as many points as the frame has (point ``i`` of the fit
+    corresponds to the centreline resampled at uniform chord length, which is
+    point ``i`` itself for a ``curves.csv`` written by ``reconstruct``).
+``pwc_segments.csv``
+    One row per segment: ``frame``, ``kind`` (``kappa`` or ``tau``),
+    ``segment`` (0 = base), ``s0_mm``, ``s1_mm`` (arc length from the base),
+    ``value_s0``, ``value_s1`` (curvature or torsion at both ends, 1/mm).
+``pwc_metrics.csv``
+    One row per frame: ``frame``, ``time_s``, ``status`` (``ok``/``failed``),
+    ``message``, ``n_points``, ``length_mm``, ``penalty_kappa``,
+    ``penalty_tau`` (dimensionless, see :mod:`tendrilkit.pwc`), ``n_kappa``,
+    ``n_tau`` (segments), ``r2_entire``, ``r2_base``, ``r2_tip``,
+    ``sse_entire_mm2``, ``sse_base_mm2``, ``sse_tip_mm2``, ``rmse_mm``,
+    ``max_error_mm``, ``tau_undefined_fraction``, ``seconds``.
+
+A frame that cannot be fitted is a ``failed`` row with the reason; the other
+frames go on. A missing or malformed CSV raises
+:class:`~tendrilkit.exceptions.ExperimentError` (one line; exit code 2).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from tendrilkit.exceptions import DegenerateCurveError, ExperimentError
+from tendrilkit.pwc import fit_piecewise_clothoid
+
+__all__ = ["FitOptions", "FitSummary", "run_fit", "fit_curves"]
+
+CURVE_COLUMNS = ("frame", "time_s", "point", "x_mm", "y_mm", "z_mm")
+METRIC_COLUMNS = (
+    "frame", "time_s", "status", "message", "n_points", "length_mm", "penalty_kappa", "penalty_tau",
+    "n_kappa", "n_tau", "r2_entire", "r2_base", "r2_tip", "sse_entire_mm2", "sse_base_mm2",
+    "sse_tip_mm2", "rmse_mm", "max_error_mm", "tau_undefined_fraction", "seconds",
+)
+SEGMENT_COLUMNS = ("frame", "kind", "segment", "s0_mm", "s1_mm", "value_s0", "value_s1")
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """Options of :func:`tendrilkit.pwc.fit_piecewise_clothoid` used by ``fit``.
+
+    Defaults are those of the experiment file's ``fit:`` and ``smoothing:``
+    sections (:mod:`tendrilkit.params`); see :func:`from_params`.
+    """
+
+    selection: str = "auto"
+    criterion: str = "bic"
+    target_r2: float = 0.999
+    penalty_kappa: float = 0.01
+    penalty_tau: float = 0.01
+    score: str = "l2"
+    smoothing_length_mm: float = 20.0
+    max_segments: int = 10
+    refine: bool = True
+
+    @classmethod
+    def from_params(cls, fit, smoothing) -> "FitOptions":
+        """From an experiment's ``fit`` (:class:`tendrilkit.params.Fit`) and ``smoothing`` sections."""
+        return cls(selection=fit.selection, criterion=getattr(fit, "criterion", "bic"),
+                   target_r2=fit.target_r2, penalty_kappa=fit.penalty_kappa, penalty_tau=fit.penalty_tau,
+                   score=fit.score, smoothing_length_mm=smoothing.length_mm,
+                   max_segments=getattr(fit, "max_segments", 10), refine=getattr(fit, "refine", True))
+
+
+@dataclass(frozen=True)
+class FitSummary:
+    """What :func:`run_fit` did."""
+
+    n_frames: int
+    n_ok: int
+    n_failed: int
+    seconds: float
+    curves_csv: Path
+    segments_csv: Path
+    metrics_csv: Path
+
+    def __str__(self) -> str:
+        return (f"fitted {self.n_ok}/{self.n_frames} frames in {self.seconds:.2f} s"
+                f" ({self.n_failed} failed): {self.curves_csv.parent}")
+
+
+def _read_curves(path: Path) -> pd.DataFrame:
+    if not path.exists():
+        raise ExperimentError(f"{path}: curves file not found")
+    if path.is_dir():
+        raise ExperimentError(f"{path}: expected a curves.csv file, got a folder")
+    try:
+        df = pd.read_csv(path)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as e:
+        raise ExperimentError(f"{path}: cannot read as CSV ({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''})") from None
+    missing = [c for c in ("frame", "point", "x_mm", "y_mm", "z_mm") if c not in df.columns]
+    if missing:
+        raise ExperimentError(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(CURVE_COLUMNS)}")
+    if "time_s" not in df.columns:
+        df["time_s"] = np.nan
+    for c in ("frame", "point", "x_mm", "y_mm", "z_mm", "time_s"):
+        conv = pd.to_numeric(df[c], errors="coerce")
+        if c in ("frame", "point") and (conv.isna().any() or (conv % 1 != 0).any()):
+            bad = df[c][conv.isna() | (conv % 1 != 0)].iloc[0]
+            raise ExperimentError(f"{path}: column {c}: expected integers, got {bad!r}")
+        df[c] = conv
+    if df.empty:
+        raise ExperimentError(f"{path}: no rows")
+    df["frame"] = df["frame"].astype(int)
+    df["point"] = df["point"].astype(int)
+    return df
+
+
+def fit_curves(curves: pd.DataFrame, options: FitOptions | None = None) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """Fit every frame of a curves table; returns ``(pwc_curves, segments, metrics)`` tables."""
+    options = FitOptions() if options is None else options
+    kw = asdict(options)
+    curves_out, seg_rows, met_rows = [], [], []
+    for frame, g in curves.sort_values(["frame", "point"]).groupby("frame", sort=True):
+        g = g.drop_duplicates("point", keep="first")
+        t_s = float(g["time_s"].iloc[0]) if g["time_s"].notna().any() else np.nan
+        pts = g[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
+        row = {c: np.nan for c in METRIC_COLUMNS}
+        row.update(frame=int(frame), time_s=t_s, n_points=int(len(pts)), message="")
+        t0 = time.perf_counter()
+        try:
+            if not np.all(np.isfinite(pts)):
+                raise DegenerateCurveError(f"{int((~np.isfinite(pts)).any(axis=1).sum())} point(s) with missing coordinates")
+            if len(pts) < 5:
+                raise DegenerateCurveError(f"{len(pts)} point(s); at least 5 are needed")
+            fit = fit_piecewise_clothoid(pts, n_points=len(pts), **kw)
+        except (DegenerateCurveError, ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
+            row.update(status="failed", message=f"{type(e).__name__}: {e}", seconds=time.perf_counter() - t0)
+            met_rows.append(row)
+            continue
+        sc = fit.scores
+        row.update(
+            status="ok", length_mm=float(fit.s_mm[-1]), penalty_kappa=fit.penalty_kappa,
+            penalty_tau=fit.penalty_tau, n_kappa=fit.n_segments_kappa, n_tau=fit.n_segments_tau,
+            r2_entire=sc.r2_entire, r2_base=sc.r2_base, r2_tip=sc.r2_tip, sse_entire_mm2=sc.sse_entire_mm2,
+            sse_base_mm2=sc.sse_base_mm2, sse_tip_mm2=sc.sse_tip_mm2, rmse_mm=sc.rmse_mm,
+            max_error_mm=sc.max_error_mm, tau_undefined_fraction=float(1.0 - fit.frames.tau_defined.mean()),
+            seconds=time.perf_counter() - t0,
+        )
+        met_rows.append(row)
+        n = len(pts)
+        curves_out.append(pd.DataFrame({
+            "frame": int(frame), "time_s": t_s, "point": np.arange(n),
+            "x_mm": fit.points_mm[:, 0], "y_mm": fit.points_mm[:, 1], "z_mm": fit.points_mm[:, 2],
+        }))
+        for r in fit.segments():
+            seg_rows.append({"frame": int(frame), **r})
+    pwc = pd.concat(curves_out, ignore_index=True) if curves_out else pd.DataFrame(columns=list(CURVE_COLUMNS))
+    segs = pd.DataFrame(seg_rows, columns=list(SEGMENT_COLUMNS))
+    mets = pd.DataFrame(met_rows, columns=list(METRIC_COLUMNS))
+    for c in ("n_points", "n_kappa", "n_tau"):
+        mets[c] = mets[c].astype("Int64")
+    return pwc, segs, mets
+
+
+def _write_atomic(df: pd.DataFrame, path: Path) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", newline="") as fh:
+            df.to_csv(fh, index=False, float_format="%.9g")
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def run_fit(curves_csv: Path, out_dir: Path, *, options: FitOptions | None = None) -> FitSummary:
+    """Refit the piece-wise clothoid to every frame of ``curves_csv``; write the tables to ``out_dir``.
+
+    Parameters
+    ----------
+    curves_csv : Path
+        A ``curves.csv`` (columns ``frame, time_s, point, x_mm, y_mm, z_mm``).
+    out_dir : Path
+        Output folder (created).
+    options : FitOptions, keyword-only
+        Fit options (default: the experiment-file defaults).
+
+    Returns
+    -------
+    FitSummary
+
+    Raises
+    ------
+    ExperimentError
+        Missing or malformed CSV, or an output folder that cannot be made.
+    """
+    t0 = time.perf_counter()
+    curves_csv, out_dir = Path(curves_csv), Path(out_dir)
+    curves = _read_curves(curves_csv)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ExperimentError(f"{out_dir}: cannot create the output folder ({e.strerror or type(e).__name__})") from None
+    if not out_dir.is_dir():
+        raise ExperimentError(f"{out_dir}: expected an output folder, got a file")
+    pwc, segs, mets = fit_curves(curves, options)
+    paths = (out_dir / "pwc_curves.csv", out_dir / "pwc_segments.csv", out_dir / "pwc_metrics.csv")
+    for df, p in zip((pwc, segs, mets), paths):
+        _write_atomic(df, p)
+    ok = int((mets["status"] == "ok").sum())
+    return FitSummary(len(mets), ok, len(mets) - ok, time.perf_counter() - t0, *paths)
