@@ -447,30 +447,44 @@ def _monotone_dp(C, skip_cost, beta, r, max_step):  # pragma: no cover - compile
     return pos
 
 
+@njit(cache=True)
+def _nearest_kernel(p, Q, t0, window):  # pragma: no cover - compiled
+    n, m = p.shape[0], Q.shape[0]
+    t = np.empty(n)
+    near = np.empty((n, 2))
+    normal = np.empty((n, 2))
+    for i in range(n):
+        s0 = int(np.floor(t0[i]))
+        lo = max(s0 - window, 0)
+        hi = min(s0 + window, m - 2)
+        if hi < lo:
+            lo = hi = min(max(s0, 0), m - 2)
+        best = np.inf
+        for s in range(lo, hi + 1):
+            ax, ay = Q[s, 0], Q[s, 1]
+            bx, by = Q[s + 1, 0] - ax, Q[s + 1, 1] - ay
+            L2 = max(bx * bx + by * by, 1e-12)
+            u = ((p[i, 0] - ax) * bx + (p[i, 1] - ay) * by) / L2
+            u = min(max(u, 0.0), 1.0)
+            cx, cy = ax + u * bx, ay + u * by
+            d2 = (p[i, 0] - cx) ** 2 + (p[i, 1] - cy) ** 2
+            if d2 < best:
+                best = d2
+                t[i] = s + u
+                near[i, 0], near[i, 1] = cx, cy
+                L = np.sqrt(L2)
+                normal[i, 0], normal[i, 1] = -by / L, bx / L
+    return t, near, normal
+
+
 def _nearest_on_curve(p: np.ndarray, Q: np.ndarray, t0: np.ndarray, window: int):
     """Point of polyline ``Q`` nearest each ``p``, among segments within ``window`` of index ``t0``.
 
     Returns the fractional index (n,), the nearest point (n, 2) and the unit
     normal (n, 2) of the segment it lies on.
     """
-    m = Q.shape[0]
-    offs = np.arange(-window, window + 1)
-    seg = np.clip(np.floor(t0).astype(int)[:, None] + offs[None, :], 0, m - 2)  # (n, w)
-    a = Q[seg]
-    b = Q[seg + 1]
-    ab = b - a
-    L2 = np.maximum(np.einsum("nwc,nwc->nw", ab, ab), 1e-12)
-    u = np.clip(np.einsum("nwc,nwc->nw", p[:, None, :] - a, ab) / L2, 0.0, 1.0)
-    c = a + u[..., None] * ab
-    d2 = np.einsum("nwc,nwc->nw", p[:, None, :] - c, p[:, None, :] - c)
-    w = np.argmin(d2, axis=1)
-    rows = np.arange(len(p))
-    s = seg[rows, w]
-    t = s + u[rows, w]
-    near = c[rows, w]
-    tan = ab[rows, w] / np.sqrt(L2[rows, w])[:, None]
-    normal = np.stack([-tan[:, 1], tan[:, 0]], axis=1)
-    return t, near, normal
+    return _nearest_kernel(np.ascontiguousarray(p, dtype=float), np.ascontiguousarray(Q, dtype=float),
+                           np.ascontiguousarray(t0, dtype=float), int(window))
 
 
 def _project_und(cam: Camera, X: np.ndarray, dX: np.ndarray):

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from numba import njit
 
 from tendrilkit.camera import Camera
 
@@ -168,26 +169,46 @@ def triangulate(points_xy: np.ndarray, cameras: list[Camera], *, refine: bool = 
     return Triangulated(points_mm=X, reproj_err_px=err, n_views=n_views)
 
 
-def point_to_polyline_distance(points_xy: np.ndarray, polyline_xy: np.ndarray, *, chunk: int = 64) -> np.ndarray:
-    """Distance (n,) of every point (n, 2) to a polyline (m, 2); NaN points give NaN."""
-    P = np.asarray(points_xy, dtype=float)
-    Q = np.asarray(polyline_xy, dtype=float)
+@njit(cache=True)
+def _polyline_distance(P, Q):  # pragma: no cover - compiled
+    out = np.empty(P.shape[0])
+    for i in range(P.shape[0]):
+        px, py = P[i, 0], P[i, 1]
+        if not (np.isfinite(px) and np.isfinite(py)):
+            out[i] = np.nan
+            continue
+        best = np.inf
+        for j in range(Q.shape[0] - 1):
+            ax, ay = Q[j, 0], Q[j, 1]
+            bx, by = Q[j + 1, 0] - ax, Q[j + 1, 1] - ay
+            L2 = bx * bx + by * by
+            t = 0.0
+            if L2 > 0:
+                t = ((px - ax) * bx + (py - ay) * by) / L2
+                t = min(max(t, 0.0), 1.0)
+            dx, dy = px - ax - t * bx, py - ay - t * by
+            d2 = dx * dx + dy * dy
+            if d2 < best:
+                best = d2
+        out[i] = np.sqrt(best)
+    return out
+
+
+def point_to_polyline_distance(points_xy: np.ndarray, polyline_xy: np.ndarray) -> np.ndarray:
+    """Distance (n,) of every point (n, 2) to a polyline (m, 2); NaN points give NaN.
+
+    Examples
+    --------
+    >>> point_to_polyline_distance(np.array([[5.0, 2.0]]), np.array([[0.0, 0.0], [10.0, 0.0]]))
+    array([2.])
+    """
+    P = np.ascontiguousarray(points_xy, dtype=float)
+    Q = np.ascontiguousarray(polyline_xy, dtype=float)
     if P.ndim != 2 or P.shape[1] != 2 or Q.ndim != 2 or Q.shape[1] != 2 or len(Q) < 1:
         raise ValueError(f"points_xy and polyline_xy must have shapes (n, 2) and (m >= 1, 2), got {P.shape} and {Q.shape}")
-    out = np.full(len(P), np.nan)
     if len(Q) == 1:
         return np.linalg.norm(P - Q[0], axis=1)
-    a, b = Q[:-1], Q[1:]
-    ab = b - a
-    L2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-    fin = np.flatnonzero(np.all(np.isfinite(P), axis=1))
-    for s in range(0, len(fin), chunk):
-        idx = fin[s:s + chunk]
-        p = P[idx][:, None, :]
-        t = np.clip(np.einsum("nmc,mc->nm", p - a[None], ab) / L2[None], 0.0, 1.0)
-        c = a[None] + t[..., None] * ab[None]
-        out[idx] = np.sqrt(np.min(np.einsum("nmc,nmc->nm", p - c, p - c), axis=1))
-    return out
+    return _polyline_distance(P, Q)
 
 
 def _sections(points_mm: np.ndarray) -> dict[str, np.ndarray]:
