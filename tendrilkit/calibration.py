@@ -440,6 +440,30 @@ def _on_world_plane(corners_world: np.ndarray, tol_deg: float) -> bool:
     return bool(np.all(np.abs(corners_world[:, 2]) <= 0.5 + r * np.tan(np.radians(tol_deg))))
 
 
+def _board_markers(markers_world: dict[int, np.ndarray], world_id: int, tol_deg: float,
+                   tol_mm: float) -> set[int]:
+    """Markers that share the world marker's flat board, from a free adjustment.
+
+    Candidates lie within ``tol_deg`` of the plane ``z = 0`` (the free
+    adjustment's world frame can be tilted by a fraction of a degree); then one
+    plane is fitted to the world marker's and the candidates' corners and the
+    marker farthest from it is removed until every corner is within ``tol_mm``.
+    """
+    cand = [m for m, X in markers_world.items() if m != world_id and _on_world_plane(X, tol_deg)]
+    W = markers_world[world_id]
+    while cand:
+        pts = np.vstack([W] + [markers_world[m] for m in cand])
+        A = np.column_stack([pts[:, 0], pts[:, 1], np.ones(len(pts))])
+        coef = np.linalg.lstsq(A, pts[:, 2], rcond=None)[0]
+        off = [np.abs(markers_world[m][:, 2] - np.column_stack([markers_world[m][:, :2], np.ones(4)]) @ coef).max()
+               for m in cand]
+        worst = int(np.argmax(off))
+        if off[worst] <= tol_mm:
+            break
+        cand.pop(worst)
+    return set(cand)
+
+
 def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, world_id: int, length_mm: float,
                min_views: int, loss: str, f_scale_px: float, plane_ids: set[int],
                init: dict[int, np.ndarray] | None) -> dict:
@@ -544,7 +568,7 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
 
 def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.ndarray]], *,
                   world_id: int, length_mm: float, on_plane: str | bool | list[int] = "auto",
-                  plane_tol_deg: float = 1.5, min_views: int = 2, loss: str = "soft_l1",
+                  plane_tol_deg: float = 1.5, plane_tol_mm: float = 1.0, min_views: int = 2, loss: str = "soft_l1",
                   f_scale_px: float = 1.0, outlier_px: float = 3.0) -> tuple[list[Camera], BundleReport]:
     """Refine the camera poses jointly with every marker two or more views see.
 
@@ -573,8 +597,9 @@ def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.nd
         Markers that lie on the world marker's board (its plane ``z = 0``):
         they are adjusted as squares in that plane (position, in-plane angle,
         side). ``"auto"`` (default): after a free adjustment, the markers whose
-        corners lie within ``plane_tol_deg`` (plus 0.5 mm) of the plane;
-        ``False``: none; ``True``: all; a list: those ids.
+        corners lie within ``plane_tol_deg`` (plus 0.5 mm) of the plane and
+        within ``plane_tol_mm`` of one plane fitted to them and the world
+        marker; ``False``: none; ``True``: all; a list: those ids.
 
     Returns
     -------
@@ -623,7 +648,7 @@ def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.nd
     used = {v: {m: c for m, c in o.items() if (v + 1, m) not in dropped} for v, o in obs.items()}
     plane_ids = fixed_plane
     if on_plane == "auto":
-        plane_ids = {m for m, X in first["markers_world"].items() if m != world_id and _on_world_plane(X, plane_tol_deg)}
+        plane_ids = _board_markers(first["markers_world"], world_id, plane_tol_deg, plane_tol_mm)
     result = first
     if bad_obs or plane_ids != fixed_plane:
         result = _solve_rig(used, list(cameras), plane_ids=plane_ids, init=first["markers_world"], **kw)

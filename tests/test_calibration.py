@@ -291,6 +291,7 @@ def _synthetic_markers(rng: np.random.Generator) -> dict[int, np.ndarray]:
     # two on stands, tilted towards the cameras
     for mid, c, rv in ((301, (120.0, -60.0, 40.0), (0.3, 0.2, 0.1)), (302, (60.0, 60.0, 30.0), (-0.2, 0.3, 0.0))):
         out[mid] = marker_object_corners(20.0) @ rotation_from_rvec(np.array(rv)).T + c
+    out[303] = marker_object_corners(30.0) + [120.0, -20.0, 4.0]  # parallel to the board, 4 mm above it
     return out
 
 
@@ -317,6 +318,7 @@ def test_bundle_adjust_recovers_perturbed_rig():
     elapsed = time.perf_counter() - t0
     after, mean = rig_agreement_px(cams, truth, P)
     assert isinstance(rep, BundleReport)
+    assert rep.on_plane == sorted(BOARD_MARKERS)  # not the stands, not the raised marker
     assert before.min() > 5 and after.max() < 0.5, (before, after)
     assert rep.rms_after_px < rep.rms_before_px and rep.rms_after_px < 0.1
     t = rep.table
@@ -334,7 +336,9 @@ def test_bundle_adjust_single_marker_poses_improve_on_noisy_corners():
     rng = np.random.default_rng(3)
     truth = distorted_rig()
     markers = _synthetic_markers(rng)
-    obs = _observe(truth, markers, rng, 0.1)
+    # 0.05 px: several times the edge-line corners' error on the rendered frames;
+    # over 10 seeds single-marker poses give 1.3 px (median), the adjustment 0.25 px
+    obs = _observe(truth, markers, rng, 0.05)
     single = [c.with_pose(*marker_pose(obs[v][WORLD_ID], c, L)) for v, c in enumerate(truth)]
     P = working_volume()
     s_max, _ = rig_agreement_px(single, truth, P)
