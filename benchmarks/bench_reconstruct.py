@@ -1,0 +1,113 @@
+"""Speed of the whole reconstruction of one 3-view 1080p frame, on one core.
+
+    .venv/bin/python benchmarks/bench_reconstruct.py               # synthetic views, the IJCV25 rig
+    .venv/bin/python benchmarks/bench_reconstruct.py phantom [S3]  # a rendered phantom frame
+
+Target: at most 0.2 s per frame (2D stage of three views, matching,
+triangulation, resampling, Table 1, piece-wise clothoid fit). One core:
+``cv2.setNumThreads(1)`` and single-threaded BLAS; numbers on a machine shared
+with other jobs are upper bounds. Prints the median of several repetitions,
+total and per stage, for both correspondence methods, and the time to read
+the three frames from the videos (phantom only).
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from tendrilkit.calibration import ijcv25_rig  # noqa: E402
+from tendrilkit.params import parse_experiment  # noqa: E402
+from tendrilkit.pipeline import reconstruct_frame  # noqa: E402
+
+REPEATS = 7
+
+
+def synthetic_frame():
+    """Three 1080p views of a curled 3D tube (9 px wide) through the IJCV25 rig; cameras; experiment."""
+    cams = ijcv25_rig()
+    s = np.linspace(0, 1, 3000)
+    th = np.clip(s - 0.4, 0, None) * 6 * np.pi
+    X = np.c_[-5 + 50 * s, 6 * np.sin(th), 20 + 6 * (1 - np.cos(th))]
+    images, views = [], []
+    for v, c in enumerate(cams):
+        img = np.full((1080, 1920, 3), 235, np.uint8)
+        p = c.project(X)
+        cv2.polylines(img, [np.round(p * 16).astype(np.int32)], False, (40, 40, 40), 9, cv2.LINE_AA, 4)
+        images.append(img)
+        lo = (p.min(0) - 40).astype(int)
+        hi = (p.max(0) + 40).astype(int)
+        views.append({"view": v + 1, "roi": [int(lo[0]), int(lo[1]), int(hi[0] - lo[0]), int(hi[1] - lo[1])],
+                      "base_point": [float(p[0, 0]), float(p[0, 1])]})
+    exp = parse_experiment({
+        "name": "bench", "videos": ["v1.mp4", "v2.mp4", "v3.mp4"], "fps": 30, "reference_view": 2,
+        "cameras": [{"view": i + 1, "fx": float(c.K[0, 0]), "fy": float(c.K[1, 1]), "cx": float(c.K[0, 2]),
+                     "cy": float(c.K[1, 2])} for i, c in enumerate(cams)],
+        "marker": {"dictionary": "DICT_ARUCO_ORIGINAL", "id": 815, "length_mm": 24.0},
+        "views": views,
+    })
+    return images, cams, exp, None
+
+
+def phantom_frame(site: str = "S3"):
+    from tendrilkit.calibration import calibrate_experiment
+    from tendrilkit.io import open_views
+    from tendrilkit.params import load_experiment
+    from tendrilkit.phantom import write_phantom_experiment
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench_reconstruct_"))
+    path = write_phantom_experiment(site, tmp, n_frames=3, seed=0)
+    exp = load_experiment(path)
+    cams = calibrate_experiment(exp).cameras
+    sources = open_views(list(exp.videos))
+    t_read = []
+    for _ in range(REPEATS):
+        t0 = time.perf_counter()
+        images = [s.read(1) for s in sources]
+        t_read.append(time.perf_counter() - t0)
+    for s in sources:
+        s.close()
+    return images, cams, exp, float(np.median(t_read))
+
+
+def main(argv: list[str]) -> None:
+    cv2.setNumThreads(1)
+    if argv and argv[0] == "phantom":
+        images, cams, exp, t_read = phantom_frame(argv[1] if len(argv) > 1 else "S3")
+        what = f"phantom {argv[1] if len(argv) > 1 else 'S3'}"
+    else:
+        images, cams, exp, t_read = synthetic_frame()
+        what = "synthetic"
+    print(f"{what}: 3 views {images[0].shape[1]}x{images[0].shape[0]}, {exp.points} points, one core")
+    if t_read is not None:
+        print(f"  reading the 3 frames: {t_read * 1e3:.1f} ms (not counted below)")
+    for method in ("epipolar", "frechet"):
+        e = exp.model_copy(update={"correspondence": exp.correspondence.model_copy(update={"method": method})})
+        reconstruct_frame(images, cams, e, frame=1)  # warm-up: compiled kernels, caches
+        totals, stages = [], {}
+        for _ in range(REPEATS):
+            t0 = time.perf_counter()
+            r = reconstruct_frame(images, cams, e, frame=1)
+            totals.append(time.perf_counter() - t0)
+            for k, v in r.timings.items():
+                stages.setdefault(k, []).append(v)
+        split = ", ".join(f"{k} {np.median(v) * 1e3:.1f}" for k, v in stages.items())
+        tot = np.median(totals)
+        print(f"  {method:8s}: {tot * 1e3:6.1f} ms per frame [{'ok' if tot <= 0.2 else 'OVER'} vs 200 ms] "
+              f"({r.status}{': ' + r.message if r.message else ''}); stages ms: {split}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
