@@ -185,18 +185,29 @@ class Ordering(_Strict):
 
 
 class Correspondence(_Strict):
-    """Matching of the ordered curves across views.
+    """Matching of the ordered curves across views (:mod:`tendrilkit.correspondence`).
 
-    ``method``: ``epipolar`` (monotone matching minimising epipolar distance,
-    tendrilkit's default) or ``frechet`` (the paper: homography to the
-    reference view and discrete Fréchet coupling).
+    ``method``: ``epipolar`` (tendrilkit's default: a monotone matching
+    minimising the epipolar distance, refined on the depth with every view
+    at once; measured better on the phantoms) or ``frechet`` (the paper:
+    homography of the marker's plane to the reference view and discrete
+    Fréchet coupling). ``max_distance_px`` (epipolar only): the largest
+    distance, pixels, of a point's epipolar line / reprojection to another
+    view's curve for a match; raise it when the calibration is poor.
+    ``depth_smoothing`` (epipolar only): weight of the smoothness of the
+    depths along the curve relative to a typical point's own evidence; where
+    the curve runs along the epipolar lines of every view the depth is
+    interpolated from its neighbours whatever the weight.
     """
 
     method: Literal["epipolar", "frechet"] = "epipolar"
+    max_distance_px: PositiveFloat = 8.0
+    depth_smoothing: NonNegFloat = 30.0
 
 
 class Triangulation(_Strict):
-    """N-view triangulation; ``refine``: non-linear reprojection refinement."""
+    """N-view triangulation (:mod:`tendrilkit.triangulation`); ``refine``:
+    Gauss-Newton refinement of the reprojection error after the linear solution."""
 
     refine: bool = True
 

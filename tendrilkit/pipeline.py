@@ -267,7 +267,9 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         k = exp.points
         t0 = time.perf_counter()
         if exp.correspondence.method == "epipolar":
-            matched = match_epipolar(cl, cams, reference=used.index(ref), k=k)
+            matched = match_epipolar(cl, cams, reference=used.index(ref), k=k,
+                                     max_cost_px=exp.correspondence.max_distance_px,
+                                     smooth=exp.correspondence.depth_smoothing)
         else:
             matched = match_frechet(cl, cams, reference=used.index(ref), k=k, marker_length_mm=exp.marker.length_mm)
         timings["match"] = time.perf_counter() - t0
