@@ -1134,7 +1134,8 @@ def table3(fit_metrics: pd.DataFrame, *, at_frames: Sequence[int] | None = None,
         One row per frame (or per frame and penalty pair): ``frame`` and any
         of ``penalty_kappa, penalty_tau, n_kappa, n_tau, r2_entire, r2_base,
         r2_tip, sse_entire_mm2, sse_base_mm2, sse_tip_mm2`` (spellings in
-        :data:`FIT_METRIC_ALIASES` are recognised; ``columns`` maps others).
+        :data:`FIT_METRIC_ALIASES` are recognised; ``columns`` maps others),
+        e.g. ``pwc_metrics.csv``; rows whose ``status`` is not ``ok`` are dropped.
     at_frames : sequence of int, optional
         Default: first, middle and last (ok) frame.
     frames : DataFrame, optional
@@ -1148,6 +1149,8 @@ def table3(fit_metrics: pd.DataFrame, *, at_frames: Sequence[int] | None = None,
     """
     m = _canonical(fit_metrics, ("frame",), "fit_metrics", columns, FIT_METRIC_ALIASES,
                    optional=FIT_METRIC_COLUMNS[1:])
+    if "status" in m.columns:  # pwc_metrics.csv carries its own status per frame
+        m = m[m["status"].astype(str).str.lower().eq("ok")]
     if frames is not None:
         ok, _ = frame_status(frames)
         m = m[m["frame"].isin(ok)]

@@ -362,6 +362,8 @@ def test_table3_aliases_and_mapping():
     t3 = sq.table3(fm, columns={"n_tau": "mystery_tau"})
     assert list(t3.columns) == ["frame", "n_kappa", "n_tau", "r2_entire", "sse_entire_mm2"]
     assert t3["frame"].tolist() == [0, 2, 4]
+    fm["status"] = ["ok", "ok", "failed", "ok", "ok"]
+    assert sq.table3(fm, columns={"n_tau": "mystery_tau"})["frame"].tolist() == [0, 3, 4]
     with pytest.raises(ValueError, match="fit_metrics: none of"):
         sq.table3(pd.DataFrame({"frame": [0], "other": [1]}))
 
