@@ -101,9 +101,9 @@ def resample_curve(points_mm: np.ndarray, n: int | None = None, *, min_points: i
         Fewer than ``min_points`` distinct points, or zero length.
     """
     pts = _check_points(points_mm)
-    n = pts.shape[0] if n is None else int(n)
-    if n < min_points:
+    if n is not None and int(n) < min_points:
         raise ValueError(f"n must be at least {min_points}, got {n}")
+    n = max(pts.shape[0], min_points) if n is None else int(n)
     if pts.shape[0] < 2:
         raise DegenerateCurveError(f"curve has {pts.shape[0]} point(s); at least {min_points} distinct points are needed")
     step = np.linalg.norm(np.diff(pts, axis=0), axis=1)

@@ -1,0 +1,272 @@
+"""Piece-wise clothoid fit (tendrilkit.pwc): exact programmes, continuity, rebuild, accuracy."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from tendrilkit.exceptions import DegenerateCurveError
+from tendrilkit.frenet import integrate_frenet
+from tendrilkit.pwc import (
+    PiecewiseLinearLaw,
+    fit_piecewise_clothoid,
+    fit_scores,
+    grid_search_penalties,
+    join_segments,
+    line_costs,
+    penalty_path,
+    penalty_table,
+    rebuild_curve,
+    register_rigid,
+    segment_penalty,
+)
+from tests.pwc_truth import mean_distance_mm, random_pwc_curve
+
+
+# ------------------------------------------------------------------ reference programme
+
+
+def interval_dp(C: np.ndarray, pen: float) -> float:
+    """The paper's O(n^3) interval programme J(a, b) = min(pen + E(a, b), min_m J(a, m) + J(m, b))."""
+    n = C.shape[0] - 1
+
+    @functools.lru_cache(maxsize=None)
+    def J(a: int, b: int) -> float:
+        best = pen + C[a, b]
+        for m in range(a + 1, b):
+            best = min(best, J(a, m) + J(m, b))
+        return best
+
+    return J(0, n)
+
+
+signals = st.tuples(
+    st.integers(8, 26),                      # n
+    st.integers(2, 4),                       # min_size
+    st.integers(0, 2**31 - 1),               # seed
+    st.sampled_from(["l2", "l1"]),
+)
+
+
+@settings(max_examples=40, deadline=None)
+@given(signals, st.floats(0.0, 0.5))
+def test_prefix_dp_equals_the_interval_dp(sig, pen):
+    n, min_size, seed, score = sig
+    rng = np.random.default_rng(seed)
+    s = np.cumsum(rng.uniform(0.5, 1.5, n))
+    y = np.where(s > s.mean(), 1.0, -0.5) * rng.uniform(0, 2) + rng.normal(0, 0.3, n)
+    C = line_costs(s, y, score=score, min_size=min_size)
+    bounds, cost = segment_penalty(C, pen)
+    assert cost == pytest.approx(interval_dp(C, pen), rel=1e-9, abs=1e-12)
+    assert cost == pytest.approx(sum(C[a, b] for a, b in zip(bounds[:-1], bounds[1:])) + pen * (len(bounds) - 1))
+
+
+@settings(max_examples=30, deadline=None)
+@given(signals, st.lists(st.floats(0.0, 1.0), min_size=1, max_size=5))
+def test_penalty_path_gives_the_optimum_of_every_penalty(sig, pens):
+    n, min_size, seed, score = sig
+    rng = np.random.default_rng(seed)
+    s = np.cumsum(rng.uniform(0.5, 1.5, n))
+    y = np.sin(s / 3) * rng.uniform(0, 2) + rng.normal(0, 0.2, n)
+    C = line_costs(s, y, score=score, min_size=min_size)
+    path = penalty_path(C)
+    assert np.all(np.diff(path.counts) > 0) and np.all(np.diff(path.costs) < 0)
+    for pen in pens:
+        _, cost = segment_penalty(C, pen)
+        i = path.index(pen)
+        assert path.costs[i] + path.counts[i] * pen == pytest.approx(cost, rel=1e-9, abs=1e-12)
+        assert path.penalty_lo[i] <= pen + 1e-12 and pen <= path.penalty_hi[i] + 1e-12
+
+
+def test_l2_costs_are_least_squares_lines():
+    rng = np.random.default_rng(1)
+    s = np.sort(rng.uniform(0, 50, 30))
+    y = rng.normal(size=30)
+    w = rng.uniform(0.1, 2, 30)
+    C = line_costs(s, y, weights=w, min_size=3)
+    sw = w.sum()
+    var = (w @ (y - (w @ y) / sw) ** 2) / sw
+    scale2 = var + (1e-2 / (s[-1] - s[0])) ** 2
+    for a, b in [(0, 30), (3, 11), (10, 13)]:
+        coef = np.polyfit(s[a:b], y[a:b], 1, w=np.sqrt(w[a:b]))
+        sse = w[a:b] @ (np.polyval(coef, s[a:b]) - y[a:b]) ** 2
+        assert C[a, b] == pytest.approx(sse / scale2 / sw, rel=1e-8)
+    assert np.isinf(C[0, 2])
+
+
+def test_penalties_do_not_depend_on_units_or_point_count():
+    s = np.linspace(0, 100, 201)
+    y = np.interp(s, [0, 40, 100], [0.02, 0.08, 0.03]) + np.random.default_rng(2).normal(0, 0.003, s.size)
+    C = line_costs(s, y)
+    C_units = line_costs(s * 1e-3, y * 1e3)     # metres and 1/m
+    assert np.allclose(C, C_units, rtol=1e-9, equal_nan=True)
+    # twice the points: the segmentation at a given penalty is the same
+    s2 = np.linspace(0, 100, 401)
+    y2 = np.interp(s2, s, y)
+    for pen in (0.003, 0.03):
+        b1, _ = segment_penalty(C, pen)
+        b2, _ = segment_penalty(line_costs(s2, y2), pen)
+        assert len(b1) == len(b2)
+
+
+def test_single_segment_optimum_does_not_crash():
+    s = np.linspace(0, 10, 20)
+    C = line_costs(s, 2 * s + 1)
+    bounds, cost = segment_penalty(C, 1.0)
+    assert list(bounds) == [0, 20] and cost == pytest.approx(1.0)
+    law = join_segments(s, 2 * s + 1, bounds)
+    assert law.n_segments == 1 and np.allclose(law.values, [1, 21])
+
+
+# ------------------------------------------------------------------ continuity
+
+
+def test_joins_recover_a_continuous_law():
+    s = np.linspace(0, 120, 241)
+    true = PiecewiseLinearLaw(np.array([0.0, 37.0, 81.0, 120.0]), np.array([0.02, 0.09, 0.03, 0.06]))
+    y = true(s)
+    C = line_costs(s, y)
+    bounds, _ = segment_penalty(C, 1e-3)
+    law = join_segments(s, y, bounds)
+    assert law.n_segments == 3
+    assert np.allclose(law.knots_mm, true.knots_mm, atol=0.5)
+    assert np.abs(law(s) - y).max() < 1e-3
+
+
+def test_overshooting_join_is_merged():
+    s = np.linspace(0, 30, 31)
+    y = np.r_[np.full(10, 1.0), np.full(10, 1.01), np.full(11, 1.0)] + 0.1 * s
+    # nearly parallel neighbours intersect far outside their span: merged
+    law = join_segments(s, y, np.array([0, 10, 20, 31]))
+    assert law.n_segments < 3
+    assert np.all(np.diff(law.knots_mm) > 0)
+
+
+def test_refit_is_the_best_continuous_fit_with_those_knots():
+    rng = np.random.default_rng(3)
+    s = np.linspace(0, 60, 121)
+    y = np.interp(s, [0, 25, 60], [1.0, 3.0, 0.0]) + rng.normal(0, 0.1, s.size)
+    law = join_segments(s, y, np.array([0, 50, 121]))
+    base = np.sum((law(s) - y) ** 2)
+    for j in range(law.values.size):          # no knot value can do better
+        for d in (-1e-3, 1e-3):
+            v = law.values.copy()
+            v[j] += d
+            assert np.sum((PiecewiseLinearLaw(law.knots_mm, v)(s) - y) ** 2) >= base
+
+
+# ------------------------------------------------------------------ registration and rebuild
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_registration_recovers_known_rotations(seed):
+    rng = np.random.default_rng(seed)
+    P = rng.normal(size=(50, 3)) * [30, 10, 5]
+    R = Rotation.random(random_state=seed).as_matrix()
+    t = rng.normal(size=3) * 100
+    R_est, t_est = register_rigid(P, P @ R.T + t)
+    assert np.allclose(R_est, R, atol=1e-9) and np.allclose(t_est, t, atol=1e-7)
+    assert np.linalg.det(R_est) == pytest.approx(1.0)
+
+
+def test_rebuild_with_the_true_laws_is_the_true_curve():
+    tc = random_pwc_curve(5, noise_mm=0.0)
+    kl, tl = PiecewiseLinearLaw(*tc.kappa_knots), PiecewiseLinearLaw(*tc.tau_knots)
+    R = Rotation.from_rotvec([0.3, -1.2, 0.5]).as_matrix()
+    data = tc.clean_mm @ R.T + [10, -20, 5]
+    pts, R_est, _ = rebuild_curve(tc.s_mm, kl, tl, data)
+    assert np.abs(pts - data).max() < 0.02
+    sc = fit_scores(pts, data, tc.s_mm)
+    assert sc.r2_entire > 0.999999 and sc.r2_base > 0.9999 and sc.r2_tip > 0.9999
+
+
+# ------------------------------------------------------------------ the fit
+
+
+def test_noise_free_piecewise_clothoid_recovers_its_laws():
+    tc = random_pwc_curve(3, noise_mm=0.0)
+    f = fit_piecewise_clothoid(tc.points_mm)
+    s = f.s_mm
+    assert f.r2 > 0.99999
+    assert mean_distance_mm(f.points_mm, tc.dense_mm) < 0.05
+    inner = (s > 10) & (s < s[-1] - 10)
+    assert np.median(np.abs(f.kappa_fit - np.interp(s, *tc.kappa_knots))[inner]) < 2e-3
+    assert np.median(np.abs(f.tau_fit - np.interp(s, *tc.tau_knots))[inner]) < 5e-3
+
+
+def test_helix_is_one_segment_each():
+    s = np.linspace(0, 150, 200)
+    P, *_ = integrate_frenet(s, np.full(200, 0.08), np.full(200, 0.03), [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 0],
+                             positions="exact")
+    f = fit_piecewise_clothoid(P + np.random.default_rng(0).normal(0, 0.05, P.shape))
+    assert f.n_segments_kappa <= 2 and f.n_segments_tau <= 2
+    assert np.median(f.kappa_fit) == pytest.approx(0.08, rel=0.02)
+    assert np.median(f.tau_fit) == pytest.approx(0.03, rel=0.1)
+
+
+def test_straight_line_and_planar_curve():
+    x = np.linspace(0, 100, 100)
+    line = np.c_[x, 0.5 * x, np.zeros_like(x)]
+    f = fit_piecewise_clothoid(line)
+    assert f.scores.rmse_mm < 1e-3
+    assert not f.frames.tau_defined.any()
+    assert np.abs(f.kappa_fit).max() < 1e-3
+    u = np.linspace(0, 2.5, 150)
+    arc = np.c_[40 * np.cos(u), 40 * np.sin(u), np.zeros_like(u)]
+    f = fit_piecewise_clothoid(arc)
+    assert f.scores.rmse_mm < 0.01 and np.abs(f.points_mm[:, 2]).max() < 0.01
+
+
+def test_degenerate_inputs_raise_named_errors():
+    with pytest.raises(DegenerateCurveError):
+        fit_piecewise_clothoid(np.zeros((20, 3)))
+    with pytest.raises(DegenerateCurveError):
+        fit_piecewise_clothoid(np.array([[0, 0, 0], [1, 0, 0], [0, 0, 0.0]]))
+    with pytest.raises(ValueError, match="selection"):
+        fit_piecewise_clothoid(np.random.default_rng(0).normal(size=(20, 3)), selection="magic")
+
+
+def test_fixed_penalties_and_the_l1_score():
+    tc = random_pwc_curve(7)
+    few = fit_piecewise_clothoid(tc.points_mm, selection="fixed", penalty_kappa=0.2, penalty_tau=0.2, refine=False)
+    many = fit_piecewise_clothoid(tc.points_mm, selection="fixed", penalty_kappa=1e-3, penalty_tau=1e-3,
+                                  refine=False, score="l1")
+    assert few.n_segments_kappa <= many.n_segments_kappa
+    assert few.penalty_range_kappa[0] == 0.2
+
+
+def test_accuracy_on_noisy_ground_truth():
+    """Issue figures: 0.15 mm noise, mean distance <= 0.3 mm and R^2 >= 0.999 on >= 95 % of curves."""
+    dist, r2, knot_err = [], [], []
+    for seed in range(20):
+        tc = random_pwc_curve(seed)
+        f = fit_piecewise_clothoid(tc.points_mm)
+        dist.append(mean_distance_mm(f.points_mm, tc.dense_mm))
+        r2.append(f.r2)
+        true = tc.kappa_knots[0][1:-1]
+        found = f.kappa_law.knots_mm[1:-1]
+        if true.size and found.size:
+            knot_err.extend(np.min(np.abs(found[:, None] - true[None, :]), axis=0))
+    dist, r2 = np.array(dist), np.array(r2)
+    assert np.mean(dist <= 0.3) >= 0.95, dist
+    assert np.mean(r2 >= 0.999) >= 0.95, r2
+    # breakpoints: the true curvature knots are found within a few mm (median)
+    assert np.median(knot_err) < 5.0, knot_err
+
+
+def test_grid_search_and_penalty_table():
+    tc = random_pwc_curve(2)
+    g = grid_search_penalties(tc.points_mm, grid=6, refinements=3)
+    assert g.levels and g.levels[0].r2.shape == (6, 6)
+    assert g.fit.r2 == pytest.approx(g.levels[-1].r2[g.levels[-1].best])
+    if g.converged:
+        assert g.fit.r2 > 0.999
+    rows = penalty_table(tc.points_mm, [(0.001, 0.001), (0.3, 0.3)])
+    assert rows[0]["n_kappa"] >= rows[1]["n_kappa"]
+    assert {"r2_entire", "r2_base", "r2_tip", "sse_entire_mm2"} <= set(rows[0])
