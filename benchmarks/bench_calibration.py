@@ -1,7 +1,11 @@
 """Calibration accuracy and speed on rendered frames and on phantom experiments.
 
     .venv/bin/python benchmarks/bench_calibration.py corners    # refinement methods compared
+    .venv/bin/python benchmarks/bench_calibration.py synthetic  # single marker vs bundle adjustment
     .venv/bin/python benchmarks/bench_calibration.py phantom [SITES] [--seeds 0,1]
+
+``synthetic``: exact corners plus noise; camera rotation error and agreement
+of the single-marker poses and of the bundle adjustment.
 
 ``corners``: the board of tests/test_calibration.py rendered through the
 IJCV25 rig with lens distortion at several blur levels; per corner refinement
@@ -60,6 +64,33 @@ def bench_corners() -> None:
             print(f"{blur:4.1f} {method:>8} {e.mean():11.3f} {e.max():6.3f} {max(rots):7.3f} {s.max():9.2f} {a.max():11.3f} {dt:9.0f}")
 
 
+def bench_synthetic(seeds: int = 20) -> None:
+    """Pose error (deg) and working-volume agreement (px) of single-marker vs adjusted
+    poses on exact corners plus Gaussian noise, the markers of tests/test_calibration.py."""
+    from tests import test_calibration as T
+    from tendrilkit.calibration import bundle_adjust
+
+    P = T.working_volume()
+    print(f"{'sigma px':>8} {'single deg (median/max)':>24} {'adjusted deg':>14} {'single px':>12} {'adjusted px':>12} {'BA ms':>6}")
+    for sigma in (0.05, 0.1, 0.3, 0.5):
+        rows = []
+        for seed in range(seeds):
+            rng = np.random.default_rng(seed)
+            truth = T.distorted_rig()
+            obs = T._observe(truth, T._synthetic_markers(rng), rng, sigma)
+            single = [c.with_pose(*marker_pose(obs[v][T.WORLD_ID], c, T.L)) for v, c in enumerate(truth)]
+            t0 = time.perf_counter()
+            cams, _ = bundle_adjust(single, obs, world_id=T.WORLD_ID, length_mm=T.L)
+            dt = time.perf_counter() - t0
+            rows.append((max(T.rot_err_deg(a.R, b.R) for a, b in zip(single, truth)),
+                         max(T.rot_err_deg(a.R, b.R) for a, b in zip(cams, truth)),
+                         rig_agreement_px(single, truth, P)[0].max(), rig_agreement_px(cams, truth, P)[0].max(), dt * 1000))
+        r = np.array(rows)
+        med, mx = np.median(r, 0), r.max(0)
+        print(f"{sigma:8.2f} {med[0]:11.3f}/{mx[0]:<12.3f} {med[1]:6.3f}/{mx[1]:<7.3f} {med[2]:5.2f}/{mx[2]:<6.2f} "
+              f"{med[3]:5.2f}/{mx[3]:<6.2f} {med[4]:6.0f}")
+
+
 def bench_phantom(sites: list[str], seeds: list[int], n_frames: int = 2) -> None:
     from tendrilkit.calibration import calibrate_experiment
     from tendrilkit.io import read_cameras, read_csv
@@ -92,6 +123,8 @@ if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else "corners"
     if what == "corners":
         bench_corners()
+    elif what == "synthetic":
+        bench_synthetic()
     else:
         sites = sys.argv[2].split(",") if len(sys.argv) > 2 and not sys.argv[2].startswith("--") else ["S1", "S2", "S3", "S4"]
         seeds = [0]
