@@ -1,0 +1,82 @@
+"""Timings of the piece-wise clothoid fit (prints; not a test).
+
+    .venv/bin/python benchmarks/bench_pwc.py [--frames 100]
+
+1. one 200-point frame: automatic penalty selection + rebuild (issue target: <= 50 ms;
+   the paper: about 200 s; a port of the reference's 10-step search: about 4 s);
+2. the paper's grid search on the same frames;
+3. ``python -m tendrilkit fit`` on a 100-frame curves.csv, process start included
+   (issue target: <= 10 s), run twice: the first run may compile numba's cache.
+Also prints the accuracy on the seeded noisy ground-truth curves.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from tendrilkit.pwc import fit_piecewise_clothoid, grid_search_penalties  # noqa: E402
+from tests.pwc_truth import mean_distance_mm, random_pwc_curve  # noqa: E402
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--frames", type=int, default=100)
+    ap.add_argument("--curves", type=int, default=40, help="ground-truth curves for the per-frame figures")
+    args = ap.parse_args()
+
+    curves = [random_pwc_curve(1000 + i) for i in range(args.curves)]
+    t = time.perf_counter()
+    fit_piecewise_clothoid(curves[0].points_mm)
+    print(f"first call (numba cache load or compile): {1e3 * (time.perf_counter() - t):.0f} ms")
+
+    times, dist, r2 = [], [], []
+    for tc in curves:
+        t = time.perf_counter()
+        f = fit_piecewise_clothoid(tc.points_mm)
+        times.append(time.perf_counter() - t)
+        dist.append(mean_distance_mm(f.points_mm, tc.dense_mm))
+        r2.append(f.r2)
+    times, dist, r2 = 1e3 * np.array(times), np.array(dist), np.array(r2)
+    print(f"auto selection + rebuild, 200 points: median {np.median(times):.1f} ms, "
+          f"mean {times.mean():.1f} ms, max {times.max():.1f} ms (target <= 50 ms)")
+    print(f"accuracy (0.15 mm noise): mean distance to truth median {np.median(dist):.3f} mm, "
+          f"<= 0.3 mm on {100 * np.mean(dist <= 0.3):.0f} %, R2 >= 0.999 on {100 * np.mean(r2 >= 0.999):.0f} %")
+
+    gt = []
+    for tc in curves[:10]:
+        t = time.perf_counter()
+        grid_search_penalties(tc.points_mm)
+        gt.append(time.perf_counter() - t)
+    print(f"paper's grid search (10 x 10, up to 4 levels): median {1e3 * np.median(gt):.1f} ms per frame")
+
+    import pandas as pd
+
+    with tempfile.TemporaryDirectory() as tmp:
+        rows = []
+        for f in range(args.frames):
+            P = random_pwc_curve(5000 + f).points_mm
+            rows.append(pd.DataFrame({"frame": f, "time_s": 20.0 * f, "point": np.arange(len(P)),
+                                      "x_mm": P[:, 0], "y_mm": P[:, 1], "z_mm": P[:, 2]}))
+        csv = Path(tmp) / "curves.csv"
+        pd.concat(rows).to_csv(csv, index=False)
+        for run in (1, 2):
+            t = time.perf_counter()
+            r = subprocess.run([sys.executable, "-m", "tendrilkit", "fit", str(csv), "--out", str(Path(tmp) / "out")],
+                               cwd=REPO, capture_output=True, text=True)
+            dt = time.perf_counter() - t
+            print(f"fit command, {args.frames} frames, run {run}: {dt:.2f} s end to end (target <= 10 s)"
+                  f" [{r.stdout.strip() or r.stderr.strip()}]")
+
+
+if __name__ == "__main__":
+    main()
