@@ -145,6 +145,7 @@ def _refine_corners_edges(grey: np.ndarray, corners_xy: np.ndarray, *, cells: in
     """
     g = grey.astype(np.float32)
     c = np.asarray(corners_xy, dtype=float).copy()
+    c0 = c.copy()
     h, w = g.shape
     U = marker_object_corners(1.0)[:, :2]  # unit square, marker x right, y up
     for _ in range(iterations):
@@ -193,10 +194,12 @@ def _refine_corners_edges(grey: np.ndarray, corners_xy: np.ndarray, *, cells: in
         dil = dil[np.isfinite(dil)]
         b_used = bias if bias is not None else (float(np.median(dil)) if dil.size >= 10 else 0.0)
         lines = []
+        poor = False
         for base, n, outer in sides:
             ok = np.isfinite(outer)
             if ok.sum() < 6:
                 return None
+            n_samples = len(outer)
             p = base[ok] + (outer[ok] - b_used)[:, None] * n[None, :]
             if camera is not None:
                 p = camera.undistort_points(p)
@@ -211,13 +214,19 @@ def _refine_corners_edges(grey: np.ndarray, corners_xy: np.ndarray, *, cells: in
                 if keep.all() or keep.sum() < 6:
                     break
                 p = p[keep]
+            r = (p - p.mean(axis=0)) @ nrm
+            poor |= len(p) < 0.5 * n_samples or float(np.sqrt(np.mean(r ** 2))) > 0.35
             lines.append(np.array([nrm[0], nrm[1], nrm @ m]))
         new = np.array([_line_intersection(lines[(i - 1) % 4], lines[i]) for i in range(4)])
         if camera is not None:
             new = camera.distort_points(new)
-        if not np.all(np.isfinite(new)) or np.abs(new - c).max() > 3.0:
+        # OpenCV's corner can be pulled several pixels by something dark touching
+        # the marker; the lines are not, but they must stay near the quad
+        if not np.all(np.isfinite(new)) or np.abs(new - c0).max() > max(3.0, 0.2 * side.mean()):
             return None
         c = new
+    if poor:  # lines through too few or too scattered edge points: keep OpenCV's corners
+        return None
     return c, (float(np.median(dil)) if dil.size else np.nan), int(dil.size)
 
 

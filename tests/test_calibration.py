@@ -172,6 +172,20 @@ def test_detect_markers_no_dilation_under_gamma():
     assert np.linalg.norm(plain[WORLD_ID] - truth, axis=1).mean() > 0.3  # what OpenCV alone gives
 
 
+def test_detect_markers_dark_blob_at_a_corner(rendered):
+    """Something dark touching a corner (a leaf, the stem) pulls OpenCV's corner
+    by ~15 px; the side lines ignore it."""
+    cams, images, corners = rendered
+    cam, img = cams[1], images[1].copy()
+    truth = cam.project(corners[WORLD_ID])
+    x, y = (int(round(v)) for v in truth[1])  # top-right corner of the world marker
+    cv2.line(img, (x - 2, y - 2), (x + 8, y + 8), (40, 60, 30), 5, cv2.LINE_AA)
+    plain = detect_markers(img, DICT, refine="subpix")[WORLD_ID]
+    ours = detect_markers(img, DICT, camera=cam)[WORLD_ID]
+    assert np.linalg.norm(plain - truth, axis=1).max() > 5
+    assert np.linalg.norm(ours - truth, axis=1).max() < 0.15
+
+
 def test_marker_pose_round_trip(rendered):
     cams, images, corners = rendered
     for cam, img in zip(cams, images):
