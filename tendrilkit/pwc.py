@@ -455,7 +455,8 @@ class PiecewiseLinearLaw:
 
     def step_means(self, s_mm: np.ndarray) -> np.ndarray:
         """Exact mean of the law over each step ``[s_i, s_{i+1}]``, shape (n - 1,)."""
-        return _step_mean_matrix(np.asarray(s_mm, dtype=float), self.knots_mm) @ self.values
+        return _pwl_step_means(np.ascontiguousarray(s_mm, dtype=float), np.ascontiguousarray(self.knots_mm, dtype=float),
+                               np.ascontiguousarray(self.values, dtype=float))
 
     def segments(self) -> list[tuple[float, float, float, float]]:
         """``(s0_mm, s1_mm, value at s0, value at s1)`` per segment."""
@@ -866,109 +867,97 @@ def _lm_evaluate(s, kk, vk, kt, vt, data):
     return f, P, T, B, R, X
 
 
-def _unpack(q, mk, mt, kk, kt, free_knots):
-    vk = q[:mk]
+@njit(cache=True)
+def _unpack_nb(q, kk, kt, free_knots):
+    mk, mt = kk.shape[0], kt.shape[0]
+    kk2 = kk.copy()
+    kt2 = kt.copy()
+    vk = q[:mk].copy()
     o = mk
     if free_knots and mk > 2:
-        kk = np.concatenate([kk[:1], q[o:o + mk - 2], kk[-1:]])
+        kk2[1:mk - 1] = q[o:o + mk - 2]
         o += mk - 2
-    vt = q[o:o + mt]
+    vt = q[o:o + mt].copy()
     o += mt
     if free_knots and mt > 2:
-        kt = np.concatenate([kt[:1], q[o:o + mt - 2], kt[-1:]])
-    return kk, vk, kt, vt
+        kt2[1:mt - 1] = q[o:o + mt - 2]
+    return kk2, vk, kt2, vt
 
 
-def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, stages=(1.0,), **kw):
-    """:func:`_refine_laws_lm1` by continuation along the curve.
+@njit(cache=True)
+def _min_gap_of(k):
+    g = np.inf
+    for i in range(k.shape[0] - 1):
+        g = min(g, k[i + 1] - k[i])
+    return g
 
-    Errors of the laws accumulate from the base, so a fit of the whole curve
-    from a rough start can fall into a local minimum; fitting the base part
-    first, then longer parts, keeps each step in the basin of the optimum.
-    """
+
+@njit(cache=True)
+def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
+    mk, mt = kk.shape[0], kt.shape[0]
+    ik = mk - 2 if (free_knots and mk > 2) else 0
+    it = mt - 2 if (free_knots and mt > 2) else 0
+    npar = mk + ik + mt + it
+    p = np.empty(npar)
+    p[:mk] = vk
+    p[mk:mk + ik] = kk[1:mk - 1][:ik]
+    p[mk + ik:mk + ik + mt] = vt
+    p[mk + ik + mt:] = kt[1:mt - 1][:it]
+    is_knot = np.zeros(npar, dtype=np.bool_)
+    is_knot[mk:mk + ik] = True
+    is_knot[mk + ik + mt:] = True
     L = s[-1] - s[0]
-    f = np.inf
-    for frac in stages:
-        m = s.size if frac >= 1 else int(np.searchsorted(s, s[0] + frac * L)) + 1
-        if m < 10:
-            continue
-        (kk, vk, kt, vt), f = _refine_laws_lm1(s[:m], data[:m], kk, vk, kt, vt, free_knots=free_knots,
-                                               min_gap=min_gap, span=(s[0], s[-1]), **kw)
-    return (kk, vk, kt, vt), f
-
-
-def _refine_laws_lm1(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, iterations=40, rtol=1e-6,
-                     span=None):
-    """Levenberg-Marquardt on the knot values (and inner knot positions).
-
-    Residuals are the registered 3D errors. The Jacobian is analytic: a change
-    :math:`\\delta` of the curvature over step ``i`` rotates the rest of the
-    curve about :math:`B_i` through the step by :math:`h_i \\delta` (torsion:
-    about :math:`T_i`), so :math:`\\partial P_j = \\sum_{i<j} h_i \\delta_i
-    D_i \\times (P_j - P_i)`, two running sums; a parameter moves the step
-    means through :func:`_law_columns`. The rigid registration's six freedoms
-    are part of each step (variable projection). Knots stay ``min_gap`` mm apart.
-    """
-    mk, mt = kk.size, kt.size
-    parts = [vk]
-    if free_knots and mk > 2:
-        parts.append(kk[1:-1])
-    parts.append(vt)
-    if free_knots and mt > 2:
-        parts.append(kt[1:-1])
-    p = np.concatenate(parts).astype(float)
-    is_knot = np.zeros(p.size, bool)
-    if free_knots:
-        o = mk
-        is_knot[o:o + max(mk - 2, 0)] = True
-        o += max(mk - 2, 0) + mt
-        is_knot[o:o + max(mt - 2, 0)] = True
-    L = (s[-1] - s[0]) if span is None else (span[1] - span[0])
     max_value_step = 1.0 / L
     max_knot_step = 0.1 * L
-    if s[-1] < kk[-1] or s[-1] < kt[-1]:
-        # a part of the curve: knots beyond its end do not move
-        fixed_k = kk[1:-1] > s[-1] - min_gap
-        fixed_t = kt[1:-1] > s[-1] - min_gap
-    else:
-        fixed_k = np.zeros(max(mk - 2, 0), bool)
-        fixed_t = np.zeros(max(mt - 2, 0), bool)
-    frozen = np.zeros(p.size, bool)
-    if free_knots:
-        frozen[mk:mk + max(mk - 2, 0)] = fixed_k
-        o = mk + max(mk - 2, 0) + mt
-        frozen[o:o + max(mt - 2, 0)] = fixed_t
-    ck = _unpack(p, mk, mt, kk, kt, free_knots)
-    gap_k, gap_t = 0.5 * np.diff(kk).min(), 0.5 * np.diff(kt).min()
-    f, P, T, B, R, X = _lm_evaluate(s, *ck, data)
+    gap_k = min(min_gap, 0.5 * _min_gap_of(kk))
+    gap_t = min(min_gap, 0.5 * _min_gap_of(kt))
+    ck = _unpack_nb(p, kk, kt, free_knots)
+    f, P, T, B, R, X = _lm_evaluate(s, ck[0], ck[1], ck[2], ck[3], data)
     mu = 1e-4
+    n = s.shape[0]
+    r = np.empty(3 * n)
     for _ in range(iterations):
         Gk = _law_columns(s, ck[0], ck[1], free_knots)
         Gt = _law_columns(s, ck[2], ck[3], free_knots)
         J = _lm_jacobian(s, P, T, B, R, X, Gk, Gt)
-        r = (X - data).ravel()
+        for j in range(n):
+            for c in range(3):
+                r[3 * j + c] = X[j, c] - data[j, c]
         g = J.T @ r
         H = J.T @ J
-        d = np.diag(H).copy() + 1e-12 * (np.trace(H) + 1e-300)
+        m = H.shape[0]
+        tr = 0.0
+        for i in range(m):
+            tr += H[i, i]
         improved = False
+        fq = f
+        q = p
+        cq = ck
+        Pq, Tq, Bq, Rq, Xq = P, T, B, R, X
         for _ in range(12):
-            try:
-                step = np.linalg.solve(H + mu * np.diag(d), -g)[: p.size]
-                step[frozen] = 0.0
-            except np.linalg.LinAlgError:
-                mu *= 10.0
-                continue
-            # the linear model's reach: 1/L of curvature or torsion, L/10 of knot position
-            if (not np.all(np.isfinite(step)) or np.abs(step[~is_knot]).max() > max_value_step
-                    or (is_knot.any() and np.abs(step[is_knot]).max() > max_knot_step)):
+            A = H.copy()
+            for i in range(m):
+                A[i, i] += mu * (H[i, i] + 1e-12 * tr + 1e-300)
+            step = np.linalg.solve(A, -g)[:npar]
+            ok = True
+            for i in range(npar):
+                v = step[i]
+                if not np.isfinite(v):
+                    ok = False
+                elif is_knot[i]:
+                    if abs(v) > max_knot_step:
+                        ok = False
+                elif abs(v) > max_value_step:
+                    ok = False
+            if not ok:
                 mu *= 10.0
                 continue
             q = p + step
-            cq = _unpack(q, mk, mt, kk, kt, free_knots)
-            if (np.diff(cq[0]).min() < min(min_gap, gap_k) or np.diff(cq[2]).min() < min(min_gap, gap_t)):
+            cq = _unpack_nb(q, kk, kt, free_knots)
+            if _min_gap_of(cq[0]) < gap_k or _min_gap_of(cq[2]) < gap_t:
                 mu *= 10.0
                 continue
-            fq, Pq, Tq, Bq, Rq, Xq = _lm_evaluate(s, *cq, data)
+            fq, Pq, Tq, Bq, Rq, Xq = _lm_evaluate(s, cq[0], cq[1], cq[2], cq[3], data)
             if fq < f:
                 improved = True
                 break
@@ -980,7 +969,26 @@ def _refine_laws_lm1(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, i
         mu = max(mu / 10.0, 1e-12)
         if rel < rtol:
             break
-    return ck, float(f)
+    return ck[0], ck[1], ck[2], ck[3], f
+
+
+def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, iterations=40, rtol=1e-6):
+    """Levenberg-Marquardt on the knot values (and inner knot positions), compiled.
+
+    Residuals are the registered 3D errors. The Jacobian is analytic: a change
+    :math:`\\delta` of the curvature over step ``i`` rotates the rest of the
+    curve about :math:`B_i` through the step by :math:`h_i \\delta` (torsion:
+    about :math:`T_i`), so :math:`\\partial P_j = \\sum_{i<j} h_i \\delta_i
+    D_i \\times (P_j - P_i)`, two running sums; a parameter moves the step
+    means through :func:`_law_columns`. The rigid registration's six freedoms
+    are part of each step (variable projection). Each iteration changes a
+    value by at most 1/L and a knot by at most L/10 (the reach of the linear
+    model); knots stay ``min_gap`` mm apart.
+    """
+    f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    kk2, vk2, kt2, vt2, sse = _lm_core(f(s), f(data), f(kk), f(vk), f(kt), f(vt), bool(free_knots),
+                                       float(min_gap), int(iterations), float(rtol))
+    return (kk2, vk2, kt2, vt2), float(sse)
 
 
 # ---------------------------------------------------------------- the fit
