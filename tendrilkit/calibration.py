@@ -7,7 +7,9 @@ The method in four steps:
 
 1. :func:`detect_markers`: ArUco detection (OpenCV's class API) with the
    corners refined from the marker's edges: sub-pixel edge points along each
-   side, undistorted, one straight line per side, corners where the lines meet.
+   side, undistorted, one straight line per side, corners where the lines
+   meet; the black border's measured width removes the bias that a non-linear
+   camera response puts on every edge (it would scale the whole rig).
 2. :func:`marker_pose`: the world marker's pose in each view,
    ``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)`` with the lens distortion. This
    single-marker pose is what the paper uses as the camera pose.
@@ -15,8 +17,15 @@ The method in four steps:
    square of unknown pose and side length; the camera poses and these squares
    are refined jointly on all corner observations, the world marker's corners
    held at :func:`marker_object_corners` (which fixes the frame and the scale).
-4. :func:`calibrate` composes them; :func:`calibrate_experiment` and
-   :func:`calibrate_to_dir` run them on an experiment file's first frame.
+   Markers found to lie on the world marker's board are then held in its
+   plane, which pins the world frame's tilt over the board's whole extent.
+4. :func:`calibrate` (images) and :func:`calibrate_from_observations`
+   (corners) compose them; :func:`calibrate_experiment` and
+   :func:`calibrate_to_dir` run them on an experiment file's first processed
+   frame, or load the authors' stored poses (``extrinsics: ijcv25``).
+
+:func:`rig_agreement_px` measures a calibration against another (the truth of
+a phantom) where it matters: on points of the tendril's working volume.
 
 Why squares and not free 3D corners: a printed ArUco marker is a flat square,
 so 7 unknowns (pose and side) instead of 12 describe it exactly; the four
