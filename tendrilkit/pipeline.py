@@ -71,7 +71,7 @@ from tendrilkit.frenet import resample_curve
 from tendrilkit.pwc import fit_piecewise_clothoid
 from tendrilkit.segmentation import segment_view
 from tendrilkit.skeleton import order_skeleton
-from tendrilkit.triangulation import reprojection_table, triangulate
+from tendrilkit.triangulation import refine_to_curves, reprojection_table, triangulate
 
 __all__ = ["FrameResult", "reconstruct_frame", "run_reconstruct", "frame_fingerprint", "RESULT_FILES"]
 
@@ -277,10 +277,19 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         tri = triangulate(matched, cams, refine=exp.triangulation.refine)
         timings["triangulate"] = time.perf_counter() - t0
         good = np.all(np.isfinite(tri.points_mm), axis=1)
+        # gross outliers (a wrong match triangulates anywhere): more than 3x the match tolerance
+        with np.errstate(invalid="ignore"):
+            worst = np.nanmax(np.where(np.isfinite(tri.reproj_err_px), tri.reproj_err_px, -1.0), axis=0)
+        good &= worst <= 3.0 * exp.correspondence.max_distance_px
         if good.sum() < max(10, k // 10):
             raise DegenerateCurveError(f"only {int(good.sum())} of {k} points could be triangulated")
+        tri_pts = tri.points_mm[good]
+        if exp.triangulation.to_curves:
+            t0 = time.perf_counter()
+            tri_pts = refine_to_curves(tri_pts, [curves[v] for v in used], cams)
+            timings["to_curves"] = time.perf_counter() - t0
         t0 = time.perf_counter()
-        points = resample_curve(tri.points_mm[good], k)
+        points = resample_curve(tri_pts, k)
         timings["resample"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         table = reprojection_table(points, [curves[v] for v in range(V)], cameras)
