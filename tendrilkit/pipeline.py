@@ -73,7 +73,7 @@ from tendrilkit.segmentation import segment_view
 from tendrilkit.skeleton import order_skeleton
 from tendrilkit.triangulation import refine_to_curves, reprojection_table, triangulate
 
-__all__ = ["FrameResult", "reconstruct_frame", "run_reconstruct", "frame_fingerprint", "RESULT_FILES"]
+__all__ = ["FrameResult", "reconstruct_frame", "run_reconstruct", "frame_fingerprint", "accuracy_against_truth", "RESULT_FILES"]
 
 #: The tables :func:`run_reconstruct` writes in ``DIR`` (besides ``cameras.json`` and ``frames/``).
 RESULT_FILES = ("curves.csv", "pwc_curves.csv", "frames.csv", "reprojection.csv", "ordering.csv",
@@ -467,8 +467,27 @@ def _chunks(frames: list[int], workers: int) -> list[list[int]]:
     return [frames[i:i + size] for i in range(0, len(frames), size)]
 
 
+def _with_overrides(exp, overrides: dict | None):
+    """The experiment with some optional sections changed, validated again."""
+    if not overrides:
+        return exp
+    from tendrilkit.params import Experiment
+
+    data = exp.model_dump()
+    for key, value in overrides.items():
+        if isinstance(value, dict) and isinstance(data.get(key), dict):
+            data[key] = {**data[key], **value}
+        else:
+            data[key] = value
+    try:
+        new = Experiment.model_validate(data)
+    except Exception as e:  # pydantic's ValidationError: a programming mistake of the caller
+        raise ValueError(f"overrides {overrides!r} do not validate: {e}") from None
+    return new.model_copy(update={"source": exp.source})
+
+
 def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers: int | None = None,
-                    progress: bool = True, fit: bool = True) -> int:
+                    progress: bool = True, fit: bool = True, overrides: dict | None = None) -> int:
     """``python -m tendrilkit reconstruct``: every selected frame of an experiment.
 
     Parameters
@@ -485,6 +504,10 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         Progress bar on a terminal (:func:`tendrilkit.progress.progress`).
     fit : bool
         Fit the piece-wise clothoid (``pwc_curves.csv``).
+    overrides : dict, optional
+        Optional sections of the experiment to change for this run, e.g.
+        ``{"correspondence": {"method": "frechet"}}`` (they enter the
+        fingerprint).
 
     Returns
     -------
@@ -503,7 +526,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     from tendrilkit.params import check_against_images, load_experiment
     from tendrilkit.progress import progress as progress_bar
 
-    exp = load_experiment(experiment_path)
+    exp = _with_overrides(load_experiment(experiment_path), overrides)
     out = check_writable_dir(out_dir)
     sources = open_views(list(exp.videos))
     try:
@@ -606,3 +629,45 @@ def _iter_chunk(frames, state, exp, cameras, fit):
     finally:
         for s in sources:
             s.close()
+
+
+# ------------------------------------------------------------------ accuracy
+def accuracy_against_truth(curves: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFrame:
+    """Per frame: distance of a reconstruction to the true 3D centreline (phantoms).
+
+    Parameters
+    ----------
+    curves : pandas.DataFrame
+        ``curves.csv`` (``frame, point, x_mm, y_mm, z_mm``).
+    truth : pandas.DataFrame
+        The true centrelines, same columns (e.g. a phantom's ``gt_curves.csv``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``frame``, ``mean_mm`` and ``max_mm`` (distance of each reconstructed
+        point to the true polyline), ``base_mm`` and ``tip_mm`` (distance of
+        the first and last points to the true ends), sorted by frame.
+    """
+    from scipy.spatial import cKDTree
+
+    rows = []
+    for frame, g in curves.groupby("frame", sort=True):
+        t = truth[truth.frame == frame].sort_values("point")
+        if t.empty:
+            continue
+        X = t[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
+        P = g.sort_values("point")[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
+        seg = np.linalg.norm(np.diff(X, axis=0), axis=1)
+        n = max(2, int(np.ceil(seg.sum() / 0.02)))  # the true polyline every 0.02 mm
+        Xd = _resample_linear(X, n)
+        d, _ = cKDTree(Xd).query(P)
+        rows.append({"frame": int(frame), "mean_mm": float(d.mean()), "max_mm": float(d.max()),
+                     "base_mm": float(np.linalg.norm(P[0] - X[0])), "tip_mm": float(np.linalg.norm(P[-1] - X[-1]))})
+    return pd.DataFrame(rows, columns=["frame", "mean_mm", "max_mm", "base_mm", "tip_mm"])
+
+
+def _resample_linear(X: np.ndarray, n: int) -> np.ndarray:
+    from tendrilkit.correspondence import resample_by_arclength
+
+    return resample_by_arclength(X, n)
