@@ -54,8 +54,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy.interpolate import PchipInterpolator
-from scipy.linalg import solveh_banded
 
 from tendrilkit.exceptions import DegenerateCurveError
 
@@ -76,6 +74,42 @@ def _check_points(points_mm: np.ndarray, name: str = "points_mm") -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite, got {int((~np.isfinite(arr)).any(axis=1).sum())} rows with NaN or inf")
     return arr
+
+
+def _pchip_slopes(u: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Fritsch-Carlson (PCHIP) derivatives at the nodes, shape preserving, per column."""
+    h = np.diff(u)[:, None]
+    d = np.diff(y, axis=0) / h
+    m = np.zeros_like(y)
+    if y.shape[0] == 2:
+        m[:] = d[0]
+        return m
+    w1 = 2 * h[1:] + h[:-1]
+    w2 = h[1:] + 2 * h[:-1]
+    same = (np.sign(d[1:]) * np.sign(d[:-1])) > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        hm = (w1 + w2) / (w1 / d[:-1] + w2 / d[1:])
+    m[1:-1] = np.where(same, hm, 0.0)
+
+    def end(h0, h1, d0, d1):
+        e = ((2 * h0 + h1) * d0 - h0 * d1) / (h0 + h1)
+        e = np.where(np.sign(e) != np.sign(d0), 0.0, e)
+        return np.where((np.sign(d0) != np.sign(d1)) & (np.abs(e) > np.abs(3 * d0)), 3 * d0, e)
+
+    m[0] = end(h[0], h[1], d[0], d[1])
+    m[-1] = end(h[-1], h[-2], d[-1], d[-2])
+    return m
+
+
+def _pchip(u: np.ndarray, y: np.ndarray, ui: np.ndarray) -> np.ndarray:
+    """Piecewise cubic Hermite interpolation with PCHIP slopes (as scipy's PchipInterpolator)."""
+    m = _pchip_slopes(u, y)
+    j = np.clip(np.searchsorted(u, ui, side="right") - 1, 0, u.size - 2)
+    h = (u[j + 1] - u[j])[:, None]
+    t = ((ui - u[j])[:, None]) / h
+    t2, t3 = t * t, t * t * t
+    return ((2 * t3 - 3 * t2 + 1) * y[j] + (t3 - 2 * t2 + t) * h * m[j]
+            + (-2 * t3 + 3 * t2) * y[j + 1] + (t3 - t2) * h * m[j + 1])
 
 
 def resample_curve(points_mm: np.ndarray, n: int | None = None, *, min_points: int = 5) -> np.ndarray:
@@ -116,7 +150,7 @@ def resample_curve(points_mm: np.ndarray, n: int | None = None, *, min_points: i
         raise DegenerateCurveError(f"curve has {pts.shape[0]} distinct points; at least {min_points} are needed")
     u = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
     ui = np.linspace(0.0, u[-1], n)
-    out = PchipInterpolator(u, pts, axis=0)(ui)
+    out = _pchip(u, pts, ui)
     out[0], out[-1] = pts[0], pts[-1]
     return out
 
@@ -163,11 +197,45 @@ def whittaker_smooth(y: np.ndarray, *, lam: float) -> np.ndarray:
     if n == 3:
         main = np.array([1.0, 4.0, 1.0])
         off1 = np.array([-2.0, -2.0])
-    ab = np.zeros((3, n))
-    ab[2] = 1.0 + lam * main
-    ab[1, 1:] = lam * off1
-    ab[0, 2:] = lam * off2
-    return solveh_banded(ab, y, check_finite=False)
+    return _solve_penta(1.0 + lam * main, lam * off1, lam * off2, np.ascontiguousarray(y.reshape(n, -1))).reshape(y.shape)
+
+
+@njit(cache=True)
+def _solve_penta(d0, d1, d2, y):
+    """Solve a symmetric positive-definite pentadiagonal system (banded Cholesky), columns of y."""
+    n = d0.shape[0]
+    L0 = np.empty(n)
+    L1 = np.zeros(n)
+    L2 = np.zeros(n)
+    for i in range(n):
+        a2 = d2[i - 2] / L0[i - 2] if i >= 2 else 0.0
+        a1 = (d1[i - 1] - (a2 * L1[i - 1] if i >= 2 else 0.0)) / L0[i - 1] if i >= 1 else 0.0
+        L2[i] = a2
+        L1[i] = a1
+        v = d0[i] - a1 * a1 - a2 * a2
+        L0[i] = np.sqrt(v)
+    # L stored as: row i has L[i,i]=L0[i], L[i,i-1]=L1[i], L[i,i-2]=L2[i]
+    out = np.empty_like(y)
+    for c in range(y.shape[1]):
+        z = np.empty(n)
+        for i in range(n):
+            v = y[i, c]
+            if i >= 1:
+                v -= L1[i] * z[i - 1]
+            if i >= 2:
+                v -= L2[i] * z[i - 2]
+            z[i] = v / L0[i]
+        x = np.empty(n)
+        for i in range(n - 1, -1, -1):
+            v = z[i]
+            if i + 1 < n:
+                v -= L1[i + 1] * x[i + 1]
+            if i + 2 < n:
+                v -= L2[i + 2] * x[i + 2]
+            x[i] = v / L0[i]
+        for i in range(n):
+            out[i, c] = x[i]
+    return out
 
 
 def _extrapolate(end: np.ndarray, m_fit: int, m_pad: int) -> np.ndarray:
