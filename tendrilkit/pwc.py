@@ -64,8 +64,8 @@ Selection of the penalties (:func:`fit_piecewise_clothoid`):
     segmentation of either path while the criterion improves; each candidate
     is refined on the 3D points (below), warm-started from the current fit.
     The criterion is the Bayesian information criterion of the registered 3D
-    residuals, :math:`3n \ln(SSE / 3n) + p \ln(3n)` with :math:`p = 2
-    K_\kappa + 2 K_\tau + 6` (a value and a position per knot, the rigid
+    residuals, :math:`3n \\ln(SSE / 3n) + p \\ln(3n)` with :math:`p = 2
+    K_\\kappa + 2 K_\\tau + 6` (a value and a position per knot, the rigid
     registration), among fits that reach ``target_r2`` (below the target, the
     higher R^2 wins). BIC adds a segment only when it explains the shape
     beyond the noise; the paper's target-R^2 rule alone (``criterion="r2"``:
