@@ -215,10 +215,16 @@ class Triangulation(_Strict):
     default: with the epipolar matching it lowers that measure little (a
     miscalibrated rig leaves a residual no point can remove) and lets the
     ends slide along the curve; it rescues the Fréchet matching.
+    ``base_from_marks``: the keep-out box hides the first millimetres of the
+    tendril in every view; the ``base_point`` marks of the views are
+    triangulated and, when they agree (reprojection within
+    ``correspondence.max_distance_px``) and lie within 10 mm of the curve's
+    first point without folding back, the curve is extended to them.
     """
 
     refine: bool = True
     to_curves: bool = False
+    base_from_marks: bool = True
 
 
 class Smoothing(_Strict):

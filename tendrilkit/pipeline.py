@@ -161,14 +161,15 @@ def quality_columns(n_views: int) -> list[str]:
     """The quality columns of ``frames.csv``, in order, for ``n_views`` views.
 
     ``views_used`` (views whose 2D stage succeeded), ``n_matched`` (reference
-    points matched and triangulated), ``length_mm`` (centreline length),
+    points matched and triangulated), ``base_extended`` (the curve was
+    extended to the triangulated base marks), ``length_mm`` (centreline length),
     ``reproj_mean_px_v<i>`` / ``reproj_std_px_v<i>`` / ``reproj_max_px_v<i>``
     (distance of the projected centreline to view i's skeleton, entire
     tendril), ``tri_err_px_v<i>`` (mean reprojection error of the matched
     points at triangulation), ``pwc_r2``, ``pwc_sse_mm2``, ``pwc_rmse_mm``,
     ``pwc_segments_kappa``, ``pwc_segments_tau``, ``n_crossings_v<i>``.
     """
-    cols = ["views_used", "n_matched", "length_mm"]
+    cols = ["views_used", "n_matched", "base_extended", "length_mm"]
     for v in range(1, n_views + 1):
         cols += [f"reproj_mean_px_v{v}", f"reproj_std_px_v{v}", f"reproj_max_px_v{v}"]
     cols += [f"tri_err_px_v{v}" for v in range(1, n_views + 1)]
@@ -189,6 +190,31 @@ def _fit(points_mm: np.ndarray, exp):
     return fit_piecewise_clothoid(points_mm, selection=f.selection, target_r2=f.target_r2,
                                   penalty_kappa=f.penalty_kappa, penalty_tau=f.penalty_tau, score=f.score,
                                   smoothing_length_mm=exp.smoothing.length_mm, n_points=len(points_mm))
+
+
+_BASE_MAX_MM = 10.0
+
+
+def _base_from_marks(exp, cameras: list[Camera], points_mm: np.ndarray) -> np.ndarray | None:
+    """The triangulated ``base_point`` marks (3,), if they agree and continue the curve, else None."""
+    marks = np.array([[m.base_point] for m in exp.views], dtype=float)  # (V, 1, 2)
+    tri = triangulate(marks, cameras)
+    B = tri.points_mm[0]
+    if not np.all(np.isfinite(B)) or np.nanmax(tri.reproj_err_px) > exp.correspondence.max_distance_px:
+        return None
+    d = points_mm[0] - B
+    gap = float(np.linalg.norm(d))
+    if gap > _BASE_MAX_MM:
+        return None
+    if gap < 1e-6:
+        return None
+    # no folding back: the gap must continue the curve's first millimetres
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points_mm, axis=0), axis=1))])
+    j = int(np.searchsorted(s, min(3.0, s[-1] / 4)))
+    t = points_mm[max(j, 1)] - points_mm[0]
+    if np.dot(d, t) <= 0.5 * gap * np.linalg.norm(t):  # angle above 60 degrees
+        return None
+    return B
 
 
 def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], exp, *, frame: int = 0,
@@ -292,6 +318,12 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
             t0 = time.perf_counter()
             tri_pts = refine_to_curves(tri_pts, [curves[v] for v in used], cams)
             timings["to_curves"] = time.perf_counter() - t0
+        q_base = False
+        if exp.triangulation.base_from_marks:
+            base = _base_from_marks(exp, cameras, tri_pts)
+            if base is not None:
+                tri_pts = np.vstack([base, tri_pts])
+                q_base = True
         t0 = time.perf_counter()
         points = resample_curve(tri_pts, k)
         timings["resample"] = time.perf_counter() - t0
@@ -300,6 +332,7 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         timings["reprojection"] = time.perf_counter() - t0
         q: dict = {c: None for c in quality_columns(V)}
         q["views_used"] = len(used)
+        q["base_extended"] = q_base
         q["n_matched"] = int(good.sum())
         q["length_mm"] = float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
         for row in table.itertuples():
@@ -449,6 +482,7 @@ def _assemble(results: list[FrameResult], n_views: int, n_points: int) -> dict[s
     frames = pd.DataFrame(rows, columns=["frame", "time_s", "status", "message"] + qcols)
     for c in qcols:
         frames[c] = pd.to_numeric(frames[c], errors="coerce")
+    frames["base_extended"] = frames["base_extended"].astype("boolean")
     for c in ["views_used", "n_matched", "pwc_segments_kappa", "pwc_segments_tau"] + [f"n_crossings_v{v}" for v in range(1, n_views + 1)]:
         frames[c] = frames[c].astype("Int64")
     rcols = ["frame", "view", "section", "mean_px", "std_px", "max_px", "n_points"]
