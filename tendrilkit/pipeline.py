@@ -76,7 +76,7 @@ from tendrilkit.segmentation import segment_view
 from tendrilkit.skeleton import order_skeleton
 from tendrilkit.triangulation import refine_to_curves, reprojection_table, triangulate
 
-__all__ = ["FrameResult", "reconstruct_frame", "run_reconstruct", "frame_fingerprint", "accuracy_against_truth", "RESULT_FILES"]
+__all__ = ["FrameResult", "reconstruct_frame", "run_reconstruct", "frame_fingerprint", "accuracy_against_truth", "compare_correspondence", "RESULT_FILES"]
 
 #: The tables :func:`run_reconstruct` writes in ``DIR`` (besides ``cameras.json`` and ``frames/``).
 RESULT_FILES = ("curves.csv", "pwc_curves.csv", "frames.csv", "reprojection.csv", "ordering.csv",
@@ -752,3 +752,46 @@ def _resample_linear(X: np.ndarray, n: int) -> np.ndarray:
     from tendrilkit.correspondence import resample_by_arclength
 
     return resample_by_arclength(X, n)
+
+
+def compare_correspondence(experiment_path: str | Path, out_dir: str | Path, *, truth: pd.DataFrame | None = None,
+                           methods: tuple[str, ...] = ("epipolar", "frechet"), workers: int | None = None,
+                           fit: bool = False) -> pd.DataFrame:
+    """Reconstruct an experiment once per correspondence method and tabulate the figures per frame.
+
+    Each method runs into ``out_dir/<method>/`` (resumable like any run).
+
+    Parameters
+    ----------
+    experiment_path, out_dir : path
+    truth : pandas.DataFrame, optional
+        True centrelines (``frame, point, x_mm, y_mm, z_mm``; a phantom's
+        ``gt_curves.csv``): adds the columns of :func:`accuracy_against_truth`.
+    methods : tuple of str
+    workers : int, optional
+    fit : bool
+        Also fit the piece-wise clothoid (slower; not needed to compare).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per method and frame: ``method``, ``frame``, ``status``, the
+        reprojection columns ``reproj_mean_px_v<i>`` and, with ``truth``,
+        ``mean_mm, max_mm, base_mm, tip_mm``.
+    """
+    from tendrilkit.io import read_csv
+
+    out = Path(out_dir)
+    parts = []
+    for m in methods:
+        run_reconstruct(experiment_path, out / m, workers=workers, progress=False, fit=fit,
+                        overrides={"correspondence": {"method": m}})
+        f = read_csv(out / m / "frames.csv")
+        cols = ["frame", "status"] + [c for c in f.columns if c.startswith("reproj_mean_px_v")]
+        t = f[cols].copy()
+        if truth is not None:
+            acc = accuracy_against_truth(read_csv(out / m / "curves.csv"), truth)
+            t = t.merge(acc, on="frame", how="left")
+        t.insert(0, "method", m)
+        parts.append(t)
+    return pd.concat(parts, ignore_index=True)
