@@ -14,9 +14,11 @@
 4. a morphological opening with a disk (removes speckle and one-pixel bridges);
 5. connected components (8-connected); components under ``min_component_px``
    are dropped;
-6. the tendril's component: on the first frame the component containing, or
-   nearest to, the base point; on later frames the component whose centroid is
-   nearest the previous frame's centroid (the paper's tracking).
+6. the tendril's component: on the first frame the component at, or nearest
+   to, the base point (when several are about as near, as the stem and the
+   tendril on both sides of the keep-out box are, the thinnest of them); on
+   later frames the component whose centroid is nearest the previous frame's
+   centroid (the paper's tracking).
 
 No dialog or click anywhere: the ROI, keep-out box and base point come from the
 experiment file.
@@ -204,11 +206,9 @@ def segment_view(
     elif len(keep) == 1:
         best = int(keep[0])
     else:
-        # the component with the pixel nearest the base point
         p = np.asarray(base_point_xy, dtype=float).reshape(2) - offset
-        ok = areas[lab] >= max(min_component_px, 1)
-        d = np.hypot(cols[ok] - p[0], rows[ok] - p[1])
-        best = int(lab[ok][np.argmin(d)])
+        reach = 3.0 if keep_out is None else max(3.0, 0.5 * float(np.hypot(kw, kh)) + 2.0)
+        best = _pick_at_base(labels, rows, cols, lab, areas, keep, p, reach)
 
     mask = labels == best
     return TendrilMask(
@@ -219,3 +219,32 @@ def segment_view(
         n_components=len(keep),
     )
 
+
+def _pick_at_base(labels, rows, cols, lab, areas, keep, p_xy, reach: float) -> int:
+    """The tendril's component on the first frame.
+
+    Candidates: the component nearest the base point and every other one
+    whose nearest pixel is less than ``reach`` farther (the keep-out box sits
+    between the tendril and the stem, so both are about equally near a base
+    point marked in the box). Among them, the thinnest: twice the area over
+    the perimeter, a tube's width (the tendril is thinner than the stem and
+    the node it leaves).
+    """
+    ok = np.isin(lab, keep)
+    d = np.hypot(cols[ok] - p_xy[0], rows[ok] - p_xy[1])
+    lk = lab[ok]
+    near = np.full(labels.max() + 1, np.inf)
+    np.minimum.at(near, lk, d)
+    cand = np.nonzero(near <= near.min() + reach)[0]
+    if len(cand) == 1:
+        return int(cand[0])
+    widths = []
+    for k in cand:
+        rr, cc = rows[lab == k], cols[lab == k]
+        r0, c0 = rr.min(), cc.min()
+        sub = np.zeros((rr.max() - r0 + 3, cc.max() - c0 + 3), np.uint8)
+        sub[rr - r0 + 1, cc - c0 + 1] = 1
+        contours, _ = cv2.findContours(sub, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
+        perimeter = sum(cv2.arcLength(c, True) for c in contours)
+        widths.append(2.0 * areas[k] / max(perimeter, 1.0))
+    return int(cand[int(np.argmin(widths))])

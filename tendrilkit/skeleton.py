@@ -552,7 +552,18 @@ def order_skeleton(
     start = ends[int(np.argmin(np.hypot(*(node_xy[ends] - base).T)))]
     _keep_component(g, start)
     total_len = sum(e[3] for e in g.edges)
+    n_branches = len(g.edges)
     deg = g.degrees()
+    # twins: a branch between two junctions may be walked twice (where the
+    # tendril runs along itself, its two passes thin to one band). Its twin is
+    # optional; parity decides: an Euler walk can use it only where the
+    # junctions' degrees need a second pass.
+    twin_of: dict[int, int] = {}
+    for i in range(n_branches):
+        u, v, pts, length = g.edges[i]
+        if u != v and deg[u] >= 3 and deg[v] >= 3 and length < _SHALLOW_X_WIDTHS * width:
+            twin_of[len(g.edges)] = i
+            g.edges.append([u, v, pts, length])
 
     radius = np.array(
         [0.5 * g.node_span[n] + zone_width * width if (deg[n] >= 3 or g.node_span[n] > 0 or g.node_junction[n]) else 0.0 for n in range(len(deg))]
@@ -586,10 +597,11 @@ def order_skeleton(
     def candidates(nd: int, d_in: np.ndarray | None, used: set) -> list:
         out = []
         for i, end in incident.get(nd, ()):
-            if i in used:
+            if i in used or (i in twin_of and twin_of[i] not in used):
                 continue
             ang = _signed_angle_deg(d_in, tangent[i, end]) if d_in is not None else 0.0
-            bid = i if end == 0 else (-1 - i if g.edges[i][0] == g.edges[i][1] else i)
+            b = twin_of.get(i, i)
+            bid = b if end == 0 else (-1 - b if g.edges[i][0] == g.edges[i][1] else b)
             out.append([i, end, bid, ang])
         if method == "paper" and len(out) >= 3:
             tip = out[max(range(len(out)), key=lambda k: far_end_distance(out[k][0], out[k][1], nd))]
@@ -628,7 +640,7 @@ def order_skeleton(
             if len(cands) >= 2:
                 decs.append((nd, tuple((c[2], c[3]) for c in cands), k, kind))
             nxt = g.edges[i][1] if end == 0 else g.edges[i][0]
-            if dfs(nxt, -tangent[i, 1 - end], used, trail, decs, covered + g.edges[i][3]):
+            if dfs(nxt, -tangent[i, 1 - end], used, trail, decs, covered + (0.0 if i in twin_of else g.edges[i][3])):
                 return True
             if len(cands) >= 2:
                 decs.pop()
@@ -658,7 +670,9 @@ def order_skeleton(
         nodes_seq.append(nxt)
     for nd in nodes_seq:
         visits[nd] = visits.get(nd, 0) + 1
-    n_crossings = sum(1 for nd, c in visits.items() if c >= 2 and deg[nd] >= 3)
+    # a band walked twice (twin) has a junction at each end: one crossing
+    twins_used = sum(1 for i, _ in trail if i in twin_of)
+    n_crossings = sum(1 for nd, c in visits.items() if c >= 2 and deg[nd] >= 3) - twins_used
 
     path = _bridge(pieces, nodes_seq, node_xy, radius, tangent_window_px)
     path = _extend_ends(path, crop, half, tangent_window_px, tip_inset, extend_tip=deg[nodes_seq[-1]] == 1)
@@ -681,7 +695,7 @@ def order_skeleton(
         decisions=decisions,
         n_crossings=int(n_crossings),
         width_px=width,
-        branches_xy=tuple(e[2] + off for e in g.edges),
+        branches_xy=tuple(e[2] + off for e in g.edges[:n_branches]),
         unused_px=float(max(unused, 0.0)),
     )
 
