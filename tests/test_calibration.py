@@ -394,7 +394,7 @@ def test_phantom_experiment_calibrates_within_3px(tmp_path):
     from tendrilkit.io import read_cameras, read_csv
     from tendrilkit.params import load_experiment
 
-    path = phantom.write_phantom_experiment("S3", tmp_path / "S3", n_frames=2, seed=0)
+    path = phantom.write_phantom_experiment("S3", tmp_path / "S3", n_frames=1, seed=0)
     exp = load_experiment(path)
     res = calibrate_experiment(exp)
     gt = Path(path).parent / "ground_truth"
@@ -402,5 +402,6 @@ def test_phantom_experiment_calibrates_within_3px(tmp_path):
     pts = read_csv(gt / "gt_curves.csv", required=("x_mm", "y_mm", "z_mm"))[["x_mm", "y_mm", "z_mm"]].to_numpy()
     mx, mean = rig_agreement_px(res.cameras, truth, pts)
     single, _ = rig_agreement_px(res.single_cameras, truth, pts)
-    assert mx.max() < 3.0, (mx, single)
-    assert mx.max() < single.max() or single.max() < 0.5
+    assert mx.max() < 3.0, f"required: within 3 px; got {mx} (single-marker {single})"
+    assert mx.max() < 0.5, f"goal: within 0.5 px; got {mx} (single-marker {single})"  # reached: ~0.04 px
+    assert res.bundle is not None and len(res.bundle.on_plane) >= 3
