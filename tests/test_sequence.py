@@ -69,7 +69,7 @@ def noisy():
 def test_response_times_exact_on_a_ramp():
     t = np.arange(0, 601, 10.0)
     y = np.interp(t, [0, 100, 300, 600], [0, 0, 10, 10])
-    rt = sq.response_times(pd.DataFrame({"frame": np.arange(len(t)), "time_s": t, "mean_mm": y}))
+    rt = sq.response_times(pd.DataFrame({"frame": np.arange(len(t)), "time_s": t, "shape_mm": y}))
     assert rt.responded
     assert rt.onset_s == pytest.approx(120.0, abs=1e-9)     # 10 % of 10 mm
     assert rt.stable_s == pytest.approx(280.0, abs=1e-9)    # within 10 % of the plateau
@@ -110,14 +110,14 @@ def test_no_response_on_static_noisy_sequence():
 def test_no_response_on_a_small_drift():
     t = np.arange(0, 400, 10.0)
     y = np.linspace(0, 1.5, t.size)  # 1.5 mm in total: under the 2 mm floor
-    rt = sq.response_times(pd.DataFrame({"time_s": t, "mean_mm": y}))
+    rt = sq.response_times(pd.DataFrame({"time_s": t, "shape_mm": y}))
     assert not rt.responded and np.isnan(rt.onset_s)
 
 
 def test_transient_change_is_not_a_response():
     t = np.arange(0, 600, 10.0)
     y = np.interp(t, [0, 100, 200, 300, 400, 600], [0, 0, 8, 8, 0, 0])
-    rt = sq.response_times(pd.DataFrame({"time_s": t, "mean_mm": y}))
+    rt = sq.response_times(pd.DataFrame({"time_s": t, "shape_mm": y}))
     assert not rt.responded and "transient" in rt.note
 
 
@@ -125,21 +125,22 @@ def test_unsettled_sequence_warns():
     t = np.arange(0, 300, 10.0)
     y = np.interp(t, [0, 100, 300], [0, 0, 20])
     with pytest.warns(UserWarning, match="settle|too short"):
-        rt = sq.response_times(pd.DataFrame({"time_s": t, "mean_mm": y}))
+        rt = sq.response_times(pd.DataFrame({"time_s": t, "shape_mm": y}))
     assert rt.responded
 
 
 def test_response_times_bad_fraction():
     with pytest.raises(ValueError, match="onset_fraction"):
-        sq.response_times(pd.DataFrame({"time_s": [0, 1, 2], "mean_mm": [0, 1, 2]}), onset_fraction=1.5)
+        sq.response_times(pd.DataFrame({"time_s": [0, 1, 2], "shape_mm": [0, 1, 2]}), onset_fraction=1.5)
 
 
 # ------------------------------------------------------------------ shape change, failed frames
 def test_shape_change_definitions(clean):
     curves, _ = clean
     ch = sq.shape_change(curves)
-    assert list(ch.columns) == ["frame", "time_s", "mean_mm", "rms_mm", "max_mm", "tip_displacement_mm",
+    assert list(ch.columns) == ["frame", "time_s", "mean_mm", "rms_mm", "max_mm", "shape_mm", "tip_displacement_mm",
                                 "base_shift_mm", "length_mm"]
+    assert ch["shape_mm"].iloc[0] == pytest.approx(0.0, abs=1e-9) and ch["shape_mm"].iloc[-1] > 2.0
     assert ch["mean_mm"].iloc[0] == 0.0 and ch.attrs["reference_frame"] == 0
     assert np.all(ch["mean_mm"] <= ch["rms_mm"] + 1e-12) and np.all(ch["rms_mm"] <= ch["max_mm"] + 1e-12)
     assert ch["length_mm"].to_numpy() == pytest.approx(L_MM, rel=1e-3)
@@ -158,6 +159,7 @@ def test_shape_change_alignment():
     assert ch["base_shift_mm"].iloc[2] == pytest.approx(5.0)
     assert sq.shape_change(shifted, align="base")["mean_mm"].iloc[2] == pytest.approx(0.0, abs=1e-9)
     assert sq.shape_change(shifted, align="rigid")["mean_mm"].iloc[2] == pytest.approx(0.0, abs=1e-6)
+    assert ch["shape_mm"].iloc[2] == pytest.approx(0.0, abs=1e-6)   # a rigid move is no change of shape
     with pytest.raises(ValueError, match="align"):
         sq.shape_change(shifted, align="affine")
 
@@ -372,7 +374,7 @@ def test_an_outlier_in_the_last_frame_does_not_decide_stability():
     t = np.arange(0, 800, 20.0)
     y = np.interp(t, [0, 200, 500, 800], [0, 0, 10, 10])
     y[-1] = 14.0
-    rt = sq.response_times(pd.DataFrame({"time_s": t, "mean_mm": y}))
+    rt = sq.response_times(pd.DataFrame({"time_s": t, "shape_mm": y}))
     assert rt.responded and rt.plateau_mm == pytest.approx(10.0)
     assert rt.stable_s == pytest.approx(470.0)
 
@@ -382,12 +384,12 @@ def test_response_times_invariant_to_offset_and_time_shift():
 
     t = np.arange(0, 900, 15.0)
     y = np.interp(t, [0, 150, 600, 900], [0, 0, 20, 20]) + np.random.default_rng(0).normal(0, 0.2, t.size)
-    base = sq.response_times(pd.DataFrame({"time_s": t, "mean_mm": y}))
+    base = sq.response_times(pd.DataFrame({"time_s": t, "shape_mm": y}))
 
     @settings(max_examples=25, deadline=None)
     @given(st.floats(0, 50), st.floats(-1000, 1000))
     def check(offset, shift):
-        r = sq.response_times(pd.DataFrame({"time_s": t + shift, "mean_mm": y + offset}), stimulus_s=shift)
+        r = sq.response_times(pd.DataFrame({"time_s": t + shift, "shape_mm": y + offset}), stimulus_s=shift)
         assert r.onset_s == pytest.approx(base.onset_s, abs=1e-6)
         assert r.stable_s == pytest.approx(base.stable_s, abs=1e-6)
         assert r.amplitude_mm == pytest.approx(base.amplitude_mm, abs=1e-9)
