@@ -547,11 +547,11 @@ def match_epipolar(
     k: int = 200,
     oversample: int = 3,
     max_cost_px: float = 8.0,
-    beta: float = 0.05,
+    beta: float = 0.2,
     max_step_factor: float = 5.0,
     window: int = 12,
     iterations: int = 8,
-    smooth: float = 30.0,
+    smooth: float = 100.0,
 ) -> np.ndarray:
     """Match the ordered curves by epipolar geometry (see the module notes).
 

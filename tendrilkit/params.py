@@ -202,7 +202,7 @@ class Correspondence(_Strict):
 
     method: Literal["epipolar", "frechet"] = "epipolar"
     max_distance_px: PositiveFloat = 8.0
-    depth_smoothing: NonNegFloat = 30.0
+    depth_smoothing: NonNegFloat = 100.0
 
 
 class Triangulation(_Strict):
