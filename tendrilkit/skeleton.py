@@ -16,7 +16,11 @@ centreline, base to tip:
    longer branch (up to 15 w) when their other branches continue straight
    through it (a shallow X crossing, whose middle is about
    ``w / tan(angle / 2)`` long). They are contracted into one node, and
-   short closed branches at a junction (pin holes) are dropped.
+   short closed branches at a junction (pin holes) are dropped. Any other
+   branch between two junctions (up to 15 w long) gets an optional *twin*:
+   where the tendril runs along itself its two passes thin to one band, which
+   the walk must take twice; the degrees' parity lets a complete walk use the
+   twin only then.
 3. **Walk.** From the endpoint nearest the base point, the walk follows
    branches; at a node with several unused branches it takes one (a
    *decision*) and every branch is used once: the tendril's centreline is an
