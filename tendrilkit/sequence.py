@@ -38,9 +38,11 @@ column for each of them, so a gap stays visible).
 Definitions
 -----------
 Shape change (:func:`shape_change`)
-    Every curve is resampled at the same normalised arc lengths
-    :math:`u \\in [0, 1]`; for frame :math:`i` and the reference frame
-    :math:`r` (first ok frame), two distances in mm:
+    Points correspond at equal normalised arc length :math:`u \\in [0, 1]`:
+    point :math:`i` to point :math:`i` when every frame has the same number of
+    points (the pipeline's curves are uniform in arc length), otherwise after
+    resampling. For frame :math:`i` and the reference frame :math:`r` (first
+    ok frame), two distances in mm:
 
     .. math::
 
@@ -621,7 +623,11 @@ def shape_change(curves: pd.DataFrame, *, reference_frame: int | None = None, n_
     reference_frame : int, optional
         Default: the first kept frame.
     n_s : int, optional
-        Samples along the normalised length (default: points of the reference curve).
+        Resample every curve at ``n_s`` equal steps of normalised arc length.
+        Default: when every frame has the same number of points (as the
+        pipeline writes them, uniform in arc length), point ``i`` corresponds
+        to point ``i``; otherwise curves are resampled at the reference's
+        point count.
     align : {"none", "base", "rigid"}
         ``none`` (default; the base is attached to the stem, the world frame
         to the board), ``base`` (translate so the bases coincide), ``rigid``
@@ -652,18 +658,27 @@ def shape_change(curves: pd.DataFrame, *, reference_frame: int | None = None, n_
             raise ValueError(f"reference_frame {reference_frame} is not a kept frame "
                              f"(kept: {cv.frame[0]}..{cv.frame[-1]}, excluded: {sorted(cv.excluded)})")
         ri = int(hits[0])
-    n = int(n_s) if n_s is not None else max(len(cv.points[ri]), 2)
-    u = np.linspace(0.0, 1.0, n)
-    ref = resample_normalised(cv.points[ri], u)
+    n_ref = len(cv.points[ri])
+    by_index = n_s is None and all(len(P) == n_ref for P in cv.points)
+    n = n_ref if n_s is None else int(n_s)
+    u = np.linspace(0.0, 1.0, max(n, 2))
+
+    def corresponding(P):
+        # same point count: point i <-> point i (the pipeline writes curves resampled at uniform
+        # arc length); re-parametrising a noisy polyline by its own length would let noise slide
+        # the points along the curve
+        return np.asarray(P, float) if by_index else resample_normalised(P, u)
+
+    ref = corresponding(cv.points[ri])
     rows = []
     for fr, t, P in zip(cv.frame, cv.time_s, cv.points):
-        Q = resample_normalised(P, u)
+        Q = corresponding(P)
         if align == "base":
             Q = Q - Q[0] + ref[0]
         elif align == "rigid":
             Q = _kabsch(ref, Q)
         d = np.linalg.norm(Q - ref, axis=1)
-        Q0 = resample_normalised(P, u)
+        Q0 = corresponding(P)
         shape = float(np.linalg.norm(_kabsch(ref, Q0) - ref, axis=1).mean())
         rows.append((int(fr), float(t), float(d.mean()), float(np.sqrt(np.mean(d ** 2))), float(d.max()), shape,
                      float(np.linalg.norm(Q0[-1] - ref[-1])), float(np.linalg.norm(P[0] - cv.points[ri][0])),
@@ -856,7 +871,7 @@ def region_response(
     segments: pd.DataFrame | None = None,
     first_frame: int | None = None,
     last_frame: int | None = None,
-    n_s: int = 200,
+    n_s: int | None = None,
     min_deformation_mm: float = 1.0,
     frames: pd.DataFrame | None = None,
     columns: Mapping[str, str] | None = None,
@@ -878,7 +893,12 @@ def region_response(
       and torsion over the zone, from the fitted laws when ``segments`` is
       given (NaN otherwise);
     - ``share``: the zone's fraction of the summed deformation;
-    - ``responsive``: ``deformation_mm >= min_deformation_mm``.
+    - ``responsive``: ``deformation_mm >= min_deformation_mm`` (default
+      1 mm; the RMS of reconstruction noise after alignment is about
+      :math:`\\sqrt{2}` times the per-point noise, so raise it for noisy data).
+
+    Points correspond by index when both frames have the same count and
+    ``n_s`` is None, otherwise at ``n_s`` equal steps of normalised arc length.
 
     Returns
     -------
@@ -901,8 +921,13 @@ def region_response(
         return int(hits[0])
 
     ia, ib = pick(first_frame, 0), pick(last_frame, len(cv.frame) - 1)
-    u = np.linspace(0.0, 1.0, int(n_s))
-    A, B = resample_normalised(cv.points[ia], u), resample_normalised(cv.points[ib], u)
+    Pa, Pb = cv.points[ia], cv.points[ib]
+    if n_s is None and len(Pa) == len(Pb):  # point i <-> point i (see shape_change)
+        A, B = np.asarray(Pa, float), np.asarray(Pb, float)
+        u = np.linspace(0.0, 1.0, len(A))
+    else:
+        u = np.linspace(0.0, 1.0, int(n_s) if n_s is not None else len(Pa))
+        A, B = resample_normalised(Pa, u), resample_normalised(Pb, u)
     dk = dt = None
     if segments is not None:
         s = _segments(segments, columns)
