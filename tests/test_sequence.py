@@ -395,3 +395,31 @@ def test_response_times_invariant_to_offset_and_time_shift():
         assert r.amplitude_mm == pytest.approx(base.amplitude_mm, abs=1e-9)
 
     check()
+
+
+# ------------------------------------------------------------------ phantom ground truth
+def _phantom_tables(ph, n=200):
+    idx = np.rint(np.linspace(0, ph.curves_mm.shape[1] - 1, n)).astype(int)
+    rows = [pd.DataFrame({"frame": f, "time_s": ph.time_s[f], "point": np.arange(n), "x_mm": ph.curves_mm[f, idx, 0],
+                          "y_mm": ph.curves_mm[f, idx, 1], "z_mm": ph.curves_mm[f, idx, 2]})
+            for f in range(ph.n_frames)]
+    return pd.concat(rows, ignore_index=True), ph.laws_table()
+
+
+@pytest.mark.parametrize("site", ["S1", "S3"])
+def test_phantom_ground_truth(site):
+    phantom = pytest.importorskip("tendrilkit.phantom")
+    ph = phantom.make_phantom(site, seed=0)
+    curves, laws = _phantom_tables(ph)
+    rt = sq.response_times(sq.shape_change(curves))
+    reg = sq.region_response(curves, segments=laws)
+    dt = ph.time_s[1] - ph.time_s[0]
+    if site == "S1":   # a slight bend near the base: motion, but no change of shape
+        assert not rt.responded
+    else:
+        assert rt.responded
+        # the phantom's response runs from onset_s (g = 0) to stable_s (g = 1); ours are the
+        # 10 % / 90 % points of the change, so they fall inside (give or take a frame)
+        assert ph.design.onset_s < rt.onset_s < ph.design.stable_s
+        assert rt.onset_s < rt.stable_s <= ph.design.stable_s + dt
+    assert reg.loc[reg["deformation_mm"].idxmax(), "region"] == site
