@@ -67,7 +67,7 @@ class FitOptions:
     penalty_kappa: float = 0.01
     penalty_tau: float = 0.01
     score: str = "l2"
-    smoothing_length_mm: float = 20.0
+    smoothing_length_mm: float | None = None
     max_segments: int = 10
     refine: bool = True
 

@@ -64,6 +64,8 @@ __all__ = [
     "whittaker_smooth",
     "frenet_frames",
     "integrate_frenet",
+    "noise_sigma_mm",
+    "auto_smoothing_length_mm",
 ]
 
 
@@ -325,6 +327,50 @@ def _perpendicular(t: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
+def noise_sigma_mm(points_mm: np.ndarray) -> float:
+    """Robust estimate of the per-coordinate noise of a sampled curve, mm.
+
+    From third differences of the points as given, assumed about evenly
+    spaced (a smooth curve's third differences are :math:`O(h^3)`; white noise of
+    standard deviation :math:`\\sigma` gives variance :math:`20\\sigma^2`):
+    :math:`\\hat\\sigma = 1.4826\\,\\mathrm{median}|\\Delta^3 x| / \\sqrt{20}`.
+    """
+    data = _check_points(points_mm)
+    step = np.linalg.norm(np.diff(data, axis=0), axis=1)
+    data = data[np.concatenate([[True], step > 1e-9 * max(step.sum(), 1e-300)])]
+    if data.shape[0] < 8:
+        raise DegenerateCurveError(f"curve has {data.shape[0]} distinct points; at least 8 are needed to estimate noise")
+    d3 = np.diff(data, 3, axis=0)
+    return float(1.4826 * np.median(np.abs(d3)) / np.sqrt(20.0))
+
+
+def auto_smoothing_length_mm(points_mm: np.ndarray, *, reference_mm: float = 20.0,
+                             reference_noise_mm: float = 0.15) -> float:
+    """A smoothing length for :func:`frenet_frames` from the curve's noise and coiling.
+
+    ``reference_mm`` suits ``reference_noise_mm`` of noise (tuned on 120-200 mm
+    piece-wise clothoids, 200 points); the length grows as
+    :math:`\\sigma^{0.4}` (the curvature's noise after smoothing falls as
+    :math:`L_s^{-5/2}`) and is capped at 0.6 of the shortest coil wavelength
+    :math:`2\\pi / \\sqrt{\\kappa^2 + \\tau^2}` (median), where the
+    smoother keeps 89 % of the coil's curvature; clipped to [4 h, L / 3].
+    """
+    data = resample_curve(points_mm)
+    L = float(np.sum(np.linalg.norm(np.diff(data, axis=0), axis=1)))
+    h = L / (data.shape[0] - 1)
+    sigma = noise_sigma_mm(points_mm)
+    Ls = reference_mm * (max(sigma, 1e-6) / reference_noise_mm) ** 0.4
+    Ls = float(np.clip(Ls, 4 * h, L / 3))
+    for _ in range(2):
+        fr = frenet_frames(data, smoothing_length_mm=Ls)
+        w = np.median(np.hypot(fr.kappa, fr.tau * fr.tau_defined))
+        cap = 0.6 * 2 * np.pi / w if w > 0 else np.inf
+        if Ls <= cap:
+            break
+        Ls = float(np.clip(cap, 4 * h, L / 3))
+    return Ls
+
+
 def frenet_frames(
     points_mm: np.ndarray,
     *,
@@ -434,9 +480,10 @@ def _integrate(s, k_step, t_step, F0, p0, exact_positions):
                 B[i + 1, c] = B[i, c]
                 P[i + 1, c] = P[i, c] + h * T[i, c]
             continue
-        ax = wx / rate
-        ay = wy / rate
-        az = wz / rate
+        wn = np.sqrt(wx * wx + wy * wy + wz * wz)
+        ax = wx / wn
+        ay = wy / wn
+        az = wz / wn
         ct = np.cos(th)
         st = np.sin(th)
         # Rodrigues: R v = v cos + (a x v) sin + a (a.v)(1 - cos)
@@ -472,6 +519,19 @@ def _integrate(s, k_step, t_step, F0, p0, exact_positions):
                 N[i + 1, 0], N[i + 1, 1], N[i + 1, 2] = rx, ry, rz
             else:
                 B[i + 1, 0], B[i + 1, 1], B[i + 1, 2] = rx, ry, rz
+        # keep the frame orthonormal to rounding (Gram-Schmidt; B = T x N)
+        tn = np.sqrt(T[i + 1, 0] ** 2 + T[i + 1, 1] ** 2 + T[i + 1, 2] ** 2)
+        for c in range(3):
+            T[i + 1, c] /= tn
+        d = T[i + 1, 0] * N[i + 1, 0] + T[i + 1, 1] * N[i + 1, 1] + T[i + 1, 2] * N[i + 1, 2]
+        for c in range(3):
+            N[i + 1, c] -= d * T[i + 1, c]
+        nn = np.sqrt(N[i + 1, 0] ** 2 + N[i + 1, 1] ** 2 + N[i + 1, 2] ** 2)
+        for c in range(3):
+            N[i + 1, c] /= nn
+        B[i + 1, 0] = T[i + 1, 1] * N[i + 1, 2] - T[i + 1, 2] * N[i + 1, 1]
+        B[i + 1, 1] = T[i + 1, 2] * N[i + 1, 0] - T[i + 1, 0] * N[i + 1, 2]
+        B[i + 1, 2] = T[i + 1, 0] * N[i + 1, 1] - T[i + 1, 1] * N[i + 1, 0]
     return P, T, N, B
 
 

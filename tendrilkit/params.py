@@ -232,13 +232,15 @@ class Smoothing(_Strict):
 
     ``length_mm``: the half-gain wavelength of the second-order Whittaker
     smoother, mm (features shorter than about this are smoothed away; the
-    lambda follows from it and the point spacing). The curvature and torsion
-    it gives only place the piece-wise fit's knots; the knot values are then
+    lambda follows from it and the point spacing), or ``null`` (default) to
+    choose it per curve from the curve's noise and coiling
+    (:func:`tendrilkit.frenet.auto_smoothing_length_mm`: about 20 mm for
+    0.15 mm noise on 120-200 mm tendrils at 200 points). The curvature and
+    torsion it gives only place the piece-wise fit's knots; the knots are then
     fitted on the 3D points, so a strong smoothing costs little accuracy.
-    20 mm suits 0.15 mm noise on 120-200 mm tendrils sampled at 200 points.
     """
 
-    length_mm: PositiveFloat = 20.0
+    length_mm: PositiveFloat | None = None
 
 
 class Fit(_Strict):

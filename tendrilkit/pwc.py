@@ -105,7 +105,7 @@ import numpy as np
 from numba import njit
 
 from tendrilkit.exceptions import DegenerateCurveError
-from tendrilkit.frenet import FrenetFrames, frenet_frames, _integrate, _orthonormal_frame
+from tendrilkit.frenet import FrenetFrames, _integrate, _orthonormal_frame, auto_smoothing_length_mm, frenet_frames
 
 __all__ = [
     "PiecewiseLinearLaw",
@@ -531,6 +531,7 @@ def join_segments(
     b = [int(v) for v in np.asarray(bounds)]
     if b[0] != 0 or b[-1] != s.size or any(b2 <= b1 for b1, b2 in zip(b[:-1], b[1:])):
         raise ValueError(f"bounds must increase from 0 to {s.size}, got {b}")
+    h_min = float(np.min(np.diff(s)))
     while True:
         lines = [_wline(s[a:c], y[a:c], w[a:c]) for a, c in zip(b[:-1], b[1:])]
         knots = [float(s[0])]
@@ -542,7 +543,7 @@ def join_segments(
                 bad = i
                 break
             x = (c2 - c1) / (a1 - a2)
-            if not (lo < x < hi) or x <= knots[-1]:
+            if not (lo < x < hi) or x <= knots[-1] + 0.5 * h_min or x >= s[-1] - 0.5 * h_min:
                 bad = i
                 break
             knots.append(float(x))
@@ -605,6 +606,8 @@ def _kabsch(P, Q):
 @njit(cache=True)
 def _registered_sse(s, k_step, t_step, F0, p0, data):
     P, T, N, B = _integrate(s, k_step, t_step, F0, p0, False)
+    if not np.all(np.isfinite(P)):
+        return np.inf
     R, t = _kabsch(P, data)
     sse = 0.0
     for i in range(P.shape[0]):
@@ -797,7 +800,7 @@ def _pwl_step_means(s, knots, values):
             j += 1
         x = min(max(x, knots[0]), knots[m - 1])
         d = knots[j + 1] - knots[j]
-        v = values[j] + (values[j + 1] - values[j]) * (x - knots[j]) / d
+        v = values[j] + (values[j + 1] - values[j]) * (x - knots[j]) / d if d > 0 else values[j]
         I[i] = Ik[j] + 0.5 * (x - knots[j]) * (values[j] + v)
     out = np.empty(n - 1)
     for i in range(n - 1):
@@ -833,6 +836,8 @@ def _law_columns(s, knots, values, free_knots):
 def _lm_evaluate(s, kk, vk, kt, vt, data):
     P, T, N, B = _integrate(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt),
                             np.eye(3), np.zeros(3), False)
+    if not np.all(np.isfinite(P)):
+        return np.inf, P, T, B, np.eye(3), P.copy()
     R, t = _kabsch(P, data)
     X = P @ R.T
     f = 0.0
@@ -886,12 +891,14 @@ def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
     L = s[-1] - s[0]
     max_value_step = 1.0 / L
     max_knot_step = 0.1 * L
-    gap_k = min(min_gap, 0.5 * _min_gap_of(kk))
-    gap_t = min(min_gap, 0.5 * _min_gap_of(kt))
+    gap_k = max(min(min_gap, 0.5 * _min_gap_of(kk)), 1e-6 * L)
+    gap_t = max(min(min_gap, 0.5 * _min_gap_of(kt)), 1e-6 * L)
     ck = _unpack_nb(p, kk, kt, free_knots)
     f, P, T, B, R, X = _lm_evaluate(s, ck[0], ck[1], ck[2], ck[3], data)
     mu = 1e-4
     n = s.shape[0]
+    if not np.isfinite(f):
+        return ck[0], ck[1], ck[2], ck[3], f
     r = np.empty(3 * n)
     for _ in range(iterations):
         Gk = _law_columns(s, ck[0], ck[1], free_knots)
@@ -911,7 +918,11 @@ def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
         q = p
         cq = ck
         Pq, Tq, Bq, Rq, Xq = P, T, B, R, X
+        if not np.all(np.isfinite(H)) or not np.all(np.isfinite(g)):
+            break
         for _ in range(12):
+            if mu > 1e12:
+                break
             A = H.copy()
             for i in range(m):
                 A[i, i] += mu * (H[i, i] + 1e-12 * tr + 1e-300)
@@ -935,7 +946,7 @@ def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
                 mu *= 10.0
                 continue
             fq, Pq, Tq, Bq, Rq, Xq = _lm_evaluate(s, cq[0], cq[1], cq[2], cq[3], data)
-            if fq < f:
+            if np.isfinite(fq) and fq < f:
                 improved = True
                 break
             mu *= 10.0
@@ -1091,6 +1102,8 @@ class _Prepared:
 
 
 def _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points, free_knots=True):
+    if smoothing_length_mm is None:
+        smoothing_length_mm = auto_smoothing_length_mm(points_mm)
     fr = frenet_frames(points_mm, smoothing_length_mm=smoothing_length_mm, n=n_points)
     s = fr.s_mm
     n = s.size
@@ -1163,7 +1176,7 @@ def fit_piecewise_clothoid(
     penalty_kappa: float = 0.01,
     penalty_tau: float = 0.01,
     score: str = "l2",
-    smoothing_length_mm: float = 20.0,
+    smoothing_length_mm: float | None = None,
     min_segment_mm: float | None = None,
     max_segments: int = 10,
     refine: bool = True,
@@ -1172,6 +1185,7 @@ def fit_piecewise_clothoid(
     lookahead: int = 1,
     insertions: bool = True,
     quick_iterations: int = 6,
+    max_candidates: int = 40,
 ) -> PWCFit:
     """Fit a 3D piece-wise clothoid to an ordered centreline.
 
@@ -1194,11 +1208,13 @@ def fit_piecewise_clothoid(
         variance a segment must explain).
     score : {"l2", "l1"}
         Segment score: least squares, or the paper's absolute error.
-    smoothing_length_mm : float
+    smoothing_length_mm : float, optional
         Half-gain wavelength of the Whittaker smoother, mm
-        (:mod:`tendrilkit.frenet`).
+        (:mod:`tendrilkit.frenet`); default: chosen per curve from its noise
+        and coiling (:func:`tendrilkit.frenet.auto_smoothing_length_mm`,
+        about 20 mm for 0.15 mm noise).
     min_segment_mm : float, optional
-        Shortest segment, mm (default: half ``smoothing_length_mm``; at least 3 samples).
+        Shortest segment, mm (default: half the smoothing length; at least 3 samples).
     max_segments : int
         Most segments per law considered by ``auto``.
     refine : bool
@@ -1215,6 +1231,9 @@ def fit_piecewise_clothoid(
     quick_iterations : int
         ``auto``: Levenberg-Marquardt iterations when comparing candidates (the
         chosen one is then refined to convergence).
+    max_candidates : int
+        ``auto``: the search stops after evaluating this many candidates (a
+        bound on the time per frame on hard, noisy curves).
 
     Returns
     -------
@@ -1304,7 +1323,7 @@ def fit_piecewise_clothoid(
     # the score test asks for, while the criterion improves.
     state = (0, 0)
     cur = from_path(0, 0)
-    while not (criterion == "r2" and cur[3] >= target_r2):
+    while not (criterion == "r2" and cur[3] >= target_r2) and len(rows) < max_candidates:
         a0, b0 = state
         tried = [((a0 + d, b0), from_path(a0 + d, b0, cur, "k"))
                  for d in range(1, lookahead + 1) if a0 + d < len(laws_k)]
@@ -1455,7 +1474,7 @@ def grid_search_penalties(
     target_r2: float = 0.999,
     target_sse_mm2: float | None = None,
     score: str = "l2",
-    smoothing_length_mm: float = 20.0,
+    smoothing_length_mm: float | None = None,
     min_segment_mm: float | None = None,
     refine: bool = False,
     positions: str = "trapezoid",
