@@ -178,3 +178,31 @@ def test_integrate_frenet_checks_its_inputs():
         integrate_frenet(s, np.zeros(4), np.zeros(5), [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 0])
     with pytest.raises(ValueError, match="s_mm"):
         integrate_frenet(s[::-1], np.zeros(5), np.zeros(5), [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 0])
+
+
+def test_integrator_stays_orthonormal_with_large_steps():
+    """About one radian per step for 500 steps: the frame must not drift (it once diverged)."""
+    s = np.linspace(0, 500, 501)
+    P, T, N, B = integrate_frenet(s, np.full(501, 0.4), np.full(501, -1.1), [1, 0, 0], [0, 1, 0], [0, 0, 1],
+                                  [0, 0, 0], positions="exact")
+    F = np.stack([T, N, B], axis=1)
+    assert np.allclose(F @ F.transpose(0, 2, 1), np.eye(3), atol=1e-12)
+    # a helix of radius kappa / (kappa^2 + tau^2) about the Darboux axis through P0 + r N0
+    k, t = 0.4, -1.1
+    r = k / (k * k + t * t)
+    axis = (t * T[0] + k * B[0]) / np.hypot(k, t)
+    rel = P - (P[0] + r * N[0])
+    dist = np.linalg.norm(rel - np.outer(rel @ axis, axis), axis=1)
+    assert np.allclose(dist, r, atol=1e-9)
+
+
+def test_noise_estimate_and_automatic_smoothing_length():
+    from tendrilkit.frenet import auto_smoothing_length_mm, noise_sigma_mm
+
+    s, P, k, t, _ = helix()
+    rng = np.random.default_rng(1)
+    for sigma in (0.05, 0.15, 0.5):
+        assert noise_sigma_mm(P + rng.normal(0, sigma, P.shape)) == pytest.approx(sigma, rel=0.2)
+    L1 = auto_smoothing_length_mm(P + rng.normal(0, 0.15, P.shape))
+    L2 = auto_smoothing_length_mm(P + rng.normal(0, 0.6, P.shape))
+    assert 5 < L1 < L2
