@@ -246,7 +246,7 @@ def plot_shape_evolution(curves: pd.DataFrame, *, frames: Sequence[int] | None =
 
 
 @_styled
-def plot_shape_change(change: pd.DataFrame, response=None, *, measure: str = "mean_mm",
+def plot_shape_change(change: pd.DataFrame, response=None, *, measure: str | None = None,
                       title: str | None = None) -> Figure:
     """Shape change over time with the response onset and stabilisation marked.
 
@@ -255,21 +255,29 @@ def plot_shape_change(change: pd.DataFrame, response=None, *, measure: str = "me
     change : DataFrame
         :func:`tendrilkit.sequence.shape_change`.
     response : :class:`tendrilkit.sequence.ResponseTimes`, optional
-        Adds the baseline, plateau, onset (dashed) and stabilisation (dotted).
-        Its times are drawn on the table's time axis: pass the same
-        ``stimulus_s`` (0 by default).
+        Adds the baseline and plateau (dotted), onset (dashed) and
+        stabilisation (dotted) lines. Its times are drawn on the table's time
+        axis: pass the same ``stimulus_s`` (0 by default).
+    measure : str, optional
+        Column drawn in black; default the response's measure, else ``shape_mm``.
+        The motion (``mean_mm``) and the tip displacement are drawn in grey.
     """
+    measure = measure or (response.measure if response is not None else "shape_mm")
     _check(change, ("frame", measure), "change")
     x, xlabel = _time_axis(change)
     scale = 60.0 if xlabel.startswith("time") else None
+    names = {"shape_mm": "shape change (rigid motion removed)", "mean_mm": "motion (mean distance)",
+             "tip_displacement_mm": "tip displacement"}
     fig = Figure(figsize=(7.0, 3.6), layout="constrained")
     ax = fig.add_subplot()
-    ax.plot(x, change[measure], ".-", color="black", ms=3, lw=0.8, label=measure.replace("_mm", "") + " distance")
-    if "tip_displacement_mm" in change.columns and measure != "tip_displacement_mm":
-        ax.plot(x, change["tip_displacement_mm"], color="#7f7f7f", lw=0.8, label="tip displacement")
+    for col, color in (("mean_mm", "#9a9a9a"), ("tip_displacement_mm", "#c8c8c8")):
+        if col in change.columns and col != measure:
+            ax.plot(x, change[col], color=color, lw=0.8, label=names[col])
+    ax.plot(x, change[measure], ".-", color="black", ms=3, lw=0.9, label=names.get(measure, measure))
     if response is not None:
-        ax.axhline(response.baseline_mm, color="#1f77b4", lw=0.6, ls=":")
-        ax.axhline(response.plateau_mm, color="#1f77b4", lw=0.6, ls=":")
+        for level in (response.baseline_mm, response.plateau_mm):
+            if np.isfinite(level):
+                ax.axhline(level, color="#1f77b4", lw=0.6, ls=":")
         if response.responded and scale is not None:
             if np.isfinite(response.onset_s):
                 ax.axvline(response.onset_s / scale, color="#ff7f0e", ls="--",
