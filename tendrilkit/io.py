@@ -309,7 +309,7 @@ class Results:
 
     Tables as written (EXPERIMENT_FORMAT.md and the README): ``curves``,
     ``pwc_curves``, ``frames``, ``reprojection``, ``ordering``,
-    ``segments``, ``fit_metrics``, ``calibration_markers``; ``cameras``
+    ``pwc_segments``, ``pwc_metrics``, ``calibration_markers``; ``cameras``
     from ``cameras.json``.
     """
 
@@ -319,8 +319,8 @@ class Results:
     frames: pd.DataFrame | None
     reprojection: pd.DataFrame | None
     ordering: pd.DataFrame | None
-    segments: pd.DataFrame | None
-    fit_metrics: pd.DataFrame | None
+    pwc_segments: pd.DataFrame | None
+    pwc_metrics: pd.DataFrame | None
     calibration_markers: pd.DataFrame | None
     cameras: list[Camera] | None
 
@@ -343,8 +343,23 @@ def read_results(folder: str | Path) -> Results:
         frames=opt("frames"),
         reprojection=opt("reprojection"),
         ordering=opt("ordering"),
-        segments=opt("segments"),
-        fit_metrics=opt("fit_metrics"),
+        pwc_segments=opt("pwc_segments"),
+        pwc_metrics=opt("pwc_metrics"),
         calibration_markers=opt("calibration_markers"),
         cameras=read_cameras(cams) if cams.is_file() else None,
     )
+
+
+def read_frames(exp, frame: int) -> list[np.ndarray]:
+    """Frame ``frame`` (0-based) of every view of an experiment, BGR uint8."""
+    sources = open_views(list(exp.videos))
+    try:
+        return [s.read(frame) for s in sources]
+    finally:
+        for s in sources:
+            s.close()
+
+
+def read_first_frames(exp) -> list[np.ndarray]:
+    """The first processed frame (``frames.start``) of every view: where the marks are made."""
+    return read_frames(exp, exp.frames.start)

@@ -510,3 +510,15 @@ def check_against_images(exp: Experiment, sizes_wh: list[tuple[int, int]]) -> No
             raise ExperimentError(f"{where}views[{i}].base_point: {list(marks.base_point)} is outside the {w}x{h} image of view {marks.view}")
         if not (x - 50 <= bx <= x + bw + 50 and y - 50 <= by <= y + bh + 50):
             raise ExperimentError(f"{where}views[{i}].base_point: {list(marks.base_point)} is far outside the roi {list(marks.roi)} of view {marks.view}")
+
+
+def views_yaml_snippet(exp: Experiment) -> str:
+    """The ``views:`` section of an experiment as YAML, to paste into a params file."""
+    lines = ["views:"]
+    for m in exp.views:
+        parts = [f"view: {m.view}", f"roi: {list(m.roi)}"]
+        if m.keep_out is not None:
+            parts.append(f"keep_out: {list(m.keep_out)}")
+        parts.append(f"base_point: {[round(float(c), 1) for c in m.base_point]}")
+        lines.append("  - {" + ", ".join(parts) + "}")
+    return "\n".join(lines)
