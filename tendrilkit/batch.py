@@ -207,7 +207,7 @@ def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path) -> Expe
     out = reports_dir.resolve() / "comparison"
     params = {
         "experiment_paths": [o.experiment for o in finished],
-        "reports_dir": str(reports_dir.resolve()),
+        "results_dirs": [str(reports_dir.resolve() / o.name / "results") for o in finished],
         "figures_dir": str(out / "figures"),
     }
     try:
