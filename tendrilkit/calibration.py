@@ -312,18 +312,41 @@ def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "edg
 
 # ------------------------------------------------------------- single markers
 def _pose_candidates(corners_xy: np.ndarray, camera: Camera, length_mm: float) -> list[tuple[np.ndarray, np.ndarray, float]]:
-    """Both IPPE solutions ``(R, t_mm, rms_px)`` of a square marker, best first."""
+    """Distinct poses ``(R, t_mm, rms_px)`` of a square marker, best first.
+
+    Both IPPE_SQUARE solutions, plus SQPnP's: OpenCV's IPPE returns a wrong
+    pose (80 px off, or NaN, with success reported) for some near-frontal
+    views, e.g. a marker 5 degrees from frontal with its edges along the image
+    axes (tests/test_calibration.py, property test). Each is polished by
+    Levenberg-Marquardt through the lens distortion.
+    """
     obj = marker_object_corners(length_mm)
     img = np.asarray(corners_xy, dtype=float).reshape(4, 1, 2)
-    n, rvecs, tvecs, errs = cv2.solvePnPGeneric(obj, img, camera.K, camera.dist,
-                                                flags=cv2.SOLVEPNP_IPPE_SQUARE)
-    out = []
-    for rv, tv in zip(rvecs, tvecs):
+    starts = []
+    _, rvecs, tvecs, _ = cv2.solvePnPGeneric(obj, img, camera.K, camera.dist, flags=cv2.SOLVEPNP_IPPE_SQUARE)
+    starts += list(zip(rvecs, tvecs))
+    ok, rv, tv = cv2.solvePnP(obj, img, camera.K, camera.dist, flags=cv2.SOLVEPNP_SQPNP)
+    if ok:
+        starts.append((rv, tv))
+    out: list[tuple[np.ndarray, np.ndarray, float]] = []
+    for rv, tv in starts:
+        rv, tv = np.asarray(rv, float).reshape(3, 1), np.asarray(tv, float).reshape(3, 1)
+        if not (np.all(np.isfinite(rv)) and np.all(np.isfinite(tv))):
+            continue
         rv, tv = cv2.solvePnPRefineLM(obj, img, camera.K, camera.dist, rv.copy(), tv.copy())
         R = rotation_from_rvec(rv)
         t = tv.ravel()
+        if t[2] <= 0:
+            continue
         e = camera.with_pose(R, t).project(obj) - img.reshape(4, 2)
-        out.append((R, t, float(np.sqrt((e ** 2).sum(axis=1).mean()))))
+        rms = float(np.sqrt((e ** 2).sum(axis=1).mean()))
+        if not np.isfinite(rms):
+            continue
+        if any(np.linalg.norm(R - R2) < 1e-6 and np.linalg.norm(t - t2) < 1e-6 * np.linalg.norm(t) for R2, t2, _ in out):
+            continue
+        out.append((R, t, rms))
+    if not out:
+        raise ValueError("corners_xy: no marker pose fits these corners")
     out.sort(key=lambda x: x[2])
     return out
 
