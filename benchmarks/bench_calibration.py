@@ -45,7 +45,7 @@ def bench_corners() -> None:
     print(f"{'blur':>4} {'method':>8} {'corner mean':>11} {'max':>6} {'rot deg':>7} {'single px':>9} {'adjusted px':>11} {'detect ms':>9}")
     for blur in (0.7, 1.2, 2.0):
         rng = np.random.default_rng(11)
-        images = [T.render(c, tex, rng=rng, blur_px=blur, noise=2.5) for c in cams]
+        images = [T.render(c, tex, rng=rng, blur_px=blur, noise=2.5, corners=corners) for c in cams]
         for method in ("none", "subpix", "contour", "apriltag", "edges"):
             errs, rots, obs = [], [], {}
             t0 = time.perf_counter()
@@ -129,8 +129,14 @@ def bench_phantom(sites: list[str], seeds: list[int], n_frames: int = 2) -> None
                 pp, _ = rig_agreement_px(paper.cameras, truth, pts)
                 a, am = rig_agreement_px(res.cameras, truth, pts)
                 n_markers = {v: len(o) for v, o in res.observations.items()}
+
+                def rot_deg(cams):
+                    return max(np.degrees(np.arccos(np.clip((np.trace(a.R.T @ b.R) - 1) / 2, -1, 1)))
+                               for a, b in zip(cams, truth))
+
+                degs = f"rot deg paper {rot_deg(paper.cameras):.3f} single {rot_deg(res.single_cameras):.3f} adjusted {rot_deg(res.cameras):.4f}"
                 print(f"{site:>4} {seed:4d} {np.array2string(pp, precision=1):>20} {np.array2string(s, precision=2):>26} {np.array2string(a, precision=2):>28} "
-                      f"{am.max():8.2f} {len(res.bundle.on_plane) if res.bundle else 0:>10} {dt:5.1f}  markers/view {n_markers} ids {sorted(set().union(*[set(o) for o in res.observations.values()]))}")
+                      f"{am.max():8.2f} {len(res.bundle.on_plane) if res.bundle else 0:>10} {dt:5.1f}  {degs}  markers/view {n_markers} ids {sorted(set().union(*[set(o) for o in res.observations.values()]))}")
 
 
 if __name__ == "__main__":

@@ -342,7 +342,8 @@ def _pose_candidates(corners_xy: np.ndarray, camera: Camera, length_mm: float) -
         rms = float(np.sqrt((e ** 2).sum(axis=1).mean()))
         if not np.isfinite(rms):
             continue
-        if any(np.linalg.norm(R - R2) < 1e-6 and np.linalg.norm(t - t2) < 1e-6 * np.linalg.norm(t) for R2, t2, _ in out):
+        # the same local minimum reached from two starts (0.01 degree, 0.01 %)
+        if any(np.linalg.norm(R - R2) < 2e-4 and np.linalg.norm(t - t2) < 1e-4 * np.linalg.norm(t) for R2, t2, _ in out):
             continue
         out.append((R, t, rms))
     if not out:
