@@ -424,7 +424,7 @@ def curvature_torsion_maps(
     frames: pd.DataFrame | None = None,
     source: str = "auto",
     scale_percentile: float = 100.0,
-    smoothing_length_mm: float = 3.0,
+    smoothing_length_mm: float | None = None,
     columns: Mapping[str, str] | None = None,
 ) -> KTMaps:
     """Normalised curvature and torsion maps, length x time (paper Figure 8).
@@ -444,8 +444,9 @@ def curvature_torsion_maps(
         Percentile of the absolute values used as normaliser (100: the
         maximum; e.g. 99 to ignore spikes of raw torsion; values beyond the
         scale are then clipped to +-1).
-    smoothing_length_mm : float
-        Frenet source only: half-gain wavelength of the smoother, mm.
+    smoothing_length_mm : float, optional
+        Frenet source only: half-gain wavelength of the smoother, mm
+        (default: :func:`tendrilkit.frenet.frenet_frames`' choice per curve).
 
     Returns
     -------
@@ -1190,7 +1191,8 @@ def table3(fit_metrics: pd.DataFrame, *, at_frames: Sequence[int] | None = None,
     -------
     DataFrame
         ``frame`` then the canonical columns present, in the paper's order;
-        sorted by frame (then penalties).
+        sorted by frame, rows of a frame in their input order (e.g. the
+        penalty pairs of :func:`tendrilkit.pwc.penalty_table`).
     """
     m = _canonical(fit_metrics, ("frame",), "fit_metrics", columns, FIT_METRIC_ALIASES,
                    optional=FIT_METRIC_COLUMNS[1:])
@@ -1205,5 +1207,4 @@ def table3(fit_metrics: pd.DataFrame, *, at_frames: Sequence[int] | None = None,
         raise ValueError(f"fit_metrics: none of {', '.join(FIT_METRIC_COLUMNS[1:])} found in "
                          f"{', '.join(map(str, fit_metrics.columns))}")
     out = m.loc[m["frame"].isin(fr), keep]
-    sort = [c for c in ("frame", "penalty_kappa", "penalty_tau") if c in keep]
-    return out.sort_values(sort, kind="stable").reset_index(drop=True)
+    return out.sort_values("frame", kind="stable").reset_index(drop=True)
