@@ -40,7 +40,6 @@ import numpy as np
 import pandas as pd
 
 from tendrilkit.exceptions import DegenerateCurveError, ExperimentError
-from tendrilkit.pwc import fit_piecewise_clothoid
 
 __all__ = ["FitOptions", "FitSummary", "run_fit", "fit_curves"]
 
@@ -126,6 +125,8 @@ def _read_curves(path: Path) -> pd.DataFrame:
 
 def fit_curves(curves: pd.DataFrame, options: FitOptions | None = None) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
     """Fit every frame of a curves table; returns ``(pwc_curves, segments, metrics)`` tables."""
+    from tendrilkit.pwc import fit_piecewise_clothoid  # numba: only once the input is known good
+
     options = FitOptions() if options is None else options
     kw = asdict(options)
     curves_out, seg_rows, met_rows = [], [], []

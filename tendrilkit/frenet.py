@@ -374,7 +374,7 @@ def auto_smoothing_length_mm(points_mm: np.ndarray, *, reference_mm: float = 20.
 def frenet_frames(
     points_mm: np.ndarray,
     *,
-    smoothing_length_mm: float = 3.0,
+    smoothing_length_mm: float | None = None,
     n: int | None = None,
     kappa_floor: float | None = None,
 ) -> FrenetFrames:
@@ -384,9 +384,10 @@ def frenet_frames(
     ----------
     points_mm : (m, 3) float array
         Ordered centreline, base to tip, mm.
-    smoothing_length_mm : float, keyword-only
+    smoothing_length_mm : float, optional, keyword-only
         Half-gain wavelength of the second-order Whittaker smoother, mm
-        (module notes). 0: no smoothing.
+        (module notes). 0: no smoothing; ``None``: chosen from the curve's
+        noise and coiling (:func:`auto_smoothing_length_mm`).
     n : int, optional
         Number of resampled points (default: ``m``).
     kappa_floor : float, optional
@@ -403,6 +404,8 @@ def frenet_frames(
     DegenerateCurveError
         Fewer than 5 distinct points or zero length.
     """
+    if smoothing_length_mm is None:
+        smoothing_length_mm = auto_smoothing_length_mm(points_mm)
     data = resample_curve(points_mm, n)
     m = data.shape[0]
     u = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(data, axis=0), axis=1))])

@@ -487,17 +487,32 @@ def _hat_matrix(s: np.ndarray, knots: np.ndarray) -> np.ndarray:
     return A
 
 
-def _wline(s, y, w):
-    sw = w.sum()
-    if sw <= 0:
-        return 0.0, 0.0
-    ms = (w @ s) / sw
-    my = (w @ y) / sw
-    cxx = w @ (s - ms) ** 2
-    if cxx <= 1e-12 * sw * max(ms * ms, 1.0):
-        return 0.0, my
-    slope = (w @ ((s - ms) * (y - my))) / cxx
-    return slope, my - slope * ms
+class _Lines:
+    """Weighted least-squares line of any interval ``[a, c)`` in O(1) (prefix sums, centred s)."""
+
+    def __init__(self, s, y, w):
+        self.s0 = float(s.mean())
+        x = s - self.s0
+        self.span2 = float((s[-1] - s[0]) ** 2)
+        z = np.zeros(1)
+        self.W = np.concatenate([z, np.cumsum(w)])
+        self.X = np.concatenate([z, np.cumsum(w * x)])
+        self.Y = np.concatenate([z, np.cumsum(w * y)])
+        self.XX = np.concatenate([z, np.cumsum(w * x * x)])
+        self.XY = np.concatenate([z, np.cumsum(w * x * y)])
+
+    def __call__(self, a: int, c: int) -> tuple[float, float]:
+        """(slope, intercept) in the original arc length."""
+        sw = self.W[c] - self.W[a]
+        if sw <= 0:
+            return 0.0, 0.0
+        sx, sy = self.X[c] - self.X[a], self.Y[c] - self.Y[a]
+        mx, my = sx / sw, sy / sw
+        cxx = (self.XX[c] - self.XX[a]) - sx * mx
+        if cxx <= 1e-12 * sw * self.span2:
+            return 0.0, float(my)
+        slope = ((self.XY[c] - self.XY[a]) - sx * my) / cxx
+        return float(slope), float(my - slope * mx - slope * self.s0)
 
 
 def join_segments(
@@ -532,8 +547,9 @@ def join_segments(
     if b[0] != 0 or b[-1] != s.size or any(b2 <= b1 for b1, b2 in zip(b[:-1], b[1:])):
         raise ValueError(f"bounds must increase from 0 to {s.size}, got {b}")
     h_min = float(np.min(np.diff(s)))
+    line = _Lines(s, y, w)
     while True:
-        lines = [_wline(s[a:c], y[a:c], w[a:c]) for a, c in zip(b[:-1], b[1:])]
+        lines = [line(a, c) for a, c in zip(b[:-1], b[1:])]
         knots = [float(s[0])]
         bad = None
         for i in range(len(lines) - 1):
@@ -1184,7 +1200,7 @@ def fit_piecewise_clothoid(
     n_points: int | None = None,
     lookahead: int = 1,
     insertions: bool = True,
-    quick_iterations: int = 6,
+    quick_iterations: int = 4,
     max_candidates: int = 40,
 ) -> PWCFit:
     """Fit a 3D piece-wise clothoid to an ordered centreline.
