@@ -1309,7 +1309,13 @@ def fit_piecewise_clothoid(
         if not refine:
             return scored(laws_k[a], laws_t[b], _law_sse(prep, laws_k[a], laws_t[b]))
         if cur is None:
-            starts = [(laws_k[a], laws_t[b])]
+            # the path laws, or constants (median curvature; curvature-weighted median
+            # torsion, or none): noisy estimates can start the fit in a wrong basin
+            ends_k, ends_t = laws_k[a].knots_mm, laws_t[b].knots_mm
+            kc = PiecewiseLinearLaw(ends_k, np.full(ends_k.size, float(np.median(fr.kappa))), "kappa")
+            tc = PiecewiseLinearLaw(ends_t, np.full(ends_t.size, _weighted_median(fr.tau, prep.wt)), "tau")
+            t0 = PiecewiseLinearLaw(ends_t, np.zeros(ends_t.size), "tau")
+            starts = [(laws_k[a], laws_t[b]), (kc, tc), (kc, t0), (laws_k[a], t0)]
         elif move == "k":
             k_new, k_cur, t_cur = laws_k[a].knots_mm, cur[0], cur[1]
             u = _merge_knots(k_new, k_cur.knots_mm, prep.min_gap_mm)
@@ -1420,6 +1426,14 @@ def _best_insertions(prep, lk, lt):
 def _insert_knot(law, x):
     k = np.sort(np.concatenate([law.knots_mm, [x]]))
     return PiecewiseLinearLaw(k, law(k), law.kind)
+
+
+def _weighted_median(y, w):
+    if not w.sum() > 0:
+        return 0.0
+    o = np.argsort(y)
+    c = np.cumsum(w[o])
+    return float(y[o][np.searchsorted(c, 0.5 * c[-1])])
 
 
 def _merge_knots(a, b, min_gap):
