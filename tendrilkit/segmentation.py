@@ -185,7 +185,11 @@ def segment_view(
     # labels without cv2's statistics (those cost 4 ms on a 700 x 700 crop,
     # the labels 0.5 ms); areas and centroids from the foreground pixels only
     n, labels = cv2.connectedComponents(fg, connectivity=8, ltype=cv2.CV_32S)
-    rows, cols = np.nonzero(fg)
+    nz = cv2.findNonZero(fg)  # 0.4 ms where np.nonzero takes 1.7 ms on a 1 Mpx crop
+    if nz is None:
+        raise TendrilLostError(f"no component (no foreground pixel at all) in the roi {[x, y, w, h]}")
+    nz = nz.reshape(-1, 2)
+    cols, rows = nz[:, 0], nz[:, 1]
     lab = labels[rows, cols]
     areas = np.bincount(lab, minlength=n)
     areas[0] = 0
