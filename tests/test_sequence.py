@@ -60,9 +60,11 @@ def clean():
     return make_sequence()
 
 
-@pytest.fixture(scope="module")
-def noisy():
-    return make_sequence(noise_mm=0.3, seed=1)
+@pytest.fixture(scope="module", params=[(0.3, 1), (1.0, 2)], ids=["noise0.3mm", "noise1mm"])
+def noisy(request):
+    """A noisy sequence and the tolerance on the times, in frame intervals."""
+    noise_mm, frames_tol = request.param
+    return make_sequence(noise_mm=noise_mm, seed=1), frames_tol
 
 
 # ------------------------------------------------------------------ response times
@@ -78,17 +80,18 @@ def test_response_times_exact_on_a_ramp():
 
 
 def test_response_times_recovered_under_noise(clean, noisy):
+    (curves, _), frames_tol = noisy
     truth = sq.response_times(sq.shape_change(clean[0]))
-    est = sq.response_times(sq.shape_change(noisy[0]))
+    est = sq.response_times(sq.shape_change(curves))
     assert truth.responded and est.responded
     # noise-free times are where the laws say: after the laws start, before they stop
     assert T_ON <= truth.onset_s <= T_ON + 0.3 * (T_END - T_ON)
     assert T_ON + 0.5 * (T_END - T_ON) <= truth.stable_s <= T_END + DT_S
-    # noisy estimates within two frame intervals of the noise-free ones
-    assert abs(est.onset_s - truth.onset_s) <= 2 * DT_S
-    assert abs(est.stable_s - truth.stable_s) <= 2 * DT_S
+    # noisy estimates within one (0.3 mm point noise) or two (1 mm) frame intervals of the noise-free ones
+    assert abs(est.onset_s - truth.onset_s) <= frames_tol * DT_S
+    assert abs(est.stable_s - truth.stable_s) <= frames_tol * DT_S
     assert est.amplitude_mm == pytest.approx(truth.amplitude_mm, rel=0.1)
-    assert 0 < est.noise_mm < 0.3
+    assert 0 < est.noise_mm < 1.0
 
 
 def test_response_times_stimulus_offset(clean):
@@ -379,17 +382,18 @@ def test_an_outlier_in_the_last_frame_does_not_decide_stability():
     assert rt.stable_s == pytest.approx(470.0)
 
 
-def test_response_times_invariant_to_offset_and_time_shift():
+def test_response_times_without_debias_invariant_to_offset_and_time_shift():
     from hypothesis import given, settings, strategies as st
 
     t = np.arange(0, 900, 15.0)
     y = np.interp(t, [0, 150, 600, 900], [0, 0, 20, 20]) + np.random.default_rng(0).normal(0, 0.2, t.size)
-    base = sq.response_times(pd.DataFrame({"time_s": t, "shape_mm": y}))
+    base = sq.response_times(pd.DataFrame({"time_s": t, "shape_mm": y}), debias=False)
 
     @settings(max_examples=25, deadline=None)
     @given(st.floats(0, 50), st.floats(-1000, 1000))
     def check(offset, shift):
-        r = sq.response_times(pd.DataFrame({"time_s": t + shift, "shape_mm": y + offset}), stimulus_s=shift)
+        r = sq.response_times(pd.DataFrame({"time_s": t + shift, "shape_mm": y + offset}), stimulus_s=shift,
+                              debias=False)
         assert r.onset_s == pytest.approx(base.onset_s, abs=1e-6)
         assert r.stable_s == pytest.approx(base.stable_s, abs=1e-6)
         assert r.amplitude_mm == pytest.approx(base.amplitude_mm, abs=1e-9)
