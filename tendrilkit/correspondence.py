@@ -487,6 +487,17 @@ def _nearest_on_curve(p: np.ndarray, Q: np.ndarray, t0: np.ndarray, window: int)
                            np.ascontiguousarray(t0, dtype=float), int(window))
 
 
+def _beyond_ends(t: np.ndarray, dist: np.ndarray, m: int, tol_px: float = 1.0) -> np.ndarray:
+    """Projections that fall past either end of a view's curve (its nearest point is an end, > tol_px away).
+
+    That view did not see this part of the tendril (the keep-out box hides a
+    different length of base in every view, the tip may be hidden): it says
+    nothing about the point, rather than pulling it onto its curve's
+    extension.
+    """
+    return ((t <= 0.0) | (t >= m - 1.0)) & (dist > tol_px)
+
+
 def _project_und(cam: Camera, X: np.ndarray, dX: np.ndarray):
     """Undistorted pixels (n, 2) of X (n, 3) and their derivative along dX (n, 3)."""
     Xc = X @ cam.R.T + cam.t_mm
@@ -688,7 +699,7 @@ def match_epipolar(
             J = np.einsum("ij,ij->i", nrm, dp)
             dist = np.hypot(e[:, 0], e[:, 1])
             w = np.where(dist <= delta, 1.0, delta / np.maximum(dist, 1e-12))
-            use = np.isfinite(pos[v]) & (dist <= 3 * max_cost_px)
+            use = np.isfinite(pos[v]) & (dist <= 3 * max_cost_px) & ~_beyond_ends(t, dist, len(dense_und[v]))
             w = np.where(use, w, 0.0)
             g += w * J * rr
             H += w * J * J
@@ -721,7 +732,7 @@ def match_epipolar(
         p, _ = _project_und(cams[v], X, a)
         t, near, _ = _nearest_on_curve(p, dense_und[v], t_cur[v], window)
         dist = np.hypot(*(p - near).T)
-        good = np.isfinite(pos[v]) & (dist <= max_cost_px) & matched
+        good = np.isfinite(pos[v]) & (dist <= max_cost_px) & matched & ~_beyond_ends(t, dist, len(dense_und[v]))
         t = np.where(good, t, np.nan)
         out[v] = _interp_index(dense_obs[v], t)
         any_match |= good
