@@ -63,7 +63,11 @@ centreline, base to tip:
    follows the tendril). The ends are extended along their tangents to the
    mask boundary: the skeleton of a tube stops short of a cut end (the base at
    the keep-out box) by about the half-width; at the tip the extension stops
-   ``tip_inset`` half-widths before the boundary. The path is smoothed
+   ``tip_inset`` half-widths before the boundary (a disc-capped tube's
+   skeleton reaches its true end). A walk that ends in a crossing (the tip
+   crosses the tendril and stops a few pixels beyond it, a stub the pruning
+   removed) continues along its tangent through the crossing to the end of
+   the stub. The path is smoothed
    (Gaussian, ``smooth_px``) and resampled every pixel of arc length.
 
 :func:`process_view` is segmentation (:func:`tendrilkit.segmentation.segment_view`)
@@ -717,7 +721,9 @@ def order_skeleton(
     n_crossings = sum(1 for nd, c in visits.items() if c >= 2 and deg[nd] >= 3) - twins_used
 
     path = _bridge(pieces, nodes_seq, node_xy, radius, tangent_window_px)
-    path = _extend_ends(path, crop, half, tangent_window_px, tip_inset, extend_tip=deg[nodes_seq[-1]] == 1)
+    last = nodes_seq[-1]
+    tip_reach = 4.0 * half + 4.0 + (radius[last] + prune_px if deg[last] != 1 else 0.0)
+    path = _extend_ends(path, crop, half, tangent_window_px, tip_inset, tip_reach=tip_reach)
     path = _smooth_resample(path, smooth_px)
 
     decisions = tuple(
@@ -790,8 +796,12 @@ def _bridge(pieces: list, nodes_seq: list, node_xy: np.ndarray, radius: np.ndarr
         while j < n and not keep[j]:
             j += 1
         # gap [i, j): bridge from pts[i-1] to pts[j]
-        if i == 0 or j == n:
-            # a zone at an end of the walk: keep the skeleton (an end inside a crossing)
+        if j == n:
+            # the walk ends in a crossing (a tip stub shorter than prune_px
+            # was pruned, or the tip touches the tendril): drop the bent
+            # skeleton, the tip is extended along its tangent instead
+            break
+        if i == 0:
             out.append(pts[i:j])
             i = j
             continue
@@ -831,13 +841,17 @@ def _run_tangent(pts: np.ndarray, keep: np.ndarray, i: int, step: int, window: f
     return -d if step < 0 else d
 
 
-def _extend_ends(path: np.ndarray, crop: np.ndarray, half: float, window: float, tip_inset: float, *, extend_tip: bool) -> np.ndarray:
-    """Extend both ends along their tangents to the mask boundary (tip: minus ``tip_inset`` half-widths)."""
+def _extend_ends(path: np.ndarray, crop: np.ndarray, half: float, window: float, tip_inset: float, *, tip_reach: float) -> np.ndarray:
+    """Extend both ends along their tangents to the mask boundary (tip: minus ``tip_inset`` half-widths).
+
+    The base goes at most ``4 half + 4`` px, the tip at most ``tip_reach``
+    (more when the walk ends in a crossing: through it, and through a pruned
+    stub of the tip beyond it).
+    """
     h, w = crop.shape
 
-    def reach(p: np.ndarray, d: np.ndarray) -> float:
+    def reach(p: np.ndarray, d: np.ndarray, limit: float) -> float:
         step = 0.5
-        limit = 4.0 * half + 4.0
         s = 0.0
         while s < limit:
             q = p + (s + step) * d
@@ -857,13 +871,12 @@ def _extend_ends(path: np.ndarray, crop: np.ndarray, half: float, window: float,
     if len(path) < 2:
         return path
     d0 = _direction(path[s <= window][::-1]) if np.sum(s <= window) >= 2 else path[0] - path[1]
-    ext0 = line(path[0], d0, reach(path[0], d0) + 0.5)
+    ext0 = line(path[0], d0, reach(path[0], d0, 4.0 * half + 4.0) + 0.5)
     parts = [ext0[::-1], path]
-    if extend_tip:
-        sel = path[s >= s[-1] - window]
-        d1 = _direction(sel) if len(sel) >= 2 else path[-1] - path[-2]
-        length = reach(path[-1], d1) + 0.5 - tip_inset * half
-        parts.append(line(path[-1], d1, length))
+    sel = path[s >= s[-1] - window]
+    d1 = _direction(sel) if len(sel) >= 2 else path[-1] - path[-2]
+    length = reach(path[-1], d1, tip_reach) + 0.5 - tip_inset * half
+    parts.append(line(path[-1], d1, length))
     return np.vstack(parts)
 
 
