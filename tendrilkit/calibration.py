@@ -454,6 +454,10 @@ class BundleReport:
         ``(view, marker_id)`` observations dropped as outliers (view 1-based).
     nfev : int
         Residual evaluations of the optimiser.
+    converged : bool
+        False when the adjustment ended with a corner rms above
+        ``outlier_px / 3`` (it failed, e.g. from a start tens of degrees off);
+        the initial cameras are then returned, with a warning.
     """
 
     table: pd.DataFrame
@@ -465,6 +469,7 @@ class BundleReport:
     rms_after_px: float
     dropped: list[tuple[int, int]] = field(default_factory=list)
     nfev: int = 0
+    converged: bool = True
 
 
 def _reprojection_rows(cameras: list[Camera], observations: dict[int, dict[int, np.ndarray]],
@@ -687,6 +692,9 @@ def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.nd
     dropped: list[tuple[int, int]] = []
     rows = _reprojection_rows(first["cameras"], obs, first["markers_world"], "adjusted")
     bad_obs = [(r["view"] - 1, r["marker_id"]) for r in rows if r["mean_px"] > outlier_px and r["marker_id"] != world_id]
+    n_other = sum(1 for r in rows if r["marker_id"] != world_id)
+    if len(bad_obs) > n_other / 3:  # not a few wrong detections: the adjustment itself failed
+        bad_obs = []
     if bad_obs:
         for v, m in bad_obs:
             dropped.append((v + 1, m))
@@ -698,14 +706,20 @@ def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.nd
         plane_ids = _board_markers(first["markers_world"], world_id, plane_tol_deg, plane_tol_mm)
     result = first
     if bad_obs or plane_ids != fixed_plane:
-        result = _solve_rig(used, list(cameras), plane_ids=plane_ids, init=first["markers_world"], **kw)
+        result = _solve_rig(used, first["cameras"], plane_ids=plane_ids, init=first["markers_world"], **kw)
         nfev += result["nfev"]
     cams, mw = result["cameras"], result["markers_world"]
+    converged = result["rms1"] <= outlier_px / 3
+    if not converged:
+        warnings.warn(f"bundle adjustment did not converge (corner rms {result['rms1']:.2f} px from "
+                      f"{rms0:.2f} px); the initial camera poses are kept", stacklevel=2)
+        cams, mw = list(cameras), dict(mw0)
     rows = _reprojection_rows(list(cameras), obs, mw0, "single") + _reprojection_rows(cams, obs, mw, "adjusted")
     table = pd.DataFrame(rows, columns=["view", "marker_id", "stage", "mean_px", "max_px", "n_corners"])
     return cams, BundleReport(table=table, markers_world=mw, markers_world_single=mw0, marker_lengths_mm=result["lengths"],
                               on_plane=sorted(result["plane"]), rms_before_px=rms0,
-                              rms_after_px=result["rms1"], dropped=dropped, nfev=int(nfev))
+                              rms_after_px=result["rms1"] if converged else rms0, dropped=dropped,
+                              nfev=int(nfev), converged=bool(converged))
 
 
 _bundle_adjust = bundle_adjust  # calibrate()'s keyword of the same name hides the function

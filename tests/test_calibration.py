@@ -416,6 +416,22 @@ def test_bundle_adjust_drops_a_wrong_detection():
     assert after.max() < 0.5
 
 
+def test_bundle_adjust_failure_keeps_initial_cameras():
+    """From poses 20 degrees off the adjustment can end in a wrong minimum: it says so."""
+    rng = np.random.default_rng(2)
+    truth = distorted_rig()
+    obs = _observe(truth, _synthetic_markers(rng), rng, 0.05)
+    start = []
+    for c in truth:
+        ax = rng.normal(size=3)
+        start.append(c.with_pose(rotation_from_rvec(ax / np.linalg.norm(ax) * np.radians(20)) @ c.R,
+                                 c.t_mm + rng.normal(size=3) / np.sqrt(3) * 40))
+    with pytest.warns(UserWarning, match="did not converge"):
+        cams, rep = bundle_adjust(start, obs, world_id=WORLD_ID, length_mm=L)
+    assert not rep.converged
+    assert all(np.allclose(a.R, b.R) for a, b in zip(cams, start))
+
+
 def test_rig_agreement_px_shapes():
     rig = ijcv25_rig()
     mx, mean = rig_agreement_px(rig, rig, working_volume(50))
