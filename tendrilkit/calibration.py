@@ -788,6 +788,8 @@ class CalibrationResult:
             if b.dropped:
                 extra += "; dropped: " + ", ".join(f"view {v} marker {m}" for v, m in b.dropped)
             lines.append(extra + f"; rms {b.rms_before_px:.3f} -> {b.rms_after_px:.3f} px")
+            if not b.converged:
+                lines.append("the bundle adjustment did not converge: the single-marker poses are kept")
         return "\n".join(lines)
 
 
