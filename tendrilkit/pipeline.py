@@ -42,9 +42,10 @@ Resuming
     Every finished frame is written atomically to
     ``DIR/frames/frame_000123.json`` with a fingerprint of the run (resolved
     experiment, video files, cameras, tendrilkit's version). Running the same
-    command again skips the frames whose file has the same fingerprint and
-    assembles the tables from the per-frame files; an interrupted run (Ctrl-C)
-    keeps its finished frames.
+    command again reuses the calibration it wrote (``cameras.json``, stamped
+    in ``frames/calibration_stamp.json``), skips the frames whose file has
+    the same fingerprint and assembles the tables from the per-frame files;
+    an interrupted run (Ctrl-C) keeps its finished frames.
 
 Exit code
     0 if every frame is ``ok``, 1 if some failed (the run still completes and
@@ -437,6 +438,17 @@ def frame_fingerprint(exp, cameras: list[Camera], video_info: list[dict]) -> str
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+def _calibration_stamp(exp, video_info: list[dict]) -> str:
+    """SHA-256 of what the calibration depends on: intrinsics, marker, extrinsics files, first frame, videos."""
+    from tendrilkit import __version__ as version
+    from tendrilkit.params import experiment_to_dict
+
+    d = experiment_to_dict(exp)
+    payload = {"version": version, "videos": video_info, "start": exp.frames.start,
+               **{k: d.get(k) for k in ("cameras", "marker", "extrinsics", "calibration")}}
+    return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()
+
+
 def _frame_path(out: Path, frame: int) -> Path:
     return out / "frames" / f"frame_{frame:06d}.json"
 
@@ -563,7 +575,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         calibration fails.
     """
     from tendrilkit.calibration import calibrate_experiment
-    from tendrilkit.io import check_writable_dir, open_views, write_cameras, write_csv, write_json
+    from tendrilkit.io import check_writable_dir, open_views, read_cameras, write_cameras, write_csv, write_json
     from tendrilkit.params import check_against_images, load_experiment
     from tendrilkit.progress import progress as progress_bar
 
@@ -588,10 +600,22 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         raise ExperimentError(f"{exp.source}: frames: no frame selected (start {fr.start}, stop {fr.stop}, "
                               f"step {fr.step}; the shortest video has {n_video} frames)")
 
-    calib = calibrate_experiment(exp)
-    cameras = calib.cameras
-    write_cameras(cameras, out / "cameras.json")
-    write_csv(calib.markers, out / "calibration_markers.csv")
+    # calibrate once per experiment and videos: a rerun reuses the rig it wrote
+    cal_stamp = _calibration_stamp(exp, video_info)
+    stamp_path = out / "frames" / "calibration_stamp.json"
+    cameras = None
+    if stamp_path.is_file() and (out / "cameras.json").is_file() and (out / "calibration_markers.csv").is_file():
+        try:
+            if json.loads(stamp_path.read_text(encoding="utf-8")).get("stamp") == cal_stamp:
+                cameras = read_cameras(out / "cameras.json")
+        except (OSError, json.JSONDecodeError, ExperimentError):
+            cameras = None
+    if cameras is None:
+        calib = calibrate_experiment(exp)
+        cameras = calib.cameras
+        write_cameras(cameras, out / "cameras.json")
+        write_csv(calib.markers, out / "calibration_markers.csv")
+        write_json({"stamp": cal_stamp}, stamp_path)
 
     fp = frame_fingerprint(exp, cameras, video_info)
     done = _load_done(out, frames, fp)

@@ -1,0 +1,98 @@
+"""End to end: ``python -m tendrilkit reconstruct`` on a short phantom experiment."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.spatial import cKDTree
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _run(exp: Path, out: Path, workers: int) -> subprocess.CompletedProcess:
+    env = {**os.environ, "TENDRILKIT_PROGRESS": "0"}
+    return subprocess.run([sys.executable, "-m", "tendrilkit", "reconstruct", str(exp), "--out", str(out),
+                           "--workers", str(workers)], cwd=ROOT, env=env, capture_output=True, text=True,
+                          timeout=600)
+
+
+def _densify(X: np.ndarray, step: float = 0.05) -> np.ndarray:
+    seg = np.linalg.norm(np.diff(X, axis=0), axis=1)
+    s = np.concatenate([[0], np.cumsum(seg)])
+    si = np.arange(0, s[-1], step)
+    return np.stack([np.interp(si, s, X[:, c]) for c in range(3)], axis=1)
+
+
+@pytest.fixture(scope="module")
+def phantom_run(tmp_path_factory):
+    from tendrilkit.phantom import write_phantom_experiment
+
+    base = tmp_path_factory.mktemp("reconstruct")
+    exp = write_phantom_experiment("S3", base / "exp", n_frames=3, seed=11)
+    r1 = _run(exp, base / "out1", 1)
+    return base, Path(exp), r1
+
+
+@pytest.mark.slow
+def test_files_and_columns(phantom_run):
+    base, _, r1 = phantom_run
+    assert r1.returncode == 0, r1.stderr
+    assert r1.stdout.strip().splitlines()[-1] == "3 frames: 3 ok, 0 failed"
+    out = base / "out1"
+    for name in ("curves.csv", "pwc_curves.csv", "frames.csv", "reprojection.csv", "ordering.csv",
+                 "calibration_markers.csv", "cameras.json"):
+        assert (out / name).is_file(), name
+    curve_cols = ["frame", "time_s", "point", "x_mm", "y_mm", "z_mm"]
+    for name in ("curves.csv", "pwc_curves.csv"):
+        c = pd.read_csv(out / name)
+        assert c.columns.tolist() == curve_cols
+        assert c.groupby("frame").size().tolist() == [200] * 3
+        assert c[["frame", "point"]].equals(c[["frame", "point"]].sort_values(["frame", "point"]))
+    f = pd.read_csv(out / "frames.csv")
+    assert f.columns[:4].tolist() == ["frame", "time_s", "status", "message"]
+    assert (f.status == "ok").all() and f.frame.tolist() == [0, 1, 2]
+    r = pd.read_csv(out / "reprojection.csv")
+    assert r.columns.tolist() == ["frame", "view", "section", "mean_px", "std_px", "max_px", "n_points"]
+    assert len(r) == 3 * 3 * 3
+    cams = json.loads((out / "cameras.json").read_text())
+    assert [c["view"] for c in cams] == [1, 2, 3] and set(cams[0]) >= {"K", "dist", "R", "t_mm"}
+    assert len(list((out / "frames").glob("frame_*.json"))) == 3
+
+
+@pytest.mark.slow
+def test_accuracy_against_ground_truth(phantom_run):
+    base, exp, _ = phantom_run
+    out = base / "out1"
+    gt = pd.read_csv(exp.parent / "ground_truth" / "gt_curves.csv")
+    cur = pd.read_csv(out / "curves.csv")
+    f = pd.read_csv(out / "frames.csv")
+    for frame, g in cur.groupby("frame"):
+        X = gt[gt.frame == frame].sort_values("point")[["x_mm", "y_mm", "z_mm"]].to_numpy()
+        P = g[["x_mm", "y_mm", "z_mm"]].to_numpy()
+        d, _ = cKDTree(_densify(X)).query(P)
+        assert d.mean() <= 1.0, (frame, d.mean())
+        assert np.linalg.norm(P[0] - X[0]) <= 3.0 and np.linalg.norm(P[-1] - X[-1]) <= 3.0
+    for v in (1, 2, 3):
+        assert f[f"reproj_mean_px_v{v}"].max() <= 1.5
+
+
+@pytest.mark.slow
+def test_workers_identical_and_resume(phantom_run):
+    base, exp, _ = phantom_run
+    r2 = _run(exp, base / "out2", 2)
+    assert r2.returncode == 0, r2.stderr
+    for name in ("curves.csv", "pwc_curves.csv", "frames.csv", "reprojection.csv", "ordering.csv"):
+        assert (base / "out1" / name).read_bytes() == (base / "out2" / name).read_bytes(), name
+    # a rerun skips the finished frames and assembles the same tables
+    stamp = {p.name: p.stat().st_mtime_ns for p in (base / "out2" / "frames").glob("*.json")}
+    r3 = _run(exp, base / "out2", 2)
+    assert r3.returncode == 0
+    assert stamp == {p.name: p.stat().st_mtime_ns for p in (base / "out2" / "frames").glob("*.json")}
+    assert (base / "out1" / "curves.csv").read_bytes() == (base / "out2" / "curves.csv").read_bytes()
