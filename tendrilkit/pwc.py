@@ -126,6 +126,8 @@ __all__ = [
 ]
 
 _SIGMA_FLOOR_RAD = 1e-2
+#: Refined and inserted knots stay at least this many sample spacings apart.
+KNOT_GAP_SAMPLES = 6
 
 
 # ---------------------------------------------------------------- costs
@@ -1133,7 +1135,7 @@ def _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points, fr
         wt = np.ones(n) * 1e-12
     Ck = line_costs(s, fr.kappa, weights=wk, score=score, min_size=min_size)
     Ct = line_costs(s, fr.tau, weights=wt, score=score, min_size=min_size)
-    return _Prepared(fr, s, np.ascontiguousarray(fr.data_mm), wk, wt, Ck, Ct, free_knots, float(min_size * h))
+    return _Prepared(fr, s, np.ascontiguousarray(fr.data_mm), wk, wt, Ck, Ct, free_knots, float(KNOT_GAP_SAMPLES * h))
 
 
 def _refine_laws(prep, law_k, law_t, iterations=40, rtol=1e-6):
@@ -1183,99 +1185,22 @@ def _check_options(selection, criterion, target_r2, max_segments, score, positio
         raise ValueError(f"positions must be 'trapezoid' or 'exact', got {positions!r}")
 
 
-def fit_piecewise_clothoid(
-    points_mm: np.ndarray,
-    *,
-    selection: str = "auto",
-    criterion: str = "bic",
-    target_r2: float = 0.999,
-    penalty_kappa: float = 0.01,
-    penalty_tau: float = 0.01,
-    score: str = "l2",
-    smoothing_length_mm: float | None = None,
-    min_segment_mm: float | None = None,
-    max_segments: int = 10,
-    refine: bool = True,
-    positions: str = "trapezoid",
-    n_points: int | None = None,
-    lookahead: int = 1,
-    insertions: bool = True,
-    quick_iterations: int = 4,
-    max_candidates: int = 40,
-) -> PWCFit:
-    """Fit a 3D piece-wise clothoid to an ordered centreline.
+def _preferred(x, y, target_r2, criterion):
+    """Is scored candidate x preferred to y? Reaching target_r2 first; then BIC (or fewer segments)."""
+    okx, oky = x[3] >= target_r2, y[3] >= target_r2
+    if okx != oky:
+        return okx
+    if not okx:
+        return x[3] > y[3]
+    if criterion == "bic":
+        return x[4] < y[4]
+    return x[0].n_segments + x[1].n_segments < y[0].n_segments + y[1].n_segments
 
-    Parameters
-    ----------
-    points_mm : (n, 3) float array
-        Ordered centreline, base to tip, mm.
-    selection : {"auto", "fixed"}, keyword-only
-        ``auto``: the segmentations on both penalty paths, searched as in the
-        module notes and chosen by ``criterion``; ``fixed``:
-        ``penalty_kappa`` and ``penalty_tau``.
-    criterion : {"bic", "r2"}, keyword-only
-        ``bic``: least BIC of the 3D residuals, then more segments only if
-        ``target_r2`` is not reached; ``r2``: the fewest segments reaching
-        ``target_r2`` (the paper's stopping rule). See the module notes.
-    target_r2 : float
-        R^2 of the 3D points to reach (paper: 0.999).
-    penalty_kappa, penalty_tau : float
-        Dimensionless penalties for ``fixed`` (fraction of the signal's
-        variance a segment must explain).
-    score : {"l2", "l1"}
-        Segment score: least squares, or the paper's absolute error.
-    smoothing_length_mm : float, optional
-        Half-gain wavelength of the Whittaker smoother, mm
-        (:mod:`tendrilkit.frenet`); default: chosen per curve from its noise
-        and coiling (:func:`tendrilkit.frenet.auto_smoothing_length_mm`,
-        about 20 mm for 0.15 mm noise).
-    min_segment_mm : float, optional
-        Shortest segment, mm (default: half the smoothing length; at least 3 samples).
-    max_segments : int
-        Most segments per law considered by ``auto``.
-    refine : bool
-        Fit the knots' values and inner positions on the registered 3D points
-        (module notes); off: the paper's curvature/torsion-space fit.
-    positions : {"trapezoid", "exact"}
-        Position rule of the rebuild (:func:`tendrilkit.frenet.integrate_frenet`).
-    n_points : int, optional
-        Resample to this many points (default: as many as given).
-    lookahead : int
-        ``auto``: how many further segmentations of each path a step may jump to.
-    insertions : bool
-        ``auto`` with ``refine``: also try the knot asked for by the score test.
-    quick_iterations : int
-        ``auto``: Levenberg-Marquardt iterations when comparing candidates (the
-        chosen one is then refined to convergence).
-    max_candidates : int
-        ``auto``: the search stops after evaluating this many candidates (a
-        bound on the time per frame on hard, noisy curves).
 
-    Returns
-    -------
-    PWCFit
-
-    Raises
-    ------
-    DegenerateCurveError
-        Too few distinct points, zero length.
-    ValueError
-        An option out of range (named).
-    """
-    _check_options(selection, criterion, target_r2, max_segments, score, positions)
-    prep = _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points)
+def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead, insertions,
+                 quick_iterations, max_candidates):
+    """The automatic selection of :func:`fit_piecewise_clothoid` on prepared signals."""
     s, fr = prep.s, prep.fr
-    if selection == "fixed":
-        bk, _ = segment_penalty(prep.Ck, penalty_kappa)
-        bt, _ = segment_penalty(prep.Ct, penalty_tau)
-        law_k = join_segments(s, fr.kappa, bk, weights=prep.wk, kind="kappa")
-        law_t = join_segments(s, fr.tau, bt, weights=prep.wt, kind="tau")
-        if refine:
-            law_k, law_t, _ = _refine_laws(prep, law_k, law_t)
-        return _finish(prep, law_k, law_t, bounds_k=bk, bounds_t=bt, pen_k=penalty_kappa,
-                       pen_t=penalty_tau, rng_k=[penalty_kappa] * 2, rng_t=[penalty_tau] * 2,
-                       selection="fixed", candidates=np.zeros((0, 6)), refined=refine, positions=positions)
-
     path_k = penalty_path(prep.Ck, kmax=max_segments)
     path_t = penalty_path(prep.Ct, kmax=max_segments)
     # continuity may merge segments, so several path entries can give one law: keep each once
@@ -1330,15 +1255,7 @@ def fit_piecewise_clothoid(
         return scored(*_refine_laws(prep, start_k, start_t, *quick))
 
     def better(x, y):
-        """Is candidate x preferred to y? Reaching target_r2 first; then BIC (or fewer segments)."""
-        okx, oky = x[3] >= target_r2, y[3] >= target_r2
-        if okx != oky:
-            return okx
-        if not okx:
-            return x[3] > y[3]
-        if criterion == "bic":
-            return x[4] < y[4]
-        return x[0].n_segments + x[1].n_segments < y[0].n_segments + y[1].n_segments
+        return _preferred(x, y, target_r2, criterion)
 
     # Forward search from one segment each: move to one of the next `lookahead`
     # segmentations of either penalty path, or (refine and insertions) add the knot
@@ -1377,9 +1294,128 @@ def fit_piecewise_clothoid(
     pa, pb = ik[a], it[b]
     rk = (path_k.penalty_lo[pa], path_k.penalty_hi[pa])
     rt = (path_t.penalty_lo[pb], path_t.penalty_hi[pb])
-    return _finish(prep, lk, lt, bounds_k=path_k.bounds[pa], bounds_t=path_t.bounds[pb],
+    return {"prep": prep, "lk": lk, "lt": lt, "bounds_k": path_k.bounds[pa], "bounds_t": path_t.bounds[pb],
+            "rk": rk, "rt": rt, "candidates": candidates, "best": cur}
+
+
+def fit_piecewise_clothoid(
+    points_mm: np.ndarray,
+    *,
+    selection: str = "auto",
+    criterion: str = "bic",
+    target_r2: float = 0.999,
+    penalty_kappa: float = 0.01,
+    penalty_tau: float = 0.01,
+    score: str = "l2",
+    smoothing_length_mm: float | None = None,
+    min_segment_mm: float | None = None,
+    max_segments: int = 10,
+    refine: bool = True,
+    positions: str = "trapezoid",
+    n_points: int | None = None,
+    lookahead: int = 1,
+    insertions: bool = True,
+    quick_iterations: int = 4,
+    max_candidates: int = 40,
+    retries: bool = True,
+) -> PWCFit:
+    """Fit a 3D piece-wise clothoid to an ordered centreline.
+
+    Parameters
+    ----------
+    points_mm : (n, 3) float array
+        Ordered centreline, base to tip, mm.
+    selection : {"auto", "fixed"}, keyword-only
+        ``auto``: the segmentations on both penalty paths, searched as in the
+        module notes and chosen by ``criterion``; ``fixed``:
+        ``penalty_kappa`` and ``penalty_tau``.
+    criterion : {"bic", "r2"}, keyword-only
+        ``bic``: least BIC of the 3D residuals, then more segments only if
+        ``target_r2`` is not reached; ``r2``: the fewest segments reaching
+        ``target_r2`` (the paper's stopping rule). See the module notes.
+    target_r2 : float
+        R^2 of the 3D points to reach (paper: 0.999).
+    penalty_kappa, penalty_tau : float
+        Dimensionless penalties for ``fixed`` (fraction of the signal's
+        variance a segment must explain).
+    score : {"l2", "l1"}
+        Segment score: least squares, or the paper's absolute error.
+    smoothing_length_mm : float, optional
+        Half-gain wavelength of the Whittaker smoother, mm
+        (:mod:`tendrilkit.frenet`); default: chosen per curve from its noise
+        and coiling (:func:`tendrilkit.frenet.auto_smoothing_length_mm`,
+        about 20 mm for 0.15 mm noise).
+    min_segment_mm : float, optional
+        Shortest segment, mm (default: half the smoothing length; at least 3 samples).
+    max_segments : int
+        Most segments per law considered by ``auto``.
+    refine : bool
+        Fit the knots' values and inner positions on the registered 3D points
+        (module notes); off: the paper's curvature/torsion-space fit.
+    positions : {"trapezoid", "exact"}
+        Position rule of the rebuild (:func:`tendrilkit.frenet.integrate_frenet`).
+    n_points : int, optional
+        Resample to this many points (default: as many as given).
+    lookahead : int
+        ``auto``: how many further segmentations of each path a step may jump to.
+    insertions : bool
+        ``auto`` with ``refine``: also try the knot asked for by the score test.
+    quick_iterations : int
+        ``auto``: Levenberg-Marquardt iterations when comparing candidates (the
+        chosen one is then refined to convergence).
+    max_candidates : int
+        ``auto``: the search stops after evaluating this many candidates (a
+        bound on the time per frame on hard, noisy curves).
+    retries : bool
+        ``auto`` with ``refine``: when the search ends below ``target_r2``,
+        search again with one more step of lookahead, then with half the
+        smoothing length, and keep the preferred result.
+
+    Returns
+    -------
+    PWCFit
+
+    Raises
+    ------
+    DegenerateCurveError
+        Too few distinct points, zero length.
+    ValueError
+        An option out of range (named).
+    """
+    _check_options(selection, criterion, target_r2, max_segments, score, positions)
+    prep = _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points)
+    s, fr = prep.s, prep.fr
+    if selection == "fixed":
+        bk, _ = segment_penalty(prep.Ck, penalty_kappa)
+        bt, _ = segment_penalty(prep.Ct, penalty_tau)
+        law_k = join_segments(s, fr.kappa, bk, weights=prep.wk, kind="kappa")
+        law_t = join_segments(s, fr.tau, bt, weights=prep.wt, kind="tau")
+        if refine:
+            law_k, law_t, _ = _refine_laws(prep, law_k, law_t)
+        return _finish(prep, law_k, law_t, bounds_k=bk, bounds_t=bt, pen_k=penalty_kappa,
+                       pen_t=penalty_tau, rng_k=[penalty_kappa] * 2, rng_t=[penalty_tau] * 2,
+                       selection="fixed", candidates=np.zeros((0, 6)), refined=refine, positions=positions)
+
+    kw = dict(criterion=criterion, target_r2=target_r2, max_segments=max_segments, refine=refine,
+              insertions=insertions, quick_iterations=quick_iterations, max_candidates=max_candidates)
+    res = _auto_search(prep, lookahead=lookahead, **kw)
+    if refine and retries and res["best"][3] < target_r2:
+        # a search that misses the target may have taken a wrong turn: look further along
+        # the paths, and smooth less (short segments); keep the preferred result
+        tries = [(prep, lookahead + 1)]
+        L_s = prep.fr.smoothing_length_mm
+        if L_s > 8 * (s[-1] / (s.size - 1)):
+            tries.append((_prepare(points_mm, 0.5 * L_s, score, min_segment_mm, n_points), lookahead))
+        for prep_, look in tries:
+            alt = _auto_search(prep_, lookahead=look, **kw)
+            if _preferred(alt["best"], res["best"], target_r2, criterion):
+                res = alt
+            if res["best"][3] >= target_r2:
+                break
+    rk, rt = res["rk"], res["rt"]
+    return _finish(res["prep"], res["lk"], res["lt"], bounds_k=res["bounds_k"], bounds_t=res["bounds_t"],
                    pen_k=_mid_penalty(*rk), pen_t=_mid_penalty(*rt), rng_k=rk, rng_t=rt,
-                   selection="auto", candidates=candidates, refined=refine, positions=positions)
+                   selection="auto", candidates=res["candidates"], refined=refine, positions=positions)
 
 
 def _best_insertions(prep, lk, lt):

@@ -270,3 +270,23 @@ def test_grid_search_and_penalty_table():
     rows = penalty_table(tc.points_mm, [(0.001, 0.001), (0.3, 0.3)])
     assert rows[0]["n_kappa"] >= rows[1]["n_kappa"]
     assert {"r2_entire", "r2_base", "r2_tip", "sse_entire_mm2"} <= set(rows[0])
+
+
+@pytest.mark.parametrize("site", ["S2", "S3"])
+def test_phantom_centrelines(site):
+    """The phantom experiments' true centrelines (200 points, 0.15 mm noise), every 6th frame."""
+    phantom = pytest.importorskip("tendrilkit.phantom")
+    from tendrilkit.frenet import resample_curve
+
+    ph = phantom.make_phantom(site)
+    rng = np.random.default_rng(0)
+    dist, r2 = [], []
+    for f in range(0, ph.n_frames, 6):
+        X = resample_curve(ph.curves_mm[f], 200) + rng.normal(0, 0.15, (200, 3))
+        fit = fit_piecewise_clothoid(X)
+        dist.append(mean_distance_mm(fit.points_mm, ph.curves_mm[f]))
+        r2.append(fit.r2)
+    dist, r2 = np.array(dist), np.array(r2)
+    assert np.mean(r2 >= 0.999) >= 0.9, r2
+    # S3's loop has 7 mm ramps, shorter than the knots' minimum spacing: weaker
+    assert np.mean(dist <= (0.3 if site != "S3" else 1.0)) >= 0.9, dist
