@@ -484,3 +484,93 @@ __all__ = [
     "plot_curves_3d_interactive", "plot_shape_evolution", "plot_shape_change", "plot_reprojection_bars",
     "plot_site_comparison", "plot_view_overlay",
 ]
+
+
+# ------------------------------------------------------------------ stage figures (notebooks)
+@_styled
+def plot_mask_overlay(image_bgr: np.ndarray, tendril_mask, *, roi: Sequence[float], keep_out: Sequence[float] | None,
+                      base_point_xy: Sequence[float], title: str | None = None) -> Figure:
+    """The ROI crop of a frame with the tendril's mask (a :class:`~tendrilkit.segmentation.TendrilMask`) in magenta."""
+    img = np.asarray(image_bgr)
+    m = np.asarray(tendril_mask.mask_roi, bool)
+    x0, y0 = (int(v) for v in tendril_mask.roi_offset_xy)
+    crop = img[y0:y0 + m.shape[0], x0:x0 + m.shape[1]]
+    rgb = (crop[:, :, ::-1] if crop.ndim == 3 else np.repeat(crop[:, :, None], 3, axis=2)).astype(float) / 255.0
+    rgb[m] = 0.35 * rgb[m] + 0.65 * np.array([1.0, 0.0, 1.0])
+    h, w = m.shape
+    fig = Figure(figsize=(5.5, 5.5 * h / max(w, 1) + 0.4), layout="constrained")
+    ax = fig.add_subplot()
+    ax.imshow(rgb, extent=(x0 - 0.5, x0 + w - 0.5, y0 + h - 0.5, y0 - 0.5), interpolation="nearest")
+    if keep_out is not None:
+        ax.add_patch(Rectangle(tuple(keep_out[:2]), keep_out[2], keep_out[3], fill=False, ec="red", lw=1.0,
+                               hatch="//", label="keep-out"))
+    cx, cy = tendril_mask.centroid_xy
+    ax.plot([cx], [cy], "+", color="black", ms=10, label="centroid")
+    ax.plot([base_point_xy[0]], [base_point_xy[1]], "*", color="yellow", mec="black", ms=11, label="base point")
+    ax.set_xlim(x0 - 0.5, x0 + w - 0.5)
+    ax.set_ylim(y0 + h - 0.5, y0 - 0.5)
+    ax.grid(False)
+    ax.legend(loc="upper right", frameon=True)
+    ax.set_title(title or f"mask: {tendril_mask.area_px} px")
+    return fig
+
+
+@_styled
+def plot_pwc_fit(fit, *, title: str | None = None) -> Figure:
+    """Measured curvature and torsion against arc length with the fitted laws (a :class:`~tendrilkit.pwc.PWCFit`).
+
+    Torsion samples where it is undefined (curvature near zero) are drawn hollow;
+    knots are vertical ticks.
+    """
+    fr = fit.frames
+    s = np.asarray(fit.s_mm)
+    fig = Figure(figsize=(7.0, 5.0), layout="constrained")
+    axes = fig.subplots(2, 1, sharex=True)
+    for ax, kind, meas, law, fitted in ((axes[0], "curvature κ (1/mm)", fr.kappa, fit.kappa_law, fit.kappa_fit),
+                                        (axes[1], "torsion τ (1/mm)", fr.tau, fit.tau_law, fit.tau_fit)):
+        ok = np.ones(len(s), bool) if ax is axes[0] else np.asarray(fr.tau_defined, bool)
+        ax.plot(s[ok], np.asarray(meas)[ok], ".", color="0.55", ms=2.5, label="measured")
+        if (~ok).any():
+            ax.plot(s[~ok], np.asarray(meas)[~ok], ".", color="0.8", ms=2.5, label="undefined")
+        ax.plot(s, fitted, color="red", lw=1.4, label=f"piece-wise linear ({law.n_segments} segments)")
+        for k in np.asarray(law.knots_mm)[1:-1]:
+            ax.axvline(k, color="red", lw=0.6, alpha=0.4)
+        ax.set_ylabel(kind)
+        ax.legend(loc="upper left")
+    axes[1].set_xlabel("arc length s (mm)")
+    fig.suptitle(title or f"R² = {fit.r2:.5f}, SSE = {fit.sse_mm2:.3g} mm²")
+    return fig
+
+
+@_styled
+def plot_grid_search(grid) -> Figure:
+    """The paper's penalty grid search (Figure 11): R² over each level's grid, the chosen cell marked."""
+    levels = list(grid.levels)
+    n = max(len(levels), 1)
+    fig = Figure(figsize=(3.2 * n, 3.2), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(1, n))
+    for ax, lev in zip(axes, levels):
+        pk, pt, r2 = np.asarray(lev.penalty_kappa), np.asarray(lev.penalty_tau), np.asarray(lev.r2)
+        im = ax.pcolormesh(pt, pk, r2, shading="nearest", cmap="viridis", vmin=max(float(np.nanmin(r2)), 0.9), vmax=1.0)
+        i, j = lev.best
+        ax.plot([pt[j]], [pk[i]], "s", mfc="none", mec="red", ms=9)
+        ax.set_xlabel("ε_τ")
+        ax.set_ylabel("ε_κ")
+        ax.grid(False)
+    fig.colorbar(im, ax=list(axes), label="R²", shrink=0.85)
+    fig.suptitle(f"grid search: ε_κ = {grid.penalty_kappa:.3g}, ε_τ = {grid.penalty_tau:.3g}"
+                 + ("" if grid.converged else " (not converged)"))
+    return fig
+
+
+def show_interactive(fig):
+    """Display a plotly figure in a notebook as self-contained HTML with a stable element id.
+
+    The page works offline (plotly.js embedded) and the saved notebook is the
+    same at every run (plotly's default output carries a random id).
+    """
+    from IPython.display import HTML
+
+    title = fig.layout.title.text if fig.layout.title and fig.layout.title.text else "figure"
+    div_id = "tk-" + "".join(c if c.isalnum() else "-" for c in title.lower())[:40]
+    return HTML(fig.to_html(include_plotlyjs=True, full_html=False, div_id=div_id))
