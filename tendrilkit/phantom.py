@@ -918,6 +918,11 @@ class Phantom:
     def diameter_mm(self) -> float:
         return float(self.options["diameter_mm"])
 
+    @property
+    def laws(self) -> pd.DataFrame:
+        """The laws as the ``gt_laws.csv`` table (see :meth:`laws_table`)."""
+        return self.laws_table()
+
     def laws_table(self) -> pd.DataFrame:
         """``gt_laws.csv``: frame, kind, segment, s0_mm, s1_mm, value_s0, value_s1 (1/mm)."""
         rows = []

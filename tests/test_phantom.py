@@ -8,9 +8,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+import yaml
 
 from tendrilkit import phantom as P
-from tendrilkit.params import load_experiment
+from tendrilkit.params import load_experiment, parse_experiment
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -20,6 +21,7 @@ def _digest(folder: Path) -> dict[str, str]:
             for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
+@pytest.mark.slow
 def test_write_is_deterministic_and_skips_when_present(tmp_path):
     a = P.write_phantom_experiment("S3", tmp_path / "a", n_frames=2, seed=0)
     P._CACHE.clear()  # a fresh generation, not the cached phantom
@@ -140,6 +142,24 @@ def test_committed_params_match_the_generator():
     for site in P.SITES:
         text = (ROOT / "params" / f"phantom_{site}.yaml").read_text(encoding="utf-8")
         assert text == P.phantom_params_yaml(site, video_dir=f"../data/phantoms/{site}"), site
+        # valid (the videos themselves exist only once the demo has generated them)
+        assert parse_experiment(yaml.safe_load(text)).name == f"phantom-{site}"
+
+
+def test_design_and_marks_do_not_depend_on_the_sequence_length():
+    short = P.make_phantom("S4", n_frames=3, seed=0)
+    default = P.make_phantom("S4", seed=0)
+    assert short.views == default.views and short.length_mm == default.length_mm
+    assert [m.id for m in short.scene.markers] == [m.id for m in default.scene.markers]
+    # the same time gives the same curve
+    np.testing.assert_allclose(short.curves_mm[0], default.curves_mm[0])
+    assert short.fps == pytest.approx(3 / 900, rel=1e-6) and default.fps == pytest.approx(1 / 15, rel=1e-6)
+    # the response starts after the onset and is (up to the wobble) complete after stabilisation
+    r, t = default.response, default.time_s
+    assert r[t < default.design.onset_s].max() < 0.03
+    assert np.all(np.abs(r[t >= default.design.stable_s] - 1) < 0.06)
+    # another seed is another tendril
+    assert P.make_phantom("S4", n_frames=3, seed=1).length_mm != short.length_mm
 
 
 def test_bad_arguments_raise():
