@@ -12,7 +12,9 @@ The chain is
 3. :func:`frenet_frames`: arc length of the smoothed curve, T, N, B, curvature
    and torsion from its derivatives, and a flag where torsion is undefined;
 4. :func:`integrate_frenet`: the inverse, rebuilding a curve from curvature and
-   torsion laws and an initial frame.
+   torsion laws and an initial frame (exact rotation per step about the
+   Darboux vector, step-mean curvature and torsion: second order; positions by
+   the paper's trapezoidal rule or the exact integral of the rotating tangent).
 
 Smoothing strength
 ------------------
@@ -28,6 +30,11 @@ features shorter than :math:`L_s` are smoothed away, longer ones kept (a coil
 of wavelength :math:`3 L_s` keeps 99 % of its amplitude). The value does not
 depend on the number of points. (The reference's fixed :math:`\\lambda = 10^4`
 on 200 points of a 150 mm tendril corresponds to :math:`L_s \\approx 47` mm.)
+Both ends are padded by a local cubic extrapolation before smoothing, so the
+smoother does not straighten them. By default :math:`L_s` is chosen per curve
+(:func:`auto_smoothing_length_mm`): 20 mm at 0.15 mm of noise, growing as
+:math:`\\sigma^{0.4}` with the noise estimated from third differences
+(:func:`noise_sigma_mm`), capped below the coil wavelength.
 
 Curvature and torsion
 ---------------------
