@@ -96,3 +96,87 @@ def test_workers_identical_and_resume(phantom_run):
     assert r3.returncode == 0
     assert stamp == {p.name: p.stat().st_mtime_ns for p in (base / "out2" / "frames").glob("*.json")}
     assert (base / "out1" / "curves.csv").read_bytes() == (base / "out2" / "curves.csv").read_bytes()
+
+
+# ------------------------------------------------------------ fast: one frame
+def _synthetic_frame():
+    """Three views of a curled tube through the IJCV25 rig, and its experiment."""
+    import cv2
+
+    from tendrilkit.calibration import ijcv25_rig
+    from tendrilkit.params import parse_experiment
+
+    cams = ijcv25_rig()
+    s = np.linspace(0, 1, 3000)
+    th = np.clip(s - 0.4, 0, None) * 6 * np.pi
+    X = np.c_[-5 + 50 * s, 6 * np.sin(th), 20 + 6 * (1 - np.cos(th))]
+    images, views = [], []
+    for v, c in enumerate(cams):
+        img = np.full((1080, 1920, 3), 235, np.uint8)
+        p = c.project(X)
+        cv2.polylines(img, [np.round(p * 16).astype(np.int32)], False, (40, 40, 40), 9, cv2.LINE_AA, 4)
+        images.append(img)
+        lo, hi = (p.min(0) - 40).astype(int), (p.max(0) + 40).astype(int)
+        views.append({"view": v + 1, "roi": [int(lo[0]), int(lo[1]), int(hi[0] - lo[0]), int(hi[1] - lo[1])],
+                      "base_point": [float(p[0, 0]), float(p[0, 1])]})
+    exp = parse_experiment({
+        "name": "synthetic", "videos": ["v1.mp4", "v2.mp4", "v3.mp4"], "fps": 2, "reference_view": 2,
+        "cameras": [{"view": i + 1, "fx": float(c.K[0, 0]), "fy": float(c.K[1, 1]), "cx": float(c.K[0, 2]),
+                     "cy": float(c.K[1, 2])} for i, c in enumerate(cams)],
+        "marker": {"dictionary": "DICT_ARUCO_ORIGINAL", "id": 815, "length_mm": 24.0},
+        "views": views,
+    })
+    return images, cams, exp, X
+
+
+@pytest.fixture(scope="module")
+def synthetic():
+    return _synthetic_frame()
+
+
+def test_reconstruct_frame_ok(synthetic):
+    from tendrilkit.pipeline import quality_columns, reconstruct_frame
+
+    images, cams, exp, X = synthetic
+    r = reconstruct_frame(images, cams, exp, frame=3, fit=False)
+    assert r.status == "ok" and r.message == "" and r.time_s == 1.5
+    assert r.points_mm.shape == (200, 3)
+    d, _ = cKDTree(_densify(X)).query(r.points_mm)
+    assert d.mean() < 0.5
+    assert set(r.quality) == set(quality_columns(3))
+    assert all(r.quality[f"reproj_mean_px_v{v}"] < 1.0 for v in (1, 2, 3))
+    assert [t["section"] for t in r.reprojection] == ["base", "tip", "entire"] * 3
+
+
+def test_reconstruct_frame_view_lost_then_frame_failed(synthetic):
+    from tendrilkit.pipeline import reconstruct_frame
+
+    images, cams, exp, X = synthetic
+    blank = np.full_like(images[0], 235)
+    r = reconstruct_frame([blank, images[1], images[2]], cams, exp, fit=False)
+    assert r.status == "ok" and r.quality["views_used"] == 2
+    assert r.message.startswith("view 1: TendrilLostError")
+    r = reconstruct_frame([blank, None, images[2]], cams, exp, read_errors=[None, "FrameReadError: gone", None], fit=False)
+    assert r.status == "failed" and r.points_mm is None
+    assert "view 1: TendrilLostError" in r.message and "view 2: FrameReadError: gone" in r.message
+    assert r.centroids[0] is None and r.centroids[2] is not None  # tracking state survives the failure
+
+
+def test_reference_view_lost_uses_another(synthetic):
+    from tendrilkit.pipeline import reconstruct_frame
+
+    images, cams, exp, X = synthetic
+    r = reconstruct_frame([images[0], np.full_like(images[1], 235), images[2]], cams, exp, fit=False)
+    assert r.status == "ok" and "reference view 2 unavailable, view 1 used instead" in r.message
+    d, _ = cKDTree(_densify(X)).query(r.points_mm)
+    assert d.mean() < 0.5
+
+
+def test_frame_result_json_round_trip(synthetic):
+    from tendrilkit.pipeline import FrameResult, reconstruct_frame
+
+    images, cams, exp, _ = synthetic
+    r = reconstruct_frame(images, cams, exp, fit=False)
+    back = FrameResult.from_json(json.loads(json.dumps(r.to_json())))
+    np.testing.assert_array_equal(back.points_mm, r.points_mm)
+    assert back.quality == r.quality and back.reprojection == r.reprojection and back.centroids == r.centroids
