@@ -16,12 +16,14 @@
 3. write the result files of EXPERIMENT_FORMAT.md (see :data:`RESULT_FILES`).
 
 Failures
-    A frame whose 2D stage, matching or fit raises a
+    A frame whose 2D stage, matching or triangulation raises a
     :class:`~tendrilkit.exceptions.FrameError` (or meets an unexpected
     numerical error: ``ValueError``, ``FloatingPointError``,
     ``LinAlgError``, ``ZeroDivisionError``, ``IndexError``) is recorded as
     ``failed`` with the reason and the run goes on. A view whose 2D stage
     fails is left out when at least two views remain (the message says so).
+    A failed piece-wise clothoid fit keeps the frame ``ok`` (the centreline
+    stands) with no ``pwc_curves.csv`` rows and the reason in the message.
 
 Tracking and workers
     Segmentation takes, in every view, the component nearest the previous
@@ -348,16 +350,21 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
             q[f"tri_err_px_v{v + 1}"] = float(e.mean()) if e.size else None
             q[f"n_crossings_v{v + 1}"] = crossings[v]
         pwc = None
-        if fit:
+        if fit:  # a failed fit leaves the reconstruction standing: the frame stays ok, without pwc
             t0 = time.perf_counter()
-            res = _fit(points, exp)
+            try:
+                res = _fit(points, exp)
+            except (FrameError, *_NUMERICAL_ERRORS) as e:
+                notes.append(f"piece-wise clothoid fit failed: {type(e).__name__}: {e}")
+                res = None
             timings["pwc"] = time.perf_counter() - t0
-            pwc = np.asarray(res.points_mm, float)
-            q["pwc_r2"] = float(res.scores.r2_entire)
-            q["pwc_sse_mm2"] = float(res.scores.sse_entire_mm2)
-            q["pwc_rmse_mm"] = float(res.scores.rmse_mm)
-            q["pwc_segments_kappa"] = int(res.kappa_law.n_segments)
-            q["pwc_segments_tau"] = int(res.tau_law.n_segments)
+            if res is not None:
+                pwc = np.asarray(res.points_mm, float)
+                q["pwc_r2"] = float(res.scores.r2_entire)
+                q["pwc_sse_mm2"] = float(res.scores.sse_entire_mm2)
+                q["pwc_rmse_mm"] = float(res.scores.rmse_mm)
+                q["pwc_segments_kappa"] = int(res.kappa_law.n_segments)
+                q["pwc_segments_tau"] = int(res.tau_law.n_segments)
         reproj_rows = [{k_: (v_.item() if hasattr(v_, "item") else v_) for k_, v_ in r.items()}
                        for r in table.to_dict("records")]
     except FrameError as e:
