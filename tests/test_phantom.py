@@ -167,3 +167,15 @@ def test_bad_arguments_raise():
         P.make_phantom("S5")
     with pytest.raises(P.PhantomError, match="unknown phantom option"):
         P.make_phantom("S1", n_frames=2, colour="red")
+
+
+def test_points_beyond_the_field_of_view_are_not_folded_into_the_image():
+    """The distortion polynomial folds back at wide angles (k1, k2 < 0): such points must not be drawn."""
+    from tendrilkit.camera import Camera
+
+    cam = Camera(K=np.array([[1750.0, 0, 960], [0, 1750.0, 540], [0, 0, 1]]), dist=[-0.06, -0.02, 0, 0, 0])
+    far = np.array([[2.2 * 400.0, 0.0, 400.0]])  # 65 degrees off axis
+    assert cam.in_image(cam.project(far)).all()  # the model's fold puts it inside the image
+    assert np.isnan(P._project_safe(cam, far)).all()
+    inside = np.array([[50.0, 20.0, 400.0]])
+    np.testing.assert_allclose(P._project_safe(cam, inside), cam.project(inside))
