@@ -13,7 +13,25 @@
    resampling to ``points`` points base to tip (uniform arc length), the
    piece-wise clothoid fit, and the quality figures (reprojection error per
    view and quarter against the extracted skeletons, paper Table 1);
-3. write the result files of EXPERIMENT_FORMAT.md (see :data:`RESULT_FILES`).
+3. write the result files of EXPERIMENT_FORMAT.md (see :data:`RESULT_FILES`),
+   rows sorted by frame (then point, view, ...), floats with 6 decimals:
+
+   ========================  ==========================================================
+   ``curves.csv``            ``frame, time_s, point, x_mm, y_mm, z_mm``: the centreline,
+                             ``points`` points base (0) to tip, uniform arc length
+   ``pwc_curves.csv``        same columns: the piece-wise clothoid registered onto it
+   ``frames.csv``            ``frame, time_s, status, message`` and the quality figures
+                             of :func:`quality_columns`
+   ``reprojection.csv``      ``frame, view, section, mean_px, std_px, max_px, n_points``:
+                             the paper's Table 1 for every frame (section ``base`` /
+                             ``tip`` quarters of the 3D arc length, ``entire``)
+   ``ordering.csv``          the 2D stage's decisions at crossings: ``frame, view,
+                             junction, junction_x_px, junction_y_px, candidates``
+                             (JSON ``[[branch, angle_deg], ...]``), ``chosen, method``
+   ``calibration_markers.csv``  :attr:`tendrilkit.calibration.CalibrationResult.markers`
+   ``cameras.json``          the calibrated rig (EXPERIMENT_FORMAT.md)
+   ``frames/``               one JSON file per finished frame (resuming, below)
+   ========================  ==========================================================
 
 Failures
     A frame whose 2D stage, matching or triangulation raises a
