@@ -22,13 +22,26 @@ Four families, one per stimulation site, after the paper's Figure 1D:
 
 ``seed=0`` gives each site's nominal design; other seeds vary the length
 (120-200 mm), breakpoints, curl amounts, base position and tilt, the scene
-layout and the noise within the site's family. Every design is checked
-(:func:`check_constraints`): the tendril stays in front of the board
-(z >= 3 mm) and inside all three images with a margin, its centroid is
-100-150 mm from the world marker, it never touches leaves, markers or the
-stem (except at its base) in any view, never touches itself in 3D, and every
-marker is visible in all three views; a design that fails is redrawn
-deterministically (``attempt`` in the ground truth).
+layout, the lens distortion and the noise within the site's family. Every
+design is checked (:func:`check_constraints`): the tendril stays in front of
+the board (z >= 3 mm) and inside all three images with a 60 px margin, its
+centroid is 100-150 mm from the world marker, it never touches leaves,
+markers or the stem (except at its base) in any view, never touches itself
+in 3D, and every marker is visible in all three views; a design that fails
+is redrawn deterministically (``design_attempt`` in the ground truth).
+Designs and scenes are accepted on a fixed grid of times (every 15 s of the
+15 minutes), so a seed gives the same tendril, scene and marks whatever the
+sequence length.
+
+Geometry: the world frame is the world marker's (board z = 0, world +x down
+in every view = gravity). The images span only about 150 mm along gravity,
+so the tendril hangs from the node at an angle from the vertical that grows
+with its length (18-30 degrees at 120 mm, 53-65 at 200 mm), tilted 7-14
+degrees out of the board, and bends slightly (initial curvature at most
+0.004 1/mm). The time-lapse is 15 minutes (``fps = n_frames / 900``; 60
+frames: one every 15 s); the response is a smooth step from ``onset_s``
+(about 3 min) to ``stable_s`` (about 12 min) with a slow wobble of a few per
+cent, so no two frames are identical.
 
 Public API: :func:`make_phantom` (geometry and marks, no pixels),
 :func:`render_view` (one frame of one view, no compression),
