@@ -127,7 +127,7 @@ __all__ = [
 
 _SIGMA_FLOOR_RAD = 1e-2
 #: Refined and inserted knots stay at least this many sample spacings apart.
-KNOT_GAP_SAMPLES = 6
+KNOT_GAP_SAMPLES = 9
 
 
 # ---------------------------------------------------------------- costs
