@@ -556,7 +556,7 @@ def match_epipolar(
     *,
     reference: int,
     k: int = 200,
-    oversample: int = 3,
+    oversample: int = 2,
     max_cost_px: float = 8.0,
     beta: float = 0.2,
     max_step_factor: float = 5.0,
