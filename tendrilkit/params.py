@@ -146,7 +146,7 @@ class Skeleton(_Strict):
     """
 
     prune_px: float = Field(12.0, ge=0)
-    merge_width: float = Field(4.0, ge=0)
+    merge_width: float = Field(1.5, ge=0)
     smooth_px: float = Field(1.5, ge=0)
     tip_inset: float = Field(1.0, ge=0)
 

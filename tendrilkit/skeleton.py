@@ -96,7 +96,7 @@ from tendrilkit.segmentation import segment_view
 
 __all__ = ["Decision", "OrderedCenterline", "ViewCenterline", "compare_centerlines", "order_skeleton", "process_view"]
 
-_MAX_STEPS = 20000  # cap on the depth-first search over walks
+_MAX_STEPS = 5000  # cap on the depth-first search over walks
 _SHALLOW_X_WIDTHS = 15.0  # longest middle of a shallow X crossing, in tube widths (about 8 deg)
 
 
@@ -475,6 +475,45 @@ def _end_tangent(pts: np.ndarray, centre: np.ndarray, radius: float, window: flo
     return _direction(sel)
 
 
+def _widen_zones(g: _Graph, radius: np.ndarray, crop: np.ndarray, width: float, ratio: float = 1.2) -> None:
+    """Grow each junction zone to where its branches are single tubes again.
+
+    Where two passes of the tendril meet at a small angle, the mask is wider
+    than one tube over ``(w / 2) / sin(angle / 2)`` or more from the crossing,
+    and the skeleton there follows neither pass. Along every branch leaving a
+    junction, the zone ends where the distance to the background (computed in
+    a window around the junction) falls back to ``ratio`` times the branch's
+    own median (the single tube's), for at least 3 pixels; the zone radius is
+    the largest such distance from the junction's centre (capped at 10 w).
+    """
+    H, W = crop.shape
+    half = int(np.ceil(12 * width)) + 4
+    for n in np.nonzero(radius > 0)[0]:
+        cx, cy = g.node_xy[n]
+        x0, y0 = max(int(cx) - half, 0), max(int(cy) - half, 0)
+        x1, y1 = min(int(cx) + half + 1, W), min(int(cy) + half + 1, H)
+        dt = cv2.distanceTransform(crop[y0:y1, x0:x1], cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        grow = radius[n]
+        for u, v, pts, _ in g.edges:
+            for node_end, path in ((u, pts), (v, pts[::-1])):
+                if node_end != n:
+                    continue
+                c, r = path[:, 0].astype(int) - x0, path[:, 1].astype(int) - y0
+                inside = (c >= 0) & (c < x1 - x0) & (r >= 0) & (r < y1 - y0)
+                run = int(np.argmin(inside)) if not inside.all() else len(path)
+                if run < 6:
+                    continue
+                d = dt[r[:run], c[:run]]
+                dist = np.hypot(path[:run, 0] - cx, path[:run, 1] - cy)
+                far = d[dist > 2 * width]
+                ref = float(np.median(far)) if len(far) >= 3 else float(np.median(d))
+                thin = d <= ratio * ref
+                ok = thin[:-2] & thin[1:-1] & thin[2:]
+                if ok.any():
+                    grow = max(grow, float(dist[int(np.argmax(ok))]))
+        radius[n] = min(grow, max(radius[n], 10 * width))
+
+
 def _signed_angle_deg(d_in: np.ndarray, d_out: np.ndarray) -> float:
     return float(np.degrees(np.arctan2(d_in[0] * d_out[1] - d_in[1] * d_out[0], d_in @ d_out)))
 
@@ -508,7 +547,7 @@ def order_skeleton(
     frame: int = 0,
     view: int = 1,
     zone_width: float = 1.0,
-    merge_width: float = 4.0,
+    merge_width: float = 1.5,
     smooth_px: float = 1.5,
     tip_inset: float = 1.0,
     max_unused_fraction: float = 0.1,
@@ -614,6 +653,7 @@ def order_skeleton(
     radius = np.array(
         [0.5 * g.node_span[n] + zone_width * width if (deg[n] >= 3 or g.node_span[n] > 0 or g.node_junction[n]) else 0.0 for n in range(len(deg))]
     )
+    _widen_zones(g, radius, crop, width)
     n_junctions = int(np.sum(deg >= 3))
     if method == "paper" and n_junctions > 1:
         raise AmbiguousOrderingError(
@@ -656,18 +696,26 @@ def order_skeleton(
             out.sort(key=lambda c: abs(c[3]))
         return out
 
+    # depth-first search over walks, smoothest candidate first; among the
+    # complete walks (every branch used) the one with the fewest twins, then
+    # the smallest total turn, is kept (branch and bound on that cost)
     best: dict[str, Any] = {"covered": -1.0, "trail": None, "decisions": None}
+    done: dict[str, Any] = {"cost": (np.inf, np.inf), "trail": None, "decisions": None}
     steps = [0]
 
-    def dfs(nd: int, d_in, used: set, trail: list, decs: list, covered: float) -> bool:
+    def dfs(nd: int, d_in, used: set, trail: list, decs: list, covered: float, twins: int, turn: float) -> None:
         steps[0] += 1
+        if (twins, turn) >= done["cost"]:
+            return
         cands = candidates(nd, d_in, used)
         if not cands:
-            if covered > best["covered"] + 1e-6:
+            if covered >= total_len - 1e-6:
+                done.update(cost=(twins, turn), trail=list(trail), decisions=list(decs))
+            elif covered > best["covered"] + 1e-6:
                 best.update(covered=covered, trail=list(trail), decisions=list(decs))
-            return covered >= total_len - 1e-6
+            return
         if steps[0] > _MAX_STEPS:
-            return False
+            return
         order = list(range(len(cands)))
         kind = method
         if len(cands) >= 2:
@@ -686,15 +734,17 @@ def order_skeleton(
             if len(cands) >= 2:
                 decs.append((nd, tuple((c[2], c[3]) for c in cands), k, kind))
             nxt = g.edges[i][1] if end == 0 else g.edges[i][0]
-            if dfs(nxt, -tangent[i, 1 - end], used, trail, decs, covered + (0.0 if i in twin_of else g.edges[i][3])):
-                return True
+            dfs(nxt, -tangent[i, 1 - end], used, trail, decs, covered + (0.0 if i in twin_of else g.edges[i][3]),
+                twins + (i in twin_of), turn + abs(ang))
             if len(cands) >= 2:
                 decs.pop()
             trail.pop()
             used.discard(i)
-        return False
 
-    complete = dfs(start, None, set(), [], [], 0.0)
+    dfs(start, None, set(), [], [], 0.0, 0, 0.0)
+    complete = done["trail"] is not None
+    if complete:
+        best.update(covered=total_len, trail=done["trail"], decisions=done["decisions"])
     trail, decs = best["trail"], best["decisions"]
     unused = total_len - best["covered"]
     if not complete and unused > max(max_unused_fraction * total_len, 2 * prune_px):
