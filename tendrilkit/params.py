@@ -166,10 +166,11 @@ class OrderingOverride(_Strict):
 class Ordering(_Strict):
     """Base-to-tip ordering through self-crossings; see :mod:`tendrilkit.skeleton`.
 
-    ``method``: ``smooth`` (any number of crossings: at every junction the
-    branch with the smallest turn of the tangent, tangents fitted over
-    ``tangent_window_px`` of skeleton outside the junction zone) or ``paper``
-    (the paper's two/three sub-set cases, one crossing at most);
+    ``method``: ``smooth`` (any number of crossings: the walk through every
+    branch with the smallest total turn of the tangent at the junctions,
+    tangents fitted over ``tangent_window_px`` of skeleton outside the
+    junction zone) or ``paper`` (the paper's two/three sub-set cases, one
+    crossing at most);
     ``zone_width``: radius of the junction zone beyond half the crossing's
     span, in tube widths (the skeleton there is replaced by a smooth bridge);
     ``max_unused_fraction``: a frame whose walk leaves more of the skeleton

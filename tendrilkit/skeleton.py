@@ -27,14 +27,16 @@ centreline, base to tip:
    Euler trail of the graph (at an X crossing the tendril passes twice, in and
    out along opposite branches). Two rules pick the branch:
 
-   - ``method="smooth"`` (default, any number of crossings): the branch with
-     the smallest turn of the tangent. Tangents are lines fitted (principal
-     axis) to the ``tangent_window_px`` of skeleton just outside the junction
-     zone (radius ``span/2 + zone_width * w`` around the crossing, where the
-     skeleton bends toward the junction and says nothing about the tendril).
-     Candidates are tried smoothest first; a choice that cannot lead to a walk
-     using every branch is revised (depth-first search), so the first complete
-     walk found is the smoothest one.
+   - ``method="smooth"`` (default, any number of crossings): the turn of the
+     tangent from the incoming branch to each candidate is measured; tangents
+     are lines fitted (principal axis) to the ``tangent_window_px`` of
+     skeleton just outside the junction zone (radius ``span/2 + zone_width *
+     w`` around the crossing, grown along the branches to where the mask is a
+     single tube again: inside, the skeleton bends toward the junction and
+     says nothing about the tendril). A depth-first search tries candidates
+     smoothest first and keeps, among the walks that use every branch, the
+     one with the fewest twins (below) and then the smallest sum of turns
+     (branch and bound); with one crossing that is the smoothest turn at it.
    - ``method="paper"`` (at most one crossing): the paper's sub-set cases.
      With a closed loop at the crossing and a tip branch (three sub-sets), the
      tip branch :math:`\\mathcal{S}_3` is the one whose far end is farthest
@@ -51,7 +53,8 @@ centreline, base to tip:
      |\\alpha_{N_2^*}|`. (The paper's equation compares the signed angles,
      which picks the right loop direction only for one sense of rotation; the
      magnitudes are what its text and figure describe.) :math:`N_1 = N_2 =`
-     ``tangent_window_px`` points.
+     ``tangent_window_px`` points. The first complete walk in this
+     preference is taken.
 
    Every decision is recorded (:class:`Decision`) and can be overridden:
    ``overrides`` entries ``{frame, view, junction, branch}`` force, at the
@@ -705,7 +708,7 @@ def order_skeleton(
 
     def dfs(nd: int, d_in, used: set, trail: list, decs: list, covered: float, twins: int, turn: float) -> None:
         steps[0] += 1
-        if (twins, turn) >= done["cost"]:
+        if (twins, turn) >= done["cost"] or (method == "paper" and done["trail"] is not None):
             return
         cands = candidates(nd, d_in, used)
         if not cands:
