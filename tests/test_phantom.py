@@ -157,6 +157,9 @@ def test_design_and_marks_do_not_depend_on_the_sequence_length():
     # the response starts after the onset and is (up to the wobble) complete after stabilisation
     r, t = default.response, default.time_s
     assert r[t < default.design.onset_s].max() < 0.03
+    for site in P.SITES:  # hanging almost straight before the onset
+        ph = P.make_phantom(site, n_frames=3, seed=0)
+        assert ph.kappa.values[0].max() <= 0.005 and np.abs(ph.tau.values[0]).max() <= 0.005
     assert np.all(np.abs(r[t >= default.design.stable_s] - 1) < 0.06)
     # another seed is another tendril
     assert P.make_phantom("S4", n_frames=3, seed=1).length_mm != short.length_mm
