@@ -9,8 +9,8 @@ mp4v videos and the ground truth) into a temporary folder. Then the total for
 all sites, in sequence or over ``--workers`` processes. Wall and CPU seconds:
 on a shared machine the wall time mostly says how busy it is.
 
-Measured 2026-11-25 (2 cores shared with other jobs, load 4-8), 60 frames:
-CPU 32 s for the four sites in sequence (about 8 s each: 1 s make_phantom,
+Measured 2026-11-25 (2 cores shared with other jobs, load about 5), 60 frames:
+CPU 29-35 s, wall 55-70 s for the four sites in sequence (about 8 s CPU each: 1 s make_phantom,
 3 x 0.7 s static scene, 180 x ~25 ms frames with encoding).
 """
 

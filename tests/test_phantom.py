@@ -42,6 +42,10 @@ def test_write_is_deterministic_and_skips_when_present(tmp_path):
     ok, img = cap.read()
     cap.release()
     assert ok and img.shape == (1080, 1920, 3)
+    # after compression the frame is still the rendered one, up to a few grey levels
+    rendered = P.render_view(P.make_phantom("S3", n_frames=2, seed=0), 0, 0).astype(float)
+    err = np.abs(img.astype(float) - rendered)
+    assert err.mean() < 4.0 and np.percentile(err, 99) < 15, (err.mean(), np.percentile(err, 99))
 
 
 def test_ground_truth_round_trip(tmp_path):
