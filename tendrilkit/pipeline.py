@@ -201,8 +201,20 @@ def quality_columns(n_views: int) -> list[str]:
 
 # ------------------------------------------------------------------ one frame
 def _options(exp) -> tuple[dict, dict]:
-    seg = exp.segmentation.model_dump()
-    order = {**exp.skeleton.model_dump(), **exp.ordering.model_dump()}
+    """Keyword options of segment_view and order_skeleton from the experiment's sections.
+
+    The 2D stage is :func:`tendrilkit.skeleton.process_view` taken apart (the
+    pipeline needs the number of components the segmentation chose from, for
+    the tracking across workers); each function gets the fields it accepts.
+    """
+    import inspect
+
+    fields = {**exp.segmentation.model_dump(), **exp.skeleton.model_dump(), **exp.ordering.model_dump()}
+    seg_keys = set(inspect.signature(segment_view).parameters)
+    order_keys = set(inspect.signature(order_skeleton).parameters)
+    skip = {"image_bgr", "mask_roi", "roi", "keep_out", "base_point_xy", "prev_centroid_xy", "offset_xy", "frame", "view"}
+    seg = {k: v for k, v in fields.items() if k in seg_keys and k not in skip}
+    order = {k: v for k, v in fields.items() if k in order_keys and k not in skip}
     return seg, order
 
 
