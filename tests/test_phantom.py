@@ -126,7 +126,7 @@ def test_s3_default_crosses_itself_in_two_views():
         assert not any(c for cf in p.crossings for c in cf)
 
 
-@pytest.mark.parametrize("site,seed", [("S1", 3), ("S3", 5), ("S4", 11)])
+@pytest.mark.parametrize("site,seed", [("S2", 3), ("S3", 5), ("S4", 11)])
 def test_constraints_hold_for_other_seeds(site, seed):
     ph = P.make_phantom(site, n_frames=4, seed=seed)
     assert 120 <= ph.length_mm <= 200
