@@ -165,7 +165,8 @@ class OrderedCenterline:
         Every branch choice of the walk, in the order met.
     n_crossings : int
         Junctions the walk passes more than once (self-crossings; a tip
-        touching the tendril counts).
+        touching the tendril counts, and a band where the tendril runs along
+        itself, walked twice between two junctions, counts once).
     width_px : float
         Tube width estimated from the skeleton's distance transform.
     branches_xy : tuple of (k, 2) float arrays
