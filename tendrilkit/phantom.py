@@ -31,7 +31,8 @@ in 3D, and every marker is visible in all three views; a design that fails
 is redrawn deterministically (``design_attempt`` in the ground truth).
 Designs and scenes are accepted on a fixed grid of times (every 15 s of the
 15 minutes), so a seed gives the same tendril, scene and marks whatever the
-sequence length.
+sequence length (unless a frame between those times breaks a constraint, when
+the next design is drawn).
 
 Geometry: the world frame is the world marker's (board z = 0, world +x down
 in every view = gravity). The images span only about 150 mm along gravity,
