@@ -59,7 +59,11 @@ the matched point in every view as a ``(n_views, k, 2)`` array of *observed*
        the others are interpolated from their neighbours along the curve.
     4. The matched point in each view is the point of its curve nearest the
        projection of :math:`X(d)`; a view farther than ``max_cost_px`` from
-       it (or unmatched by the programme) gets NaN.
+       it, unmatched by the programme, or whose curve ends before the
+       projection (that view does not see this part: the keep-out box hides a
+       different length of base in every view) gets NaN, in steps 2-3 too.
+       Reference points no other view matches are NaN as well: the curve is
+       truncated to the part at least two views see.
 
 Both return observed pixels; :func:`tendrilkit.triangulation.triangulate`
 undistorts them.
