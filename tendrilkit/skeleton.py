@@ -488,15 +488,16 @@ def _widen_zones(g: _Graph, radius: np.ndarray, crop: np.ndarray, width: float, 
     junction, the zone ends where the distance to the background (computed in
     a window around the junction) falls back to ``ratio`` times the branch's
     own median (the single tube's), for at least 3 pixels; the zone radius is
-    the largest such distance from the junction's centre (capped at 10 w).
+    the largest such distance from the junction's centre (capped at 6 w,
+    enough for a 10 degree crossing).
     """
     H, W = crop.shape
-    half = int(np.ceil(12 * width)) + 4
+    half = int(np.ceil(8 * width)) + 4
     for n in np.nonzero(radius > 0)[0]:
         cx, cy = g.node_xy[n]
         x0, y0 = max(int(cx) - half, 0), max(int(cy) - half, 0)
         x1, y1 = min(int(cx) + half + 1, W), min(int(cy) + half + 1, H)
-        dt = cv2.distanceTransform(crop[y0:y1, x0:x1], cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        dt = cv2.distanceTransform(crop[y0:y1, x0:x1], cv2.DIST_L2, cv2.DIST_MASK_5)
         grow = radius[n]
         for u, v, pts, _ in g.edges:
             for node_end, path in ((u, pts), (v, pts[::-1])):
@@ -515,7 +516,7 @@ def _widen_zones(g: _Graph, radius: np.ndarray, crop: np.ndarray, width: float, 
                 ok = thin[:-2] & thin[1:-1] & thin[2:]
                 if ok.any():
                     grow = max(grow, float(dist[int(np.argmax(ok))]))
-        radius[n] = min(grow, max(radius[n], 10 * width))
+        radius[n] = min(grow, max(radius[n], 6 * width))
 
 
 def _signed_angle_deg(d_in: np.ndarray, d_out: np.ndarray) -> float:
