@@ -1664,6 +1664,32 @@ class GroundTruth:
     cameras: list
     meta: dict
 
+    def curves_table(self) -> pd.DataFrame:
+        """The true centrelines as a ``curves.csv``-like table (frame, time_s, point, s_mm, x_mm, y_mm, z_mm)."""
+        nf, npt, _ = self.curves.shape
+        return pd.DataFrame({
+            "frame": np.repeat(np.arange(nf), npt),
+            "time_s": np.repeat(self.time_s, npt),
+            "point": np.tile(np.arange(npt), nf),
+            "s_mm": np.tile(self.s_mm, nf),
+            "x_mm": self.curves[:, :, 0].ravel(),
+            "y_mm": self.curves[:, :, 1].ravel(),
+            "z_mm": self.curves[:, :, 2].ravel(),
+        })
+
+
+def find_ground_truth(exp) -> "GroundTruth | None":
+    """The ground truth beside a phantom experiment file, or ``None`` for a real experiment."""
+    if exp.source is None:
+        return None
+    folder = Path(exp.source).parent / "ground_truth"
+    if not (folder / "gt_meta.json").is_file():
+        # params/phantom_S*.yaml point at the generated videos: the truth is beside them
+        folder = Path(exp.videos[0]).parent / "ground_truth"
+        if not (folder / "gt_meta.json").is_file():
+            return None
+    return read_ground_truth(folder)
+
 
 def read_ground_truth(folder: str | Path) -> GroundTruth:
     """Read the ground truth of a phantom experiment (its folder or its ``ground_truth`` folder)."""
