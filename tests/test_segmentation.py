@@ -91,3 +91,14 @@ def test_roi_is_clipped_to_the_image():
     img = scene(stem=False, blob=False, speck=False)
     m = segment_view(img, roi=(-50, -50, 500, 400), keep_out=None, base_point_xy=(130, 200))
     assert tuple(m.roi_offset_xy) == (0, 0) and m.mask_roi.shape == (350, 450)
+
+
+def test_base_point_against_the_stem_takes_the_thin_tendril():
+    # the base point lies in the keep-out box, touching the thick stem: the
+    # stem and the tendril are equally near it, the thinner one is the tendril
+    img = np.full((480, 640, 3), 230, np.uint8)
+    cv2.line(img, (100, 60), (100, 400), (50, 110, 60), 21)  # stem, 21 px thick, edge at x = 110
+    cv2.line(img, (112, 200), (420, 330), GREEN, 5)  # the tendril, leaving the stem
+    m = segment_view(img, roi=(60, 50, 420, 380), keep_out=(106, 193, 14, 14), base_point_xy=(110, 200))
+    ys, xs = np.nonzero(m.mask_roi)
+    assert xs.min() + 60 >= 118 and xs.max() + 60 > 400 and m.n_components == 2
