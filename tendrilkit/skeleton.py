@@ -5,10 +5,12 @@
 centreline, base to tip:
 
 1. **Skeleton.** The mask is cropped to its bounding box and thinned
-   (:func:`skimage.morphology.skeletonize`); the tube width ``w`` is the
-   mask's area over the skeleton's length.
+   (:func:`skimage.morphology.skeletonize`, strip by strip with overlapping
+   margins: the same skeleton at 40 % of the cost for a diagonal tendril);
+   the tube width ``w`` is the mask's area over the skeleton's length.
 2. **Graph.** :class:`skan.Skeleton` splits the skeleton into *branches*
-   (pixel paths between endpoints and junction pixels). Spurs (a branch ending
+   (pixel paths between endpoints and junction pixels; about 2 ms on a 1080p
+   view, well inside the 20 ms budget, so no hand-written graph). Spurs (a branch ending
    in an endpoint, attached to a junction, shorter than ``prune_px``) are
    removed, repeatedly. Junctions joined by a branch shorter than
    ``merge_width * w`` are one crossing (an X crossing thins to two Y
@@ -16,7 +18,8 @@ centreline, base to tip:
    longer branch (up to 15 w) when their other branches continue straight
    through it (a shallow X crossing, whose middle is about
    ``w / tan(angle / 2)`` long). They are contracted into one node, and
-   short closed branches at a junction (pin holes) are dropped. Any other
+   closed branches at a junction shorter than twice the merge length (pin
+   holes) are dropped. Any other
    branch between two junctions (up to 15 w long) gets an optional *twin*:
    where the tendril runs along itself its two passes thin to one band, which
    the walk must take twice; the degrees' parity lets a complete walk use the
@@ -35,7 +38,7 @@ centreline, base to tip:
      single tube again: inside, the skeleton bends toward the junction and
      says nothing about the tendril). A depth-first search tries candidates
      smoothest first and keeps, among the walks that use every branch, the
-     one with the fewest twins (below) and then the smallest sum of turns
+     one with the fewest twins (above) and then the smallest sum of turns
      (branch and bound); with one crossing that is the smoothest turn at it.
    - ``method="paper"`` (at most one crossing): the paper's sub-set cases.
      With a closed loop at the crossing and a tip branch (three sub-sets), the
