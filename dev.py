@@ -66,9 +66,9 @@ def setup() -> None:
         _say("uv unavailable; installing with pip --require-hashes (slower)")
         if _run([PY, "-m", "pip", "install", "-q", "--require-hashes", "-r", LOCK], env=env) != 0:
             sys.exit("[dev] installing environment.lock failed")
-    # the project itself, without touching the pinned dependencies
-    if _run([PY, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation", "-e", "."], env=env) != 0:
-        _say("editable install failed; tendrilkit still runs from the repository root")
+    # the project itself, from this checkout (notebooks run from notebooks/ still import it)
+    site = subprocess.check_output([str(PY), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], text=True).strip()
+    Path(site, "tendrilkit-checkout.pth").write_text(str(ROOT) + "\n")
     _run([PY, "-m", "ipykernel", "install", "--sys-prefix", "--name", "python3"], stdout=subprocess.DEVNULL)
     STAMP.write_text(digest + "\n")
     _say("environment ready")
