@@ -98,3 +98,29 @@ def test_reprojection_table_sections():
     assert 0.2 < t[t.view == 3].mean_px.min() and t[t.view == 3].mean_px.max() <= 2.0 + 1e-9
     n = t.set_index(["view", "section"]).n_points
     assert n[(1, "entire")] == 200 and 45 <= n[(1, "base")] <= 55 and 45 <= n[(1, "tip")] <= 55
+
+
+def test_refine_to_curves_corrects_matches_slid_along_the_curves():
+    from tendrilkit.triangulation import refine_to_curves
+
+    cams = _rig()
+    s = np.linspace(0, 1, 400)
+    X = np.c_[-30 + 60 * s, 8 * np.sin(5 * s), 20 + 6 * np.cos(4 * s)]
+    curves = [c.project(X) for c in cams]
+    # matches slid along the curve in view 3 (what a poor coupling does): off the curves in 3D
+    obs = np.stack([curves[0][20:380], curves[1][20:380], curves[2][26:386]])
+    tri = triangulate(obs, cams)
+
+    def table1(P):
+        return np.mean([point_to_polyline_distance(c.project(P), q).mean() for c, q in zip(cams, curves)])
+
+    R = refine_to_curves(tri.points_mm, curves, cams)
+    assert table1(R) < 0.3 * table1(tri.points_mm)
+    d_before = point_to_polyline_distance_3d(tri.points_mm, X)
+    d_after = point_to_polyline_distance_3d(R, X)
+    assert d_after.mean() < 0.5 * d_before.mean()
+    assert np.isnan(refine_to_curves(np.full((2, 3), np.nan), curves, cams)).all()
+
+
+def point_to_polyline_distance_3d(P, X):
+    return np.min(np.linalg.norm(P[:, None, :] - X[None, :, :], axis=2), axis=1)
