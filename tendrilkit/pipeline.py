@@ -49,12 +49,14 @@ Tracking and workers
     before it. Frames are processed in chunks of consecutive frames, in
     parallel processes (``cv2.setNumThreads(1)`` in each); a chunk starts
     without a previous centroid and is accepted only if that cannot change
-    the result: in every view the chunk's first frame has a single component
-    (then the choice does not depend on the previous centroid) or the true
-    previous centroid is also none. Otherwise the chunk is recomputed from
-    the true previous centroids, frame by frame, until both computations
-    carry the same tracking state (usually after one frame: the same
-    component is chosen), after which the chunk's own results had the same
+    the result: in every view, the chunk's first frame has a single
+    component (the choice does not depend on the previous centroid), or the
+    true previous centroid is also none, or the segmentation of that frame
+    from the true previous centroid (run again in the parent process: a few
+    milliseconds) picks the component of the same centroid, hence the same
+    mask. Otherwise the chunk is recomputed from the true previous
+    centroids, frame by frame, until both computations carry the same
+    tracking state; from there on the chunk's own results had the same
     inputs and are kept. The results are therefore identical, byte for byte,
     whatever the number of workers.
 
@@ -450,10 +452,35 @@ def _worker_init() -> None:
     cv2.setNumThreads(1)
 
 
-def _speculation_holds(true_state: list, first: FrameResult) -> bool:
-    """Whether a chunk computed from no previous centroid equals the one from ``true_state``."""
-    for s, n in zip(true_state, first.n_components or [None] * len(true_state)):
-        if s is not None and n != 1:
+def _speculation_holds(true_state: list, first: FrameResult, exp=None, sources=None) -> bool:
+    """Whether a chunk computed from no previous centroid equals the one from ``true_state``.
+
+    It does if, in every view, the chunk's first frame had one component to
+    choose from or no true previous centroid exists; otherwise (given the
+    frame's ``sources``) the segmentation of that view is run again from the
+    true previous centroid: the same centroid means the same component, the
+    same mask and the same results.
+    """
+    n_comp = first.n_components or [None] * len(true_state)
+    doubtful = [v for v, (st, n) in enumerate(zip(true_state, n_comp)) if st is not None and n != 1]
+    if not doubtful:
+        return True
+    if exp is None or sources is None:
+        return False
+    seg_opts, _ = _options(exp)
+    for v in doubtful:
+        try:
+            img = sources[v].read(first.frame)
+        except FrameError:
+            return False
+        marks = exp.views[v]
+        try:
+            seg = segment_view(img, roi=marks.roi, keep_out=marks.keep_out, base_point_xy=marks.base_point,
+                               prev_centroid_xy=true_state[v], **seg_opts)
+            c = [float(x) for x in seg.centroid_xy]
+        except FrameError:
+            c = None
+        if c != (first.centroids[v] if first.centroids else None):
             return False
     return True
 
@@ -694,11 +721,11 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
             _warm_up(fit)  # compile once here; the forked workers inherit the compiled kernels
         else:
             ctx = mp.get_context("spawn")
-        with ctx.Pool(workers, initializer=_worker_init) as pool:
+        with ctx.Pool(workers, initializer=_worker_init) as pool, _Sources(exp) as sources:
             jobs = pool.imap(_run_chunk, [(c, [None] * V, exp, cameras, fit) for c in chunks])
             for chunk, results in zip(chunks, jobs):
                 state = state_before(chunk[0])
-                if not _speculation_holds(state, results[0]):
+                if not _speculation_holds(state, results[0], exp, sources):
                     # recompute from the true state until both chains carry the same tracking state:
                     # from there on the speculative results had the same inputs
                     spec_states, st = [], [None] * V
@@ -732,6 +759,28 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     n_failed = len(results) - n_ok
     print(f"{len(results)} frames: {n_ok} ok, {n_failed} failed")  # the command's summary line
     return 0 if n_failed == 0 else 1
+
+
+class _Sources:
+    """The views' frame sources, opened lazily (the parent checks speculative chunks with them)."""
+
+    def __init__(self, exp) -> None:
+        self.exp = exp
+        self._src = None
+
+    def __getitem__(self, v: int):
+        if self._src is None:
+            from tendrilkit.io import open_views
+
+            self._src = open_views(list(self.exp.videos))
+        return self._src[v]
+
+    def __enter__(self) -> "_Sources":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for s in self._src or []:
+            s.close()
 
 
 def _warm_up(fit: bool) -> None:
