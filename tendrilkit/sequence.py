@@ -771,9 +771,9 @@ def response_times(
     measure: str = "shape_mm",
     onset_fraction: float = 0.1,
     stable_fraction: float = 0.9,
-    median_frames: int = 5,
-    baseline_frames: int = 5,
-    plateau_frames: int = 5,
+    median_frames: int | None = None,
+    baseline_frames: int | None = None,
+    plateau_frames: int | None = None,
     noise_k: float = 3.0,
     min_amplitude_mm: float = 2.0,
     stimulus_s: float = 0.0,
@@ -794,10 +794,13 @@ def response_times(
     stable_fraction : float
         The measure is stable once it stays within ``(1 - stable_fraction)``
         of the amplitude around the plateau (default 0.9: within 10 %).
-    median_frames : int
-        Width of the median filter (frames; 1 = none).
-    baseline_frames, plateau_frames : int
-        Frames used for the baseline (after the reference frame) and the plateau.
+    median_frames : int, optional
+        Width of the median filter (frames; 1 = none). Default: 5, at most a
+        quarter of the sequence (odd).
+    baseline_frames, plateau_frames : int, optional
+        Frames used for the baseline (after the reference frame) and the
+        plateau. Default: 5, at most an eighth of the sequence (at least 1),
+        so that a short sequence is not all baseline and plateau.
     noise_k : float
         Thresholds are at least ``noise_k`` noise standard deviations.
     min_amplitude_mm : float
@@ -819,7 +822,7 @@ def response_times(
             raise ValueError(f"{name} must be in (0, 1), got {v}")
     for name, v in (("median_frames", median_frames), ("baseline_frames", baseline_frames),
                     ("plateau_frames", plateau_frames)):
-        if int(v) < 1:
+        if v is not None and int(v) < 1:
             raise ValueError(f"{name} must be >= 1, got {v}")
     c = _canonical(change, ("time_s", measure), "change")
     c = c[np.isfinite(c[measure].to_numpy(float)) & np.isfinite(c["time_s"].to_numpy(float))]
@@ -832,6 +835,12 @@ def response_times(
     if n < 3:
         return ResponseTimes(False, nan, nan, nan, nan, nan, nan, nan, measure=measure,
                              note=f"only {n} frame(s)")
+    if median_frames is None:
+        median_frames = max(1, min(5, n // 4) | 1)
+    if baseline_frames is None:
+        baseline_frames = max(1, min(5, n // 8))
+    if plateau_frames is None:
+        plateau_frames = max(1, min(5, n // 8))
     raw_baseline = float(np.median(y[1:1 + int(baseline_frames)]))
     raw_smooth = running_median(y, int(median_frames))
     raw_plateau = float(np.median(raw_smooth[-int(plateau_frames):]))
@@ -873,7 +882,7 @@ def response_times(
         j = k + 1
         level = plateau + tol if ys[k] > plateau else plateau - tol
         stable = _crossing(t[k], t[j], ys[k], ys[j], level)
-    if j >= 0 and j > n - int(plateau_frames):
+    if j >= 0 and j >= n - int(plateau_frames):
         note = "stabilises within the plateau window: the sequence may be too short"
         warnings.warn(f"response_times: {note}", UserWarning, stacklevel=2)
     return ResponseTimes(True, onset, stable, amplitude, raw_baseline, raw_plateau, raw_peak, noise,

@@ -427,3 +427,13 @@ def test_phantom_ground_truth(site):
         assert ph.design.onset_s < rt.onset_s < ph.design.stable_s
         assert rt.onset_s < rt.stable_s <= ph.design.stable_s + dt
     assert reg.loc[reg["deformation_mm"].idxmax(), "region"] == site
+
+
+def test_short_sequence_windows_scale_with_length():
+    # 8 frames over 15 min, change from 3 to 12 min: 5-frame windows would swallow the response
+    t = np.linspace(0, 900, 8)
+    y = np.interp(t, [0, 180, 720, 900], [0, 0, 20, 20])
+    rt = sq.response_times(pd.DataFrame({"time_s": t, "shape_mm": y}), debias=False)
+    assert rt.responded
+    assert 100 < rt.onset_s < 400
+    assert 500 < rt.stable_s < 900
