@@ -355,16 +355,20 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
             tri_pts = refine_to_curves(tri_pts, [curves[v] for v in used], cams)
             timings["to_curves"] = time.perf_counter() - t0
         q_base = False
+        ext_mm = 0.0
         if exp.triangulation.base_from_marks:
             base = _base_from_marks(exp, cameras, tri_pts)
             if base is not None:
+                ext_mm = float(np.linalg.norm(tri_pts[0] - base))
                 tri_pts = np.vstack([base, tri_pts])
                 q_base = True
         t0 = time.perf_counter()
         points = resample_curve(tri_pts, k)
         timings["resample"] = time.perf_counter() - t0
         t0 = time.perf_counter()
-        table = reprojection_table(points, [curves[v] for v in range(V)], cameras)
+        # Table 1 measures what the views see: not the extension to the base marks
+        s_pts = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+        table = reprojection_table(points, [curves[v] for v in range(V)], cameras, measured=s_pts >= ext_mm - 1e-9)
         timings["reprojection"] = time.perf_counter() - t0
         q: dict = {c: None for c in quality_columns(V)}
         q["views_used"] = len(used)

@@ -319,7 +319,8 @@ def _sections(points_mm: np.ndarray) -> dict[str, np.ndarray]:
     return {"base": s <= 0.25 * L, "tip": s >= 0.75 * L, "entire": np.ones(len(s), dtype=bool)}
 
 
-def reprojection_table(points_mm: np.ndarray, skeletons_xy: list[np.ndarray | None], cameras: list[Camera]) -> pd.DataFrame:
+def reprojection_table(points_mm: np.ndarray, skeletons_xy: list[np.ndarray | None], cameras: list[Camera], *,
+                       measured: np.ndarray | None = None) -> pd.DataFrame:
     """The paper's Table 1: distance of the projected reconstruction to each view's skeleton.
 
     Parameters
@@ -330,6 +331,10 @@ def reprojection_table(points_mm: np.ndarray, skeletons_xy: list[np.ndarray | No
         The extracted, ordered 2D skeleton of each view, observed pixels
         (None: the view is skipped).
     cameras : list of Camera
+    measured : (k,) bool array, optional
+        Points to include (default all): e.g. not the part of the curve that
+        no view sees (an extension to the base marks). The sections are
+        still quarters of the whole curve's length.
 
     Returns
     -------
@@ -345,13 +350,16 @@ def reprojection_table(points_mm: np.ndarray, skeletons_xy: list[np.ndarray | No
     if len(skeletons_xy) != len(cameras):
         raise ValueError(f"skeletons_xy must have one entry per camera ({len(cameras)}), got {len(skeletons_xy)}")
     sec = _sections(X)
+    keep = np.ones(len(X), dtype=bool) if measured is None else np.asarray(measured, dtype=bool)
+    if keep.shape != (len(X),):
+        raise ValueError(f"measured must have shape ({len(X)},), got {keep.shape}")
     rows = []
     for v, (sk, cam) in enumerate(zip(skeletons_xy, cameras)):
         if sk is None:
             continue
         d = point_to_polyline_distance(cam.project(X), np.asarray(sk, float))
         for name in ("base", "tip", "entire"):
-            dd = d[sec[name] & np.isfinite(d)]
+            dd = d[sec[name] & keep & np.isfinite(d)]
             rows.append({
                 "view": v + 1,
                 "section": name,
