@@ -63,7 +63,7 @@ Tracking and workers
 Resuming
     Every finished frame is written atomically to
     ``DIR/frames/frame_000123.json`` with a fingerprint of the run (resolved
-    experiment, video files, cameras, tendrilkit's version). Running the same
+    experiment, video files, cameras, tendrilkit's version and source code). Running the same
     command again reuses the calibration it wrote (``cameras.json``, stamped
     in ``frames/calibration_stamp.json``), skips the frames whose file has
     the same fingerprint and assembles the tables from the per-frame files;
@@ -491,13 +491,14 @@ def _speculation_holds(true_state: list, first: FrameResult, exp=None, sources=N
 
 # ------------------------------------------------------------------ the run
 def frame_fingerprint(exp, cameras: list[Camera], video_info: list[dict]) -> str:
-    """SHA-256 of what determines a frame's result: resolved parameters, videos, cameras, version."""
+    """SHA-256 of what determines a frame's result: resolved parameters, videos, cameras, code."""
     from tendrilkit import __version__ as version
     from tendrilkit.params import experiment_to_dict
 
     payload = {
         "format": _FORMAT_VERSION,
         "version": version,
+        "code": _code_digest(),
         "experiment": {k: v for k, v in experiment_to_dict(exp).items() if k not in ("frames", "name")},
         "videos": video_info,
         "cameras": [c.to_dict(i + 1) for i, c in enumerate(cameras)],
@@ -506,13 +507,22 @@ def frame_fingerprint(exp, cameras: list[Camera], video_info: list[dict]) -> str
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+def _code_digest() -> str:
+    """SHA-256 of tendrilkit's own source files: a changed algorithm recomputes the frames."""
+    h = hashlib.sha256()
+    for p in sorted(Path(__file__).resolve().parent.glob("*.py")):
+        h.update(p.name.encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()
+
+
 def _calibration_stamp(exp, video_info: list[dict]) -> str:
     """SHA-256 of what the calibration depends on: intrinsics, marker, extrinsics files, first frame, videos."""
     from tendrilkit import __version__ as version
     from tendrilkit.params import experiment_to_dict
 
     d = experiment_to_dict(exp)
-    payload = {"version": version, "videos": video_info, "start": exp.frames.start,
+    payload = {"version": version, "code": _code_digest(), "videos": video_info, "start": exp.frames.start,
                **{k: d.get(k) for k in ("cameras", "marker", "extrinsics", "calibration")}}
     return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()
 
