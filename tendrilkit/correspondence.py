@@ -135,6 +135,8 @@ def resample_by_arclength(points_xy: np.ndarray, k: int) -> np.ndarray:
     pts = np.asarray(points_xy, dtype=float)
     if pts.ndim != 2 or pts.shape[0] < 2:
         raise ValueError(f"points_xy must have shape (n >= 2, d), got {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise ValueError(f"points_xy must be finite, got {int((~np.isfinite(pts).all(axis=1)).sum())} rows with NaN or inf")
     if int(k) < 2:
         raise ValueError(f"k must be at least 2, got {k}")
     s = _cumlen(pts)
@@ -251,6 +253,8 @@ def discrete_frechet(P: np.ndarray, Q: np.ndarray) -> tuple[float, np.ndarray]:
     Q = np.ascontiguousarray(Q, dtype=float)
     if P.ndim != 2 or Q.ndim != 2 or P.shape[1] != Q.shape[1] or len(P) == 0 or len(Q) == 0:
         raise ValueError(f"P and Q must have shapes (p, d) and (q, d) with p, q >= 1, got {P.shape} and {Q.shape}")
+    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(Q))):
+        raise ValueError("P and Q must be finite (no NaN or inf): a NaN distance would be ignored by the table")
     ca = _frechet_table(P, Q)
     return float(ca[-1, -1]), _frechet_backtrack(ca)
 

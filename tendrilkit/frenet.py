@@ -344,7 +344,8 @@ def noise_sigma_mm(points_mm: np.ndarray) -> float:
     """
     data = _check_points(points_mm)
     step = np.linalg.norm(np.diff(data, axis=0), axis=1)
-    data = data[np.concatenate([[True], step > 1e-9 * max(step.sum(), 1e-300)])]
+    if data.shape[0]:
+        data = data[np.concatenate([[True], step > 1e-9 * max(step.sum(), 1e-300)])]
     if data.shape[0] < 8:
         raise DegenerateCurveError(f"curve has {data.shape[0]} distinct points; at least 8 are needed to estimate noise")
     d3 = np.diff(data, 3, axis=0)
@@ -606,6 +607,8 @@ def integrate_frenet(
     s = np.asarray(s_mm, dtype=float)
     if s.ndim != 1 or s.size < 2:
         raise ValueError(f"s_mm must have shape (n,) with n >= 2, got {s.shape}")
+    if not np.all(np.isfinite(s)):
+        raise ValueError("s_mm must be finite (no NaN or inf)")
     if np.any(np.diff(s) <= 0):
         raise ValueError("s_mm must be strictly increasing")
     k = np.asarray(kappa, dtype=float)
@@ -614,6 +617,8 @@ def integrate_frenet(
     for name, a in (("kappa", k), ("tau", t)):
         if a.shape != (want,):
             raise ValueError(f"{name} must have shape ({want},), got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{name} must be finite, got {int((~np.isfinite(a)).sum())} NaN or inf values")
     if not step_values:
         k = 0.5 * (k[1:] + k[:-1])
         t = 0.5 * (t[1:] + t[:-1])

@@ -656,6 +656,8 @@ def register_rigid(P: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray
         raise ValueError(f"P and Q must have the same shape (n, 3), got {P.shape} and {Q.shape}")
     if P.shape[0] < 3:
         raise ValueError(f"P must have at least 3 points, got {P.shape[0]}")
+    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(Q))):
+        raise ValueError("P and Q must be finite (no NaN or inf)")
     return _kabsch(P, Q)
 
 

@@ -248,6 +248,8 @@ def resample_normalised(points_mm: np.ndarray, u: np.ndarray) -> np.ndarray:
     P = np.asarray(points_mm, dtype=float)
     if P.ndim != 2 or P.shape[1] != 3 or len(P) < 2:
         raise ValueError(f"points_mm must have shape (n >= 2, 3), got {P.shape}")
+    if not np.all(np.isfinite(P)):
+        raise ValueError("points_mm must be finite (no NaN or inf)")
     s = _arc_length(P)
     if not s[-1] > 0:
         raise ValueError("points_mm has zero length")

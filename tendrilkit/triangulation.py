@@ -234,6 +234,9 @@ def refine_to_curves(points_mm: np.ndarray, curves_xy: list[np.ndarray | None], 
     if X.ndim != 2 or X.shape[1] != 3:
         raise ValueError(f"points_mm must have shape (k, 3), got {X.shape}")
     ok = np.all(np.isfinite(X), axis=1)
+    for v, c in enumerate(curves_xy):
+        if c is not None and not np.all(np.isfinite(np.asarray(c, float))):
+            raise ValueError(f"curves_xy[{v}] must be finite (no NaN or inf)")
     views = [(cam, cam.undistort_points(np.asarray(c, float))) for c, cam in zip(curves_xy, cameras)
              if c is not None and len(c) >= 2]
     if len(views) < 2 or not ok.any():
@@ -307,6 +310,8 @@ def point_to_polyline_distance(points_xy: np.ndarray, polyline_xy: np.ndarray) -
     Q = np.ascontiguousarray(polyline_xy, dtype=float)
     if P.ndim != 2 or P.shape[1] != 2 or Q.ndim != 2 or Q.shape[1] != 2 or len(Q) < 1:
         raise ValueError(f"points_xy and polyline_xy must have shapes (n, 2) and (m >= 1, 2), got {P.shape} and {Q.shape}")
+    if not np.all(np.isfinite(Q)):
+        raise ValueError("polyline_xy must be finite (no NaN or inf); NaN is allowed in points_xy only")
     if len(Q) == 1:
         return np.linalg.norm(P - Q[0], axis=1)
     return _polyline_distance(P, Q)
