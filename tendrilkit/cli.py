@@ -2,8 +2,10 @@
 
 Every user mistake (:class:`~tendrilkit.exceptions.ExperimentError`) is printed
 as one line ``tendrilkit: error: ...`` and the command exits with code 2; no
-traceback. Each command's body lives in the library; this module only parses
-arguments and reports.
+traceback. ``reconstruct`` and ``fit`` exit with 0 when every frame is ``ok``
+and 1 when some failed (the run still completes); Ctrl-C exits with 130.
+Each command's body lives in the library; this module only parses arguments
+and reports.
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 
     summary = run_fit(Path(args.curves), Path(args.out))
     print(summary)
-    return 0
+    return 0 if summary.n_failed == 0 else 1  # as reconstruct: 1 when some frames failed
 
 
 def _cmd_batch(args: argparse.Namespace) -> int:

@@ -7,7 +7,8 @@
    (:func:`tendrilkit.calibration.calibrate_experiment`); write
    ``DIR/cameras.json`` and ``DIR/calibration_markers.csv``;
 2. for every selected frame (``frames: {start, stop, step}``; ``stop: null``
-   is the shortest video's length), :func:`reconstruct_frame`: per view
+   is the longest video's length: a frame that a shorter video lacks is read
+   as missing in that view, see Failures), :func:`reconstruct_frame`: per view
    segmentation and base-to-tip ordering (2D stage), matching across views
    (``correspondence.method``), triangulation (``triangulation.refine``),
    resampling to ``points`` points base to tip (uniform arc length), the
@@ -42,6 +43,8 @@ Failures
     fails is left out when at least two views remain (the message says so).
     A failed piece-wise clothoid fit keeps the frame ``ok`` (the centreline
     stands) with no ``pwc_curves.csv`` rows and the reason in the message.
+    A nearly straight centreline (within 1 % of its length of its chord) is
+    ``ok`` with the note ``nearly straight ...: torsion undefined``.
 
 Tracking and workers
     Segmentation takes, in every view, the component nearest the previous
@@ -228,6 +231,8 @@ def _fit(points_mm: np.ndarray, exp):
 
 
 _BASE_MAX_MM = 10.0
+#: A centreline within this fraction of its length of its chord is straight: torsion undefined (a note).
+_STRAIGHT_FRACTION = 0.01
 
 
 def _base_from_marks(exp, cameras: list[Camera], points_mm: np.ndarray) -> np.ndarray | None:
@@ -375,6 +380,15 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         q["base_extended"] = q_base
         q["n_matched"] = int(good.sum())
         q["length_mm"] = float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
+        # a (nearly) straight centreline has no normal: its torsion is undefined, whatever the fit says
+        chord = points[-1] - points[0]
+        if np.linalg.norm(chord) > 0:
+            rel = points - points[0]
+            chord = chord / np.linalg.norm(chord)
+            dev = float(np.linalg.norm(rel - np.outer(rel @ chord, chord), axis=1).max())
+            if dev <= _STRAIGHT_FRACTION * q["length_mm"]:
+                notes.append(f"nearly straight (at most {dev:.2f} mm from its chord over {q['length_mm']:.1f} mm): "
+                             f"torsion undefined")
         for row in table.itertuples():
             if row.section == "entire":
                 q[f"reproj_mean_px_v{row.view}"] = float(row.mean_px)
@@ -513,6 +527,15 @@ def _code_digest() -> str:
     for p in sorted(Path(__file__).resolve().parent.glob("*.py")):
         h.update(p.name.encode())
         h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+def _folder_stamp(folder: Path) -> str:
+    """SHA-256 of an image folder's file names, sizes and modification times (a replaced image reruns)."""
+    h = hashlib.sha256()
+    for f in sorted(folder.iterdir()):
+        st = f.stat()
+        h.update(f"{f.name}\0{st.st_size}\0{st.st_mtime_ns}\n".encode())
     return h.hexdigest()
 
 
@@ -663,20 +686,20 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     try:
         sizes = [(s.width, s.height) for s in sources]
         counts = [s.frame_count for s in sources]
-        video_info = [{"path": str(p), "bytes": p.stat().st_size if p.is_file() else None,
+        video_info = [{"path": str(p), "bytes": p.stat().st_size if p.is_file() else _folder_stamp(p),
                        "frames": n, "width": w, "height": h}
                       for p, n, (w, h) in zip(exp.videos, counts, sizes)]
     finally:
         for s in sources:
             s.close()
     check_against_images(exp, sizes)
-    n_video = min(counts)
+    n_video = max(counts)  # a shorter view's missing frames fail in that view only (FrameReadError)
     fr = exp.frames
     stop = n_video if fr.stop is None else min(fr.stop, n_video)
     frames = list(range(fr.start, stop, fr.step))
     if not frames:
         raise ExperimentError(f"{exp.source}: frames: no frame selected (start {fr.start}, stop {fr.stop}, "
-                              f"step {fr.step}; the shortest video has {n_video} frames)")
+                              f"step {fr.step}; the longest video has {n_video} frames)")
 
     # calibrate once per experiment and videos: a rerun reuses the rig it wrote
     cal_stamp = _calibration_stamp(exp, video_info)
