@@ -369,3 +369,54 @@ def test_too_short_tendril_fails_its_frame_with_a_reason():
     r = reconstruct_frame(images, cams, exp, frame=0)
     assert r.status == "failed" and r.points_mm is None
     assert any(name in r.message for name in ("TendrilLostError", "EmptySkeletonError", "DegenerateCurveError")), r.message
+
+
+# ------------------------------------------------------------------ random files on real videos
+from hypothesis import HealthCheck, event, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_KEYS = ["name", "stimulation_site", "videos", "fps", "reference_view", "frames", "cameras", "marker", "views",
+         "points", "segmentation", "fit", "colour"]
+_SUBKEYS = ["view", "fx", "fy", "cx", "cy", "dist", "roi", "keep_out", "base_point", "id", "length_mm",
+            "dictionary", "start", "stop", "step", "colour"]
+_values = st.recursive(
+    st.none() | st.booleans() | st.integers(-5, 300) | st.floats(allow_nan=True, allow_infinity=True)
+    | st.text(max_size=6),
+    lambda children: st.lists(children, max_size=4) | st.dictionaries(st.sampled_from(_SUBKEYS), children, max_size=3),
+    max_leaves=8,
+)
+
+
+@pytest.mark.slow
+@settings(max_examples=15, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(data=st.data())
+def test_random_experiment_files_on_real_videos(phantom, tmp_path_factory, capsys, data):
+    """Missing, extra and mistyped keys and values next to real videos: a clean error or a success."""
+    d = _data(phantom)
+    d["videos"] = [str(phantom.parent / v) for v in d["videos"]]  # the file is written elsewhere
+    d["frames"] = {"start": 0, "stop": 1, "step": 1}  # a success runs one frame
+    for _ in range(data.draw(st.integers(1, 3))):
+        key = data.draw(st.sampled_from(_KEYS))
+        action = data.draw(st.sampled_from(["drop", "set", "nested"]))
+        if action == "drop":
+            d.pop(key, None)
+        elif action == "set":
+            d[key] = data.draw(_values)
+        elif isinstance(d.get(key), list) and d[key] and isinstance(d[key][0], dict):
+            d[key][data.draw(st.integers(0, len(d[key]) - 1))][data.draw(st.sampled_from(_SUBKEYS))] = data.draw(_values)
+        elif isinstance(d.get(key), dict):
+            d[key][data.draw(st.sampled_from(_SUBKEYS))] = data.draw(_values)
+    folder = tmp_path_factory.mktemp("fuzz")
+    exp = folder / "experiment.yaml"
+    exp.write_text(yaml.safe_dump(d))
+    for argv in (["calibrate", exp, "--out", folder / "cal"],
+                 ["reconstruct", exp, "--out", folder / "out", "--workers", "1", "--quiet"]):
+        code, _, err = run_cli(capsys, *argv)
+        event(f"{argv[0]}: exit {code}")
+        assert "Traceback" not in err
+        assert code in (0, 1, 2), err
+        if code == 2:
+            assert_one_line_error(code, err)
+        elif argv[0] == "reconstruct":
+            assert (folder / "out" / "frames.csv").is_file()
