@@ -21,7 +21,8 @@ temporary file in ``DIR`` then :func:`os.replace`):
     ``penalty_tau`` (dimensionless, see :mod:`tendrilkit.pwc`), ``n_kappa``,
     ``n_tau`` (segments), ``r2_entire``, ``r2_base``, ``r2_tip``,
     ``sse_entire_mm2``, ``sse_base_mm2``, ``sse_tip_mm2``, ``rmse_mm``,
-    ``max_error_mm``, ``tau_undefined_fraction``, ``seconds``.
+    ``max_error_mm``, ``tau_undefined_fraction`` (no timings: the tables of
+    the same input are the same bytes; ``FitSummary.seconds`` has the time).
 
 A frame that cannot be fitted is a ``failed`` row with the reason; the other
 frames go on. A missing or malformed CSV raises
@@ -41,13 +42,13 @@ import pandas as pd
 
 from tendrilkit.exceptions import DegenerateCurveError, ExperimentError
 
-__all__ = ["FitOptions", "FitSummary", "run_fit", "fit_curves"]
+__all__ = ["FitOptions", "FitSummary", "run_fit", "fit_curves", "fit_frame"]
 
 CURVE_COLUMNS = ("frame", "time_s", "point", "x_mm", "y_mm", "z_mm")
 METRIC_COLUMNS = (
     "frame", "time_s", "status", "message", "n_points", "length_mm", "penalty_kappa", "penalty_tau",
     "n_kappa", "n_tau", "r2_entire", "r2_base", "r2_tip", "sse_entire_mm2", "sse_base_mm2",
-    "sse_tip_mm2", "rmse_mm", "max_error_mm", "tau_undefined_fraction", "seconds",
+    "sse_tip_mm2", "rmse_mm", "max_error_mm", "tau_undefined_fraction",
 )
 SEGMENT_COLUMNS = ("frame", "kind", "segment", "s0_mm", "s1_mm", "value_s0", "value_s1")
 
@@ -123,53 +124,71 @@ def _read_curves(path: Path) -> pd.DataFrame:
     return df
 
 
-def fit_curves(curves: pd.DataFrame, options: FitOptions | None = None) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
-    """Fit every frame of a curves table; returns ``(pwc_curves, segments, metrics)`` tables."""
+def fit_frame(points_mm: np.ndarray, options: FitOptions | None = None, *, frame: int = 0,
+              time_s: float = float("nan")) -> tuple[np.ndarray | None, list[dict], dict]:
+    """Fit one frame's centreline; the one code path of ``fit`` and ``reconstruct``.
+
+    Returns ``(fitted (n, 3) mm or None, segment rows, metric row)``: the rows
+    of ``pwc_segments.csv`` and ``pwc_metrics.csv`` for this frame. A frame
+    that cannot be fitted gives ``None``, no segments and a ``failed`` row.
+    """
     from tendrilkit.pwc import fit_piecewise_clothoid  # numba: only once the input is known good
 
     options = FitOptions() if options is None else options
-    kw = asdict(options)
+    pts = np.asarray(points_mm, float)
+    row = {c: np.nan for c in METRIC_COLUMNS}
+    row.update(frame=int(frame), time_s=float(time_s), n_points=int(len(pts)), message="")
+    try:
+        if pts.ndim != 2 or pts.shape[1:] != (3,):
+            raise DegenerateCurveError(f"expected points of shape (n, 3), got {pts.shape}")
+        if not np.all(np.isfinite(pts)):
+            raise DegenerateCurveError(f"{int((~np.isfinite(pts)).any(axis=1).sum())} point(s) with missing coordinates")
+        if len(pts) < 5:
+            raise DegenerateCurveError(f"{len(pts)} point(s); at least 5 are needed")
+        fit = fit_piecewise_clothoid(pts, n_points=len(pts), **asdict(options))
+    except (DegenerateCurveError, ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
+        row.update(status="failed", message=f"{type(e).__name__}: {e}")
+        return None, [], row
+    sc = fit.scores
+    row.update(
+        status="ok", length_mm=float(fit.s_mm[-1]), penalty_kappa=fit.penalty_kappa,
+        penalty_tau=fit.penalty_tau, n_kappa=fit.n_segments_kappa, n_tau=fit.n_segments_tau,
+        r2_entire=sc.r2_entire, r2_base=sc.r2_base, r2_tip=sc.r2_tip, sse_entire_mm2=sc.sse_entire_mm2,
+        sse_base_mm2=sc.sse_base_mm2, sse_tip_mm2=sc.sse_tip_mm2, rmse_mm=sc.rmse_mm,
+        max_error_mm=sc.max_error_mm, tau_undefined_fraction=float(1.0 - fit.frames.tau_defined.mean()),
+    )
+    segs = [{"frame": int(frame), **r} for r in fit.segments()]
+    return np.asarray(fit.points_mm, float), segs, row
+
+
+def curves_table(frame: int, time_s: float, points_mm: np.ndarray) -> pd.DataFrame:
+    """One frame's points as rows of ``curves.csv`` / ``pwc_curves.csv``."""
+    n = len(points_mm)
+    return pd.DataFrame({"frame": int(frame), "time_s": time_s, "point": np.arange(n),
+                         "x_mm": points_mm[:, 0], "y_mm": points_mm[:, 1], "z_mm": points_mm[:, 2]})
+
+
+def metrics_table(rows: list[dict]) -> pd.DataFrame:
+    mets = pd.DataFrame(rows, columns=list(METRIC_COLUMNS))
+    for c in ("n_points", "n_kappa", "n_tau"):
+        mets[c] = mets[c].astype("Int64")
+    return mets
+
+
+def fit_curves(curves: pd.DataFrame, options: FitOptions | None = None) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """Fit every frame of a curves table; returns ``(pwc_curves, segments, metrics)`` tables."""
     curves_out, seg_rows, met_rows = [], [], []
     for frame, g in curves.sort_values(["frame", "point"]).groupby("frame", sort=True):
         g = g.drop_duplicates("point", keep="first")
         t_s = float(g["time_s"].iloc[0]) if g["time_s"].notna().any() else np.nan
-        pts = g[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
-        row = {c: np.nan for c in METRIC_COLUMNS}
-        row.update(frame=int(frame), time_s=t_s, n_points=int(len(pts)), message="")
-        t0 = time.perf_counter()
-        try:
-            if not np.all(np.isfinite(pts)):
-                raise DegenerateCurveError(f"{int((~np.isfinite(pts)).any(axis=1).sum())} point(s) with missing coordinates")
-            if len(pts) < 5:
-                raise DegenerateCurveError(f"{len(pts)} point(s); at least 5 are needed")
-            fit = fit_piecewise_clothoid(pts, n_points=len(pts), **kw)
-        except (DegenerateCurveError, ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
-            row.update(status="failed", message=f"{type(e).__name__}: {e}", seconds=time.perf_counter() - t0)
-            met_rows.append(row)
-            continue
-        sc = fit.scores
-        row.update(
-            status="ok", length_mm=float(fit.s_mm[-1]), penalty_kappa=fit.penalty_kappa,
-            penalty_tau=fit.penalty_tau, n_kappa=fit.n_segments_kappa, n_tau=fit.n_segments_tau,
-            r2_entire=sc.r2_entire, r2_base=sc.r2_base, r2_tip=sc.r2_tip, sse_entire_mm2=sc.sse_entire_mm2,
-            sse_base_mm2=sc.sse_base_mm2, sse_tip_mm2=sc.sse_tip_mm2, rmse_mm=sc.rmse_mm,
-            max_error_mm=sc.max_error_mm, tau_undefined_fraction=float(1.0 - fit.frames.tau_defined.mean()),
-            seconds=time.perf_counter() - t0,
-        )
+        fitted, segs, row = fit_frame(g[["x_mm", "y_mm", "z_mm"]].to_numpy(float), options, frame=int(frame), time_s=t_s)
         met_rows.append(row)
-        n = len(pts)
-        curves_out.append(pd.DataFrame({
-            "frame": int(frame), "time_s": t_s, "point": np.arange(n),
-            "x_mm": fit.points_mm[:, 0], "y_mm": fit.points_mm[:, 1], "z_mm": fit.points_mm[:, 2],
-        }))
-        for r in fit.segments():
-            seg_rows.append({"frame": int(frame), **r})
+        seg_rows.extend(segs)
+        if fitted is not None:
+            curves_out.append(curves_table(int(frame), t_s, fitted))
     pwc = pd.concat(curves_out, ignore_index=True) if curves_out else pd.DataFrame(columns=list(CURVE_COLUMNS))
     segs = pd.DataFrame(seg_rows, columns=list(SEGMENT_COLUMNS))
-    mets = pd.DataFrame(met_rows, columns=list(METRIC_COLUMNS))
-    for c in ("n_points", "n_kappa", "n_tau"):
-        mets[c] = mets[c].astype("Int64")
-    return pwc, segs, mets
+    return pwc, segs, metrics_table(met_rows)
 
 
 def _write_atomic(df: pd.DataFrame, path: Path) -> None:

@@ -21,6 +21,10 @@
    ``curves.csv``            ``frame, time_s, point, x_mm, y_mm, z_mm``: the centreline,
                              ``points`` points base (0) to tip, uniform arc length
    ``pwc_curves.csv``        same columns: the piece-wise clothoid registered onto it
+   ``pwc_segments.csv``      the fitted laws: ``frame, kind (kappa|tau), segment, s0_mm,
+                             s1_mm, value_s0, value_s1`` (1/mm), as ``tendrilkit fit``
+   ``pwc_metrics.csv``       per frame R^2 and SSE (mm^2) of the fit, entire / base / tip
+                             quarter, penalties and segment counts, as ``tendrilkit fit``
    ``frames.csv``            ``frame, time_s, status, message`` and the quality figures
                              of :func:`quality_columns`
    ``reprojection.csv``      ``frame, view, section, mean_px, std_px, max_px, n_points``:
@@ -106,7 +110,7 @@ __all__ = ["FrameResult", "reconstruct_frame", "run_reconstruct", "frame_fingerp
 
 #: The tables :func:`run_reconstruct` writes in ``DIR`` (besides ``cameras.json`` and ``frames/``).
 RESULT_FILES = ("curves.csv", "pwc_curves.csv", "frames.csv", "reprojection.csv", "ordering.csv",
-                "calibration_markers.csv")
+                "pwc_segments.csv", "pwc_metrics.csv", "calibration_markers.csv")
 
 #: Numerical errors of a frame that become a ``failed`` row instead of a crash.
 _NUMERICAL_ERRORS = (ValueError, FloatingPointError, np.linalg.LinAlgError, ZeroDivisionError, IndexError)
@@ -160,6 +164,8 @@ class FrameResult:
     centroids: list = field(default_factory=list)
     n_components: list = field(default_factory=list)
     timings: dict = field(default_factory=dict)
+    pwc_segments: list = field(default_factory=list)
+    pwc_metrics: list = field(default_factory=list)
 
     def to_json(self) -> dict:
         def arr(a):
@@ -170,6 +176,7 @@ class FrameResult:
             "message": self.message, "points_mm": arr(self.points_mm), "pwc_mm": arr(self.pwc_mm),
             "quality": self.quality, "reprojection": self.reprojection, "decisions": self.decisions,
             "centroids": self.centroids, "n_components": self.n_components,
+            "pwc_segments": self.pwc_segments, "pwc_metrics": self.pwc_metrics,
         }
 
     @classmethod
@@ -180,7 +187,8 @@ class FrameResult:
         return cls(frame=int(d["frame"]), time_s=float(d["time_s"]), status=d["status"], message=d["message"],
                    points_mm=arr(d["points_mm"]), pwc_mm=arr(d["pwc_mm"]), quality=d["quality"],
                    reprojection=d["reprojection"], decisions=d["decisions"], centroids=d["centroids"],
-                   n_components=d["n_components"])
+                   n_components=d["n_components"], pwc_segments=d.get("pwc_segments", []),
+                   pwc_metrics=d.get("pwc_metrics", []))
 
 
 def quality_columns(n_views: int) -> list[str]:
@@ -223,11 +231,11 @@ def _options(exp) -> tuple[dict, dict]:
     return seg, order
 
 
-def _fit(points_mm: np.ndarray, exp):
-    f = exp.fit
-    return fit_piecewise_clothoid(points_mm, selection=f.selection, target_r2=f.target_r2,
-                                  penalty_kappa=f.penalty_kappa, penalty_tau=f.penalty_tau, score=f.score,
-                                  smoothing_length_mm=exp.smoothing.length_mm, n_points=len(points_mm))
+def _fit(points_mm: np.ndarray, exp, frame: int, time_s: float):
+    """The piece-wise clothoid of one frame, by the ``fit`` command's own code (same options, same tables)."""
+    from tendrilkit.fitting import FitOptions, fit_frame
+
+    return fit_frame(points_mm, FitOptions.from_params(exp.fit, exp.smoothing), frame=frame, time_s=time_s)
 
 
 _BASE_MAX_MM = 10.0
@@ -399,22 +407,23 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
             e = e[np.isfinite(e)]
             q[f"tri_err_px_v{v + 1}"] = float(e.mean()) if e.size else None
             q[f"n_crossings_v{v + 1}"] = crossings[v]
-        pwc = None
+        pwc, pwc_segments, pwc_row = None, [], None
         if fit:  # a failed fit leaves the reconstruction standing: the frame stays ok, without pwc
             t0 = time.perf_counter()
             try:
-                res = _fit(points, exp)
+                pwc, pwc_segments, pwc_row = _fit(points, exp, frame, t_s)
             except (FrameError, *_NUMERICAL_ERRORS) as e:
-                notes.append(f"piece-wise clothoid fit failed: {type(e).__name__}: {e}")
-                res = None
+                pwc, pwc_segments = None, []
+                pwc_row = {"frame": frame, "time_s": t_s, "status": "failed", "message": f"{type(e).__name__}: {e}"}
             timings["pwc"] = time.perf_counter() - t0
-            if res is not None:
-                pwc = np.asarray(res.points_mm, float)
-                q["pwc_r2"] = float(res.scores.r2_entire)
-                q["pwc_sse_mm2"] = float(res.scores.sse_entire_mm2)
-                q["pwc_rmse_mm"] = float(res.scores.rmse_mm)
-                q["pwc_segments_kappa"] = int(res.kappa_law.n_segments)
-                q["pwc_segments_tau"] = int(res.tau_law.n_segments)
+            if pwc is None:
+                notes.append(f"piece-wise clothoid fit failed: {pwc_row.get('message', '')}")
+            else:
+                q["pwc_r2"] = float(pwc_row["r2_entire"])
+                q["pwc_sse_mm2"] = float(pwc_row["sse_entire_mm2"])
+                q["pwc_rmse_mm"] = float(pwc_row["rmse_mm"])
+                q["pwc_segments_kappa"] = int(pwc_row["n_kappa"])
+                q["pwc_segments_tau"] = int(pwc_row["n_tau"])
         reproj_rows = [{k_: (v_.item() if hasattr(v_, "item") else v_) for k_, v_ in r.items()}
                        for r in table.to_dict("records")]
     except FrameError as e:
@@ -423,7 +432,20 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         return failed("; ".join(notes + [f"unexpected {type(e).__name__}: {e}"]))
     return FrameResult(frame=frame, time_s=t_s, status="ok", message="; ".join(notes), points_mm=points,
                        pwc_mm=pwc, quality=q, reprojection=reproj_rows, decisions=decisions,
-                       centroids=centroids, n_components=ncomp, timings=timings)
+                       centroids=centroids, n_components=ncomp, timings=timings,
+                       pwc_segments=_plain(pwc_segments), pwc_metrics=_plain([pwc_row] if pwc_row else []))
+
+
+def _plain(rows: list[dict]) -> list[dict]:
+    """JSON-ready rows (numpy scalars to Python, NaN to None)."""
+    out = []
+    for r in rows:
+        d = {}
+        for k, v in r.items():
+            v = v.item() if hasattr(v, "item") else v
+            d[k] = None if isinstance(v, float) and not math.isfinite(v) else v
+        out.append(d)
+    return out
 
 
 # ------------------------------------------------------------------ chunks
@@ -573,7 +595,9 @@ def _load_done(out: Path, frames: list[int], fp: str) -> dict[int, FrameResult]:
 
 
 def _assemble(results: list[FrameResult], n_views: int, n_points: int) -> dict[str, pd.DataFrame]:
-    cur, pwc, rows, rep, dec = [], [], [], [], []
+    from tendrilkit.fitting import SEGMENT_COLUMNS, metrics_table
+
+    cur, pwc, rows, rep, dec, segs, mets = [], [], [], [], [], [], []
     qcols = quality_columns(n_views)
     for r in sorted(results, key=lambda r: r.frame):
         row = {"frame": r.frame, "time_s": r.time_s, "status": r.status, "message": r.message}
@@ -588,6 +612,8 @@ def _assemble(results: list[FrameResult], n_views: int, n_points: int) -> dict[s
             rep.append({"frame": r.frame, **t})
         for d in r.decisions:
             dec.append({**d, "candidates": json.dumps(d.get("candidates"))})
+        segs.extend(r.pwc_segments)
+        mets.extend(r.pwc_metrics)
     ccols = ["frame", "time_s", "point", "x_mm", "y_mm", "z_mm"]
 
     def cat(parts):
@@ -609,7 +635,9 @@ def _assemble(results: list[FrameResult], n_views: int, n_points: int) -> dict[s
     if len(ordering):
         ordering = ordering.sort_values(["frame", "view", "junction"], kind="stable")
     return {"curves.csv": cat(cur), "pwc_curves.csv": cat(pwc), "frames.csv": frames,
-            "reprojection.csv": reproj.reset_index(drop=True), "ordering.csv": ordering.reset_index(drop=True)}
+            "reprojection.csv": reproj.reset_index(drop=True), "ordering.csv": ordering.reset_index(drop=True),
+            "pwc_segments.csv": pd.DataFrame(segs, columns=list(SEGMENT_COLUMNS)),
+            "pwc_metrics.csv": metrics_table(mets)}
 
 
 def _chunks(frames: list[int], workers: int) -> list[list[int]]:
