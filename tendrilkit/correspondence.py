@@ -365,6 +365,8 @@ def fundamental_matrix(camera_from: Camera, camera_to: Camera) -> np.ndarray:
     """Fundamental matrix F (3, 3), undistorted pixels: ``x_to^T F x_from = 0``, ``|F| = 1``."""
     R = camera_to.R @ camera_from.R.T
     t = camera_to.t_mm - R @ camera_from.t_mm
+    if not np.linalg.norm(t) > 1e-9 * max(1.0, float(np.linalg.norm(camera_to.t_mm))):
+        raise ValueError("camera_from and camera_to share a centre: no epipolar geometry (zero baseline)")
     E = _skew(t) @ R
     F = np.linalg.inv(camera_to.K).T @ E @ np.linalg.inv(camera_from.K)
     return F / np.linalg.norm(F)

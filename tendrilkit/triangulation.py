@@ -148,6 +148,11 @@ def triangulate(points_xy: np.ndarray, cameras: list[Camera], *, refine: bool = 
                 _, _, Vt = np.linalg.svd(Ao)
                 h = Vt[:, -1, :]
                 X[ok] = h[:, :3] / h[:, 3:4]
+        # parallel rays (views sharing a centre, a point at infinity) leave the depth undetermined:
+        # NaN, not an arbitrary point on the ray
+        ev = np.linalg.eigvalsh(M)
+        X[np.flatnonzero(ok)[~(ev[:, 0] > 1e-12 * ev[:, -1])]] = np.nan
+        ok = ok & np.all(np.isfinite(X), axis=1)
     if refine and ok.any():
         Xo = X[ok]
         uo = und[:, ok]

@@ -242,3 +242,15 @@ def test_sequence_functions(name, case):
             return
     if isinstance(result, pd.DataFrame) and case == "nan_frame":
         assert 1 not in set(result["frame"]), "a frame with NaN coordinates was used"
+
+
+def test_views_sharing_a_centre_have_no_depth():
+    """Zero baseline: triangulation gives NaN (not an arbitrary point on the ray), no epipolar geometry."""
+    same = [CAMS[1]] * 3
+    x = CAMS[1].project(HELIX)
+    tri = tr.triangulate(np.stack([x, x, x]), same)
+    assert np.isnan(tri.points_mm).all()
+    with pytest.raises(ValueError, match="share a centre"):
+        co.fundamental_matrix(CAMS[1], CAMS[1])
+    with pytest.raises((TendrilkitError, ValueError)):
+        co.match_epipolar([x, x, x], same, reference=1, k=20)
