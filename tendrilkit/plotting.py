@@ -566,11 +566,12 @@ def plot_grid_search(grid) -> Figure:
 def show_interactive(fig):
     """Display a plotly figure in a notebook as self-contained HTML with a stable element id.
 
-    The page works offline (plotly.js embedded) and the saved notebook is the
+    plotly.js comes from its CDN (a saved notebook stays small; the figures
+    saved by :func:`tendrilkit.io.save_figure` embed it for offline use) and the notebook is the
     same at every run (plotly's default output carries a random id).
     """
     from IPython.display import HTML
 
     title = fig.layout.title.text if fig.layout.title and fig.layout.title.text else "figure"
     div_id = "tk-" + "".join(c if c.isalnum() else "-" for c in title.lower())[:40]
-    return HTML(fig.to_html(include_plotlyjs=True, full_html=False, div_id=div_id))
+    return HTML(fig.to_html(include_plotlyjs="cdn", full_html=False, div_id=div_id))
