@@ -185,7 +185,10 @@ class Camera:
 
 def rotation_from_rvec(rvec: np.ndarray) -> np.ndarray:
     """3x3 rotation of a Rodrigues vector (3,)."""
-    return cv2.Rodrigues(np.asarray(rvec, dtype=float).reshape(3, 1))[0]
+    r = np.asarray(rvec, dtype=float)
+    if r.size != 3 or not np.all(np.isfinite(r)):
+        raise ValueError(f"rvec must be 3 finite numbers, got {r.ravel().tolist()}")
+    return cv2.Rodrigues(r.reshape(3, 1))[0]
 
 
 def look_at(eye_world: np.ndarray, target_world: np.ndarray, up_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -195,9 +198,13 @@ def look_at(eye_world: np.ndarray, target_world: np.ndarray, up_world: np.ndarra
     """
     eye = np.asarray(eye_world, float)
     z = np.asarray(target_world, float) - eye
+    if not np.linalg.norm(z) > 0:  # also NaN
+        raise ValueError(f"eye_world and target_world must be distinct finite points, got {eye.tolist()} and {np.asarray(target_world).tolist()}")
     z /= np.linalg.norm(z)
     down = -np.asarray(up_world, float)
     x = np.cross(down, z)
+    if not np.linalg.norm(x) > 1e-12 * max(float(np.linalg.norm(down)), 1e-300):
+        raise ValueError(f"up_world must be finite and not parallel to the viewing direction, got {np.asarray(up_world).tolist()}")
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
     R = np.stack([x, y, z])

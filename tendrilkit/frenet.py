@@ -193,8 +193,10 @@ def whittaker_smooth(y: np.ndarray, *, lam: float) -> np.ndarray:
     """
     y = np.asarray(y, dtype=float)
     n = y.shape[0]
-    if lam < 0:
+    if not lam >= 0:
         raise ValueError(f"lam must be >= 0, got {lam}")
+    if not np.all(np.isfinite(y)):
+        raise ValueError("y must be finite (no NaN or inf)")
     if lam == 0 or n < 3:
         return y.copy()
     main = np.full(n, 6.0)

@@ -324,6 +324,8 @@ def segment_penalty(C: np.ndarray, penalty: float) -> tuple[np.ndarray, float]:
     if not penalty >= 0:
         raise ValueError(f"penalty must be >= 0, got {penalty}")
     C = np.ascontiguousarray(C, dtype=float)
+    if C.ndim != 2 or C.shape[0] < 2 or C.shape[0] != C.shape[1]:
+        raise ValueError(f"C must be a square cost table (n + 1, n + 1) with n >= 1, got {C.shape}")
     n = C.shape[0] - 1
     F, arg = _dp_penalty(C, float(penalty))
     if not np.isfinite(F[n]):
@@ -722,6 +724,11 @@ def fit_scores(fitted_mm: np.ndarray, data_mm: np.ndarray, s_mm: np.ndarray) -> 
     f = np.asarray(fitted_mm, dtype=float)
     d = np.asarray(data_mm, dtype=float)
     s = np.asarray(s_mm, dtype=float)
+    if f.ndim != 2 or f.shape != d.shape or s.shape != (len(d),) or len(d) < 2:
+        raise ValueError(f"fitted_mm, data_mm and s_mm must have shapes (n, 3), (n, 3), (n,) with n >= 2, "
+                         f"got {f.shape}, {d.shape}, {s.shape}")
+    if not (np.all(np.isfinite(f)) and np.all(np.isfinite(d)) and np.all(np.isfinite(s))):
+        raise ValueError("fitted_mm, data_mm and s_mm must be finite (no NaN or inf)")
     L = s[-1] - s[0]
     err = np.sum((f - d) ** 2, axis=1)
 

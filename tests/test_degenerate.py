@@ -254,3 +254,23 @@ def test_views_sharing_a_centre_have_no_depth():
         co.fundamental_matrix(CAMS[1], CAMS[1])
     with pytest.raises((TendrilkitError, ValueError)):
         co.match_epipolar([x, x, x], same, reference=1, k=20)
+
+
+@pytest.mark.parametrize("call", [
+    lambda: __import__("tendrilkit.camera", fromlist=["look_at"]).look_at(np.zeros(3), np.zeros(3), np.array([0, 0, 1.0])),
+    lambda: __import__("tendrilkit.camera", fromlist=["look_at"]).look_at(np.zeros(3), np.array([0, 0, 1.0]), np.array([0, 0, 1.0])),
+    lambda: __import__("tendrilkit.camera", fromlist=["look_at"]).look_at(np.array([np.nan, 0, 0]), np.array([0, 0, 1.0]), np.array([0, 1.0, 0])),
+    lambda: __import__("tendrilkit.camera", fromlist=["rotation_from_rvec"]).rotation_from_rvec(np.array([np.nan, 0, 0])),
+    lambda: fr.whittaker_smooth(_with_bad_row(HELIX, np.nan), lam=10.0),
+    lambda: pwc.segment_penalty(np.zeros((0, 0)), 1.0),
+    lambda: pwc.fit_scores(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)),
+    lambda: pwc.fit_scores(CASES_3D["nan"], HELIX, np.arange(60.0)),
+    lambda: pwc.line_costs(np.zeros(10), np.zeros(10)),
+], ids=["look_at(eye=target)", "look_at(up parallel)", "look_at(nan)", "rotation_from_rvec(nan)",
+        "whittaker_smooth(nan)", "segment_penalty(empty)", "fit_scores(empty)", "fit_scores(nan)",
+        "line_costs(repeated s)"])
+def test_helpers_reject_degenerate_input(call):
+    with pytest.raises((TendrilkitError, ValueError)) as info:
+        call()
+    assert str(info.value).strip()
+    assert not isinstance(info.value, (IndexError, ZeroDivisionError, np.linalg.LinAlgError))
