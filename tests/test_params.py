@@ -65,7 +65,12 @@ def _mutate(path, value):
     return data
 
 
-_DELETE = object()
+class _Delete:
+    def __repr__(self) -> str:  # stable test ids (pytest-xdist workers must collect the same names)
+        return "<deleted>"
+
+
+_DELETE = _Delete()
 
 BAD_CASES = [
     # (path, value, words that must appear in the message)
