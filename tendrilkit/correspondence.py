@@ -73,10 +73,10 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
-from scipy.linalg import solve_banded
 
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import CorrespondenceError
+from tendrilkit.frenet import whittaker_smooth
 
 __all__ = [
     "resample_by_arclength",
@@ -522,27 +522,6 @@ def _project_und(cam: Camera, X: np.ndarray, dX: np.ndarray):
     return p, dp
 
 
-def _weighted_whittaker(y: np.ndarray, w: np.ndarray, lam: float) -> np.ndarray:
-    """Minimise sum w (z - y)^2 + lam sum (second difference of z)^2 (banded solve)."""
-    n = len(y)
-    if n < 3:
-        return y.copy()
-    # D^T D for second differences, as a 5-band matrix
-    main = np.full(n, 6.0)
-    main[[0, -1]] = 1.0
-    main[[1, -2]] = 5.0
-    off1 = np.full(n - 1, -4.0)
-    off1[[0, -1]] = -2.0
-    off2 = np.ones(n - 2)
-    ab = np.zeros((5, n))
-    ab[0, 2:] = lam * off2
-    ab[1, 1:] = lam * off1
-    ab[2] = lam * main + w
-    ab[3, :-1] = lam * off1
-    ab[4, :-2] = lam * off2
-    return solve_banded((2, 2), ab, w * y)
-
-
 def _check_inputs(centerlines_xy, cameras, reference, k):
     curves = [_check_curve(c, f"centerlines_xy[{v}]") for v, c in enumerate(centerlines_xy)]
     cams = list(cameras)
@@ -729,7 +708,7 @@ def match_epipolar(
     if ok.sum() >= 3:
         w = np.where(ok, info, 0.0)
         scale = np.median(w[ok]) if np.any(w[ok] > 0) else 1.0  # typical point: weight 1
-        d_s = _weighted_whittaker(np.where(ok, d, 0.0), w / max(scale, 1e-12) + 1e-9 * ok, smooth)
+        d_s = whittaker_smooth(np.where(ok, d, 0.0), lam=smooth, weights=w / max(scale, 1e-12) + 1e-9 * ok)
         d = np.where(ok, d_s, d)
 
     # final matches: nearest curve points to the projections

@@ -177,8 +177,8 @@ def whittaker_lambda(length_mm: float, spacing_mm: float) -> float:
     return float((length_mm / (2.0 * np.pi * spacing_mm)) ** 4)
 
 
-def whittaker_smooth(y: np.ndarray, *, lam: float) -> np.ndarray:
-    """Second-order Whittaker smoother: solve :math:`(I + \\lambda D_2^T D_2) z = y`.
+def whittaker_smooth(y: np.ndarray, *, lam: float, weights: np.ndarray | None = None) -> np.ndarray:
+    """Second-order Whittaker smoother: solve :math:`(W + \\lambda D_2^T D_2) z = W y`.
 
     Parameters
     ----------
@@ -186,6 +186,9 @@ def whittaker_smooth(y: np.ndarray, *, lam: float) -> np.ndarray:
         Equally spaced samples (each column smoothed independently).
     lam : float, keyword-only
         Smoothing weight (dimensionless); see :func:`whittaker_lambda`.
+    weights : (n,) float array, optional
+        Weight of each sample, >= 0 (default 1: :math:`W = I`); a weight of
+        0 lets the smoother interpolate that sample from its neighbours.
 
     Returns
     -------
@@ -199,6 +202,9 @@ def whittaker_smooth(y: np.ndarray, *, lam: float) -> np.ndarray:
         raise ValueError("y must be finite (no NaN or inf)")
     if lam == 0 or n < 3:
         return y.copy()
+    w = np.ones(n) if weights is None else np.asarray(weights, dtype=float)
+    if w.shape != (n,) or not np.all(np.isfinite(w)) or np.any(w < 0) or np.count_nonzero(w) < 2:
+        raise ValueError(f"weights must be {n} finite numbers >= 0, at least two of them positive")
     main = np.full(n, 6.0)
     main[[0, -1]] = 1.0
     main[[1, -2]] = 5.0
@@ -208,7 +214,8 @@ def whittaker_smooth(y: np.ndarray, *, lam: float) -> np.ndarray:
     if n == 3:
         main = np.array([1.0, 4.0, 1.0])
         off1 = np.array([-2.0, -2.0])
-    return _solve_penta(1.0 + lam * main, lam * off1, lam * off2, np.ascontiguousarray(y.reshape(n, -1))).reshape(y.shape)
+    rhs = np.ascontiguousarray((y.reshape(n, -1) * w[:, None]) if weights is not None else y.reshape(n, -1))
+    return _solve_penta(w + lam * main, lam * off1, lam * off2, rhs).reshape(y.shape)
 
 
 @njit(cache=True)

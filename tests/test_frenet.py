@@ -206,3 +206,15 @@ def test_noise_estimate_and_automatic_smoothing_length():
     L1 = auto_smoothing_length_mm(P + rng.normal(0, 0.15, P.shape))
     L2 = auto_smoothing_length_mm(P + rng.normal(0, 0.6, P.shape))
     assert 5 < L1 < L2
+
+
+def test_weighted_whittaker_matches_dense_normal_equations():
+    rng = np.random.default_rng(3)
+    for n in (3, 4, 7, 60):
+        y = rng.normal(size=n)
+        w = rng.uniform(0.0, 2.0, n)
+        w[1] = 0.0  # a sample with no weight is interpolated
+        D = np.diff(np.eye(n), 2, axis=0)
+        expected = np.linalg.solve(np.diag(w) + 7.3 * D.T @ D, w * y)
+        np.testing.assert_allclose(whittaker_smooth(y, lam=7.3, weights=w), expected, atol=1e-10)
+
