@@ -36,9 +36,10 @@ def mutated_experiments(draw):
             data.pop(key, None)
         elif action == "set":
             data[key] = draw(values)
-        elif action == "set_nested" and isinstance(data.get(key), list) and data[key] and isinstance(data[key][0], dict):
+        elif action == "set_nested" and isinstance(data.get(key), list) and data[key]:
             item = draw(st.integers(0, len(data[key]) - 1))
-            data[key][item][draw(st.sampled_from(SUBKEYS))] = draw(values)
+            if isinstance(data[key][item], dict):
+                data[key][item][draw(st.sampled_from(SUBKEYS))] = draw(values)
         elif action == "retype" and key in data:
             data[key] = str(data[key]) if not isinstance(data[key], str) else [data[key]]
     return data
