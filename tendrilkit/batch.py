@@ -5,7 +5,8 @@
 1. ``reconstruct`` into ``reports/<name>/results/`` (resumable frame by frame),
 2. every per-experiment notebook ``notebooks/NN_*.ipynb`` (in number order)
    into ``reports/<name>/``, filled with the experiment's parameters,
-3. an HTML page per executed notebook and ``provenance.json``,
+3. an HTML page per executed notebook and ``provenance.json``; the
+   notebooks' kernels log to ``reports/<name>/batch.log``,
 
 experiments in parallel processes, the stages of one experiment in order.
 Then the cross-site notebook (``07_compare_sites.ipynb``) runs over every
@@ -166,6 +167,7 @@ def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentO
         if stamp.exists():
             stamp.unlink()
         out.mkdir(parents=True, exist_ok=True)
+        _stderr_to(out / "batch.log")
         from tendrilkit.pipeline import run_reconstruct
 
         run_reconstruct(path, out / "results", workers=1, progress=False)
@@ -185,6 +187,13 @@ def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentO
         first = str(e).strip().splitlines()[0] if str(e).strip() else ""
         return ExperimentOutcome(name, str(path), "failed", time.perf_counter() - t0,
                                  message=f"{e.__class__.__name__}: {first}{where}"[:300])
+
+
+def _stderr_to(path: Path) -> None:
+    """Send this worker process's stderr (and its kernels') to ``path``: the terminal keeps the summary."""
+    sys.stderr.flush()
+    with open(path, "w", encoding="utf-8") as f:
+        os.dup2(f.fileno(), 2)
 
 
 def _frame_counts(results: Path) -> tuple[int, int]:
@@ -211,12 +220,19 @@ def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path) -> Expe
         "figures_dir": str(out / "figures"),
     }
     try:
-        execute_notebook(src, out / src.name, params, cwd=NOTEBOOKS)
+        with ProcessPoolExecutor(max_workers=1) as pool:  # its own process: the kernel's chatter goes to a log
+            pool.submit(_compare_in_worker, str(src), str(out), params).result()
         return ExperimentOutcome("comparison", "", "done", time.perf_counter() - t0)
     except Exception as e:
         first = str(e).strip().splitlines()[0] if str(e).strip() else ""
         return ExperimentOutcome("comparison", "", "failed", time.perf_counter() - t0,
                                  message=f"{e.__class__.__name__}: {first}"[:300])
+
+
+def _compare_in_worker(src: str, out: str, params: dict) -> None:
+    Path(out).mkdir(parents=True, exist_ok=True)
+    _stderr_to(Path(out) / "batch.log")
+    execute_notebook(Path(src), Path(out) / Path(src).name, params, cwd=NOTEBOOKS)
 
 
 def format_summary(outcomes: list[ExperimentOutcome]) -> str:
