@@ -37,6 +37,11 @@ from tendrilkit.exceptions import ExperimentError
 
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = ROOT / "notebooks"
+
+
+def notebooks_dir() -> Path:
+    """The notebook collection a batch runs: ``notebooks/``, or ``$TENDRILKIT_NOTEBOOKS`` (``batch --notebooks``)."""
+    return Path(os.environ.get("TENDRILKIT_NOTEBOOKS") or NOTEBOOKS)
 CROSS_SITE = "07_compare_sites.ipynb"
 PROVENANCE_PACKAGES = ("tendrilkit", "numpy", "scipy", "pandas", "opencv-python-headless", "scikit-image",
                        "skan", "numba", "matplotlib", "plotly", "papermill", "pydantic")
@@ -55,7 +60,7 @@ class ExperimentOutcome:
 
 def experiment_notebooks() -> list[Path]:
     """The per-experiment notebooks, in number order."""
-    return sorted(p for p in NOTEBOOKS.glob("[0-9][0-9]_*.ipynb") if p.name != CROSS_SITE)
+    return sorted(p for p in notebooks_dir().glob("[0-9][0-9]_*.ipynb") if p.name != CROSS_SITE)
 
 
 def _sha256(paths: list[Path]) -> str:
@@ -173,7 +178,7 @@ def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentO
         run_reconstruct(path, out / "results", workers=1, progress=False)
         params = {"experiment_path": str(path), "results_dir": str(out / "results"), "figures_dir": str(out / "figures")}
         for nb in experiment_notebooks():
-            execute_notebook(nb, out / nb.name, params, cwd=NOTEBOOKS)
+            execute_notebook(nb, out / nb.name, params, cwd=notebooks_dir())
         write_json(provenance(exp_dict, path), out / "provenance.json")
         write_text(fp + "\n", stamp)
         ok, failed = _frame_counts(out / "results")
@@ -208,7 +213,7 @@ def _frame_counts(results: Path) -> tuple[int, int]:
 
 def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path) -> ExperimentOutcome | None:
     """The cross-site notebook over every finished experiment."""
-    src = NOTEBOOKS / CROSS_SITE
+    src = notebooks_dir() / CROSS_SITE
     finished = [o for o in outcomes if o.status in ("done", "skipped")]
     if not src.is_file() or not finished:
         return None
@@ -232,7 +237,7 @@ def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path) -> Expe
 def _compare_in_worker(src: str, out: str, params: dict) -> None:
     Path(out).mkdir(parents=True, exist_ok=True)
     _stderr_to(Path(out) / "batch.log")
-    execute_notebook(Path(src), Path(out) / Path(src).name, params, cwd=NOTEBOOKS)
+    execute_notebook(Path(src), Path(out) / Path(src).name, params, cwd=Path(src).parent)
 
 
 def format_summary(outcomes: list[ExperimentOutcome]) -> str:
@@ -256,7 +261,7 @@ def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False
         raise ExperimentError(f"{missing[0]}: experiment file not found")
     check_writable_dir(reports_dir)
     if not experiment_notebooks():
-        raise ExperimentError(f"{NOTEBOOKS}: no numbered notebooks found")
+        raise ExperimentError(f"{notebooks_dir()}: no numbered notebooks found")
     workers = max(1, min(workers or os.cpu_count() or 1, len(experiments)))
     outcomes: list[ExperimentOutcome] = []
     with ProcessPoolExecutor(max_workers=workers) as pool:

@@ -54,6 +54,10 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 def _cmd_batch(args: argparse.Namespace) -> int:
     from tendrilkit.batch import run_batch
 
+    if args.notebooks:
+        import os
+
+        os.environ["TENDRILKIT_NOTEBOOKS"] = str(Path(args.notebooks).resolve())
     return run_batch([Path(p) for p in args.experiments], Path(args.reports), force=args.force,
                      workers=args.workers)
 
@@ -91,6 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
     ba.add_argument("--reports", default="reports")
     ba.add_argument("--force", action="store_true", help="rerun finished experiments")
     ba.add_argument("--workers", type=int, default=None)
+    ba.add_argument("--notebooks", default=None, help="notebook collection to run (default: notebooks/)")
     ba.set_defaults(func=_cmd_batch)
     return p
 
