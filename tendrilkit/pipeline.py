@@ -470,22 +470,8 @@ def _next_state(state: list, res: FrameResult) -> list:
 
 
 def _run_chunk(args) -> list[FrameResult]:
-    """Process consecutive frames from a tracking state (runs in a worker or in-process)."""
-    from tendrilkit.io import open_views
-
-    frames, state, exp, cameras, fit = args
-    out = []
-    sources = open_views(list(exp.videos))
-    try:
-        for f in frames:
-            images, errors = _read_views(sources, f)
-            res = reconstruct_frame(images, cameras, exp, frame=f, prev_centroids=state, read_errors=errors, fit=fit)
-            state = _next_state(state, res)
-            out.append(res)
-    finally:
-        for s in sources:
-            s.close()
-    return out
+    """Process consecutive frames from a tracking state (in a worker); see :func:`_iter_chunk`."""
+    return list(_iter_chunk(*args))
 
 
 def _worker_init() -> None:
@@ -876,7 +862,7 @@ def _fit_defaults(points_mm: np.ndarray) -> None:
 
 
 def _iter_chunk(frames, state, exp, cameras, fit):
-    """In-process version of :func:`_run_chunk` that yields each frame as it finishes."""
+    """Process consecutive frames from a tracking state, yielding each frame as it finishes."""
     from tendrilkit.io import open_views
 
     sources = open_views(list(exp.videos))
