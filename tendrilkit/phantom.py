@@ -1383,6 +1383,56 @@ def _static(ph: Phantom, view: int) -> dict:
     return per[view]
 
 
+def render_tube_views(X_mm: np.ndarray, *, width_px: int = 9, margin_px: int = 40, name: str = "tube",
+                      fps: float = 1.0, cameras: list | None = None):
+    """A bare tube along ``X_mm`` drawn into every view, with an experiment whose marks fit it.
+
+    No scene, noise or distortion: a fast, exact input for tests and benchmarks
+    of the reconstruction (the full phantom is :func:`make_phantom`).
+
+    Parameters
+    ----------
+    X_mm : (n, 3) float array
+        Centreline, world mm, base first (densely sampled: it is drawn as a polyline).
+    width_px : int
+        Line width of the tube, pixels.
+    margin_px : int
+        The ROI is the tube's bounding box grown by this much.
+    name, fps
+        Of the experiment.
+    cameras : list of Camera, optional
+        Default: the IJCV25 rig (:func:`tendrilkit.calibration.ijcv25_rig`).
+
+    Returns
+    -------
+    images : list of (1080, 1920, 3) uint8 arrays
+    cameras : list of Camera
+    experiment : tendrilkit.params.Experiment
+        Videos ``v1.mp4``... (not written), base point at the projected first point.
+    """
+    from tendrilkit.calibration import ijcv25_rig
+    from tendrilkit.params import parse_experiment
+
+    cams = ijcv25_rig() if cameras is None else cameras
+    images, views = [], []
+    for v, c in enumerate(cams):
+        img = np.full((c.height, c.width, 3), 235, np.uint8)
+        p = c.project(np.asarray(X_mm, float))
+        cv2.polylines(img, [np.round(p * 16).astype(np.int32)], False, (40, 40, 40), width_px, cv2.LINE_AA, 4)
+        images.append(img)
+        lo, hi = (p.min(0) - margin_px).astype(int), (p.max(0) + margin_px).astype(int)
+        views.append({"view": v + 1, "roi": [int(lo[0]), int(lo[1]), int(hi[0] - lo[0]), int(hi[1] - lo[1])],
+                      "base_point": [float(p[0, 0]), float(p[0, 1])]})
+    exp = parse_experiment({
+        "name": name, "videos": [f"v{i + 1}.mp4" for i in range(len(cams))], "fps": fps, "reference_view": 2,
+        "cameras": [{"view": i + 1, "fx": float(c.K[0, 0]), "fy": float(c.K[1, 1]), "cx": float(c.K[0, 2]),
+                     "cy": float(c.K[1, 2]), "dist": c.dist.tolist()} for i, c in enumerate(cams)],
+        "marker": {"dictionary": DICTIONARY, "id": WORLD_MARKER_ID, "length_mm": WORLD_MARKER_MM},
+        "views": views,
+    })
+    return images, cams, exp
+
+
 def render_view(phantom: Phantom, frame: int, view_index: int, *, noise: bool = True) -> np.ndarray:
     """One frame of one view, BGR uint8 (height, width, 3), before compression.
 

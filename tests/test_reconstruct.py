@@ -101,31 +101,12 @@ def test_workers_identical_and_resume(phantom_run):
 # ------------------------------------------------------------ fast: one frame
 def _synthetic_frame():
     """Three views of a curled tube through the IJCV25 rig, and its experiment."""
-    import cv2
+    from tendrilkit.phantom import render_tube_views
 
-    from tendrilkit.calibration import ijcv25_rig
-    from tendrilkit.params import parse_experiment
-
-    cams = ijcv25_rig()
     s = np.linspace(0, 1, 3000)
     th = np.clip(s - 0.4, 0, None) * 6 * np.pi
     X = np.c_[-5 + 50 * s, 6 * np.sin(th), 20 + 6 * (1 - np.cos(th))]
-    images, views = [], []
-    for v, c in enumerate(cams):
-        img = np.full((1080, 1920, 3), 235, np.uint8)
-        p = c.project(X)
-        cv2.polylines(img, [np.round(p * 16).astype(np.int32)], False, (40, 40, 40), 9, cv2.LINE_AA, 4)
-        images.append(img)
-        lo, hi = (p.min(0) - 40).astype(int), (p.max(0) + 40).astype(int)
-        views.append({"view": v + 1, "roi": [int(lo[0]), int(lo[1]), int(hi[0] - lo[0]), int(hi[1] - lo[1])],
-                      "base_point": [float(p[0, 0]), float(p[0, 1])]})
-    exp = parse_experiment({
-        "name": "synthetic", "videos": ["v1.mp4", "v2.mp4", "v3.mp4"], "fps": 2, "reference_view": 2,
-        "cameras": [{"view": i + 1, "fx": float(c.K[0, 0]), "fy": float(c.K[1, 1]), "cx": float(c.K[0, 2]),
-                     "cy": float(c.K[1, 2])} for i, c in enumerate(cams)],
-        "marker": {"dictionary": "DICT_ARUCO_ORIGINAL", "id": 815, "length_mm": 24.0},
-        "views": views,
-    })
+    images, cams, exp = render_tube_views(X, width_px=9, margin_px=40, name="synthetic", fps=2)
     return images, cams, exp, X
 
 

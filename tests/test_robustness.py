@@ -323,27 +323,9 @@ def test_video_shorter_than_the_others(phantom, tmp_path, capsys):
 # ------------------------------------------------------------------ degenerate curves in a frame
 def _tube_frame(X: np.ndarray, width_px: int = 9):
     """Three views of a tube along ``X`` (mm) through the IJCV25 rig, and its experiment."""
-    from tendrilkit.calibration import ijcv25_rig
-    from tendrilkit.params import parse_experiment
+    from tendrilkit.phantom import render_tube_views
 
-    cams = ijcv25_rig()
-    images, views = [], []
-    for v, c in enumerate(cams):
-        img = np.full((1080, 1920, 3), 235, np.uint8)
-        p = c.project(X)
-        cv2.polylines(img, [np.round(p * 16).astype(np.int32)], False, (40, 40, 40), width_px, cv2.LINE_AA, 4)
-        images.append(img)
-        lo, hi = (p.min(0) - 60).astype(int), (p.max(0) + 60).astype(int)
-        views.append({"view": v + 1, "roi": [int(lo[0]), int(lo[1]), int(hi[0] - lo[0]), int(hi[1] - lo[1])],
-                      "base_point": [float(p[0, 0]), float(p[0, 1])]})
-    exp = parse_experiment({
-        "name": "tube", "videos": ["v1.mp4", "v2.mp4", "v3.mp4"], "fps": 1, "reference_view": 2,
-        "cameras": [{"view": i + 1, "fx": float(c.K[0, 0]), "fy": float(c.K[1, 1]), "cx": float(c.K[0, 2]),
-                     "cy": float(c.K[1, 2])} for i, c in enumerate(cams)],
-        "marker": {"dictionary": "DICT_ARUCO_ORIGINAL", "id": 815, "length_mm": 24.0},
-        "views": views,
-    })
-    return images, cams, exp
+    return render_tube_views(X, width_px=width_px, margin_px=60, name="tube", fps=1)
 
 
 def test_straight_tendril_succeeds_with_torsion_flagged():
