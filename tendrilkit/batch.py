@@ -16,6 +16,10 @@ Resumable: an experiment whose ``reports/<name>/.done`` holds the same
 fingerprint (experiment file, notebooks, tendrilkit version) is skipped unless
 ``--force``; every output is written to a temporary file and renamed. One
 failed experiment does not stop the others; it is reported with its reason.
+Before anything runs, every experiment's ``name`` must be a safe folder
+name (:func:`tendrilkit.params.folder_name_problem`: no ``..``, ``.``, path
+separators or control characters), not ``comparison`` (the cross-site
+folder), and unique in the batch; otherwise exit code 2 naming the files.
 Exit code: 0 if every experiment finished, 1 otherwise, 2 for bad input.
 """
 
@@ -164,6 +168,8 @@ def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentO
         name = exp.name
         exp_dict = experiment_to_dict(exp)
         out = Path(reports_dir).resolve() / exp.name
+        if out.parent != Path(reports_dir).resolve():  # the name is checked: never outside the reports folder
+            raise ExperimentError(f"{path}: name: {exp.name!r} is not a folder name inside {reports_dir}")
         stamp = out / ".done"
         fp = fingerprint(path, exp_dict)
         if not force and stamp.is_file() and stamp.read_text().strip() == fp:
@@ -249,6 +255,44 @@ def format_summary(outcomes: list[ExperimentOutcome]) -> str:
     return "\n".join(lines)
 
 
+def _worker_signals() -> None:
+    import signal
+
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # the command line's SIGTERM handler is the parent's only
+
+
+def check_batch_names(experiments: list[Path]) -> None:
+    """Every experiment's ``name`` a safe folder name, not ``comparison``, unique in the batch.
+
+    Reads only each file's ``name`` (a file that does not parse is left to its
+    run, which reports it as failed). Raises :class:`ExperimentError` naming
+    the file(s) before anything runs.
+    """
+    from tendrilkit.params import folder_name_problem, parse_yaml, read_experiment_text
+
+    seen: dict[str, Path] = {}
+    for p in experiments:
+        try:
+            data = parse_yaml(read_experiment_text(Path(p)), source=p)
+        except ExperimentError:
+            continue
+        if not isinstance(data, dict) or "name" not in data:
+            continue
+        name = data["name"]
+        problem = folder_name_problem(name) if isinstance(name, str) else "expected a text usable as a folder name"
+        if problem:
+            from tendrilkit.params import short_repr
+
+            raise ExperimentError(f"{p}: name: {problem} (got {short_repr(name)})")
+        if name == "comparison":
+            raise ExperimentError(f"{p}: name: 'comparison' is the folder of the cross-site notebook; expected "
+                                  f"another name")
+        if name in seen:
+            raise ExperimentError(f"{p}: name: {name!r} is also the name of {seen[name]}; expected a name unique "
+                                  f"in the batch (each writes reports/<name>/)")
+        seen[name] = Path(p)
+
+
 def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False, workers: int | None = None) -> int:
     """Run every experiment's notebooks into ``reports_dir``; see the module docstring."""
     from tendrilkit.io import check_writable_dir
@@ -259,12 +303,13 @@ def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False
     missing = [p for p in experiments if not Path(p).is_file()]
     if missing:
         raise ExperimentError(f"{missing[0]}: experiment file not found")
+    check_batch_names(experiments)
     check_writable_dir(reports_dir)
     if not experiment_notebooks():
         raise ExperimentError(f"{notebooks_dir()}: no numbered notebooks found")
     workers = max(1, min(workers or os.cpu_count() or 1, len(experiments)))
     outcomes: list[ExperimentOutcome] = []
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    with ProcessPoolExecutor(max_workers=workers, initializer=_worker_signals) as pool:
         futures = [pool.submit(_run_one, str(p), str(reports_dir), force) for p in experiments]
         for fut in progress(as_completed(futures), total=len(futures), desc="experiments"):
             o = fut.result()

@@ -991,11 +991,87 @@ def calibrate_experiment(exp: "Experiment") -> CalibrationResult:
     every view is read and :func:`calibrate` runs with the experiment's
     ``marker`` and ``calibration.bundle_adjust``.
 
+    The result is then checked (:func:`check_calibration`): every view's
+    marker corners must reproject within ``calibration.max_corner_rms_px``
+    (unless ``null``) and no two cameras may sit at the same place.
+
     Raises
     ------
     ExperimentError
-        A video cannot be read, or a view does not show the world marker.
+        A video cannot be read, a view does not show the world marker, or the
+        calibration failed its checks.
     """
+    result = _calibrate_experiment(exp)
+    check_calibration(result, max_corner_rms_px=exp.calibration.max_corner_rms_px)
+    return result
+
+
+#: Two cameras closer than this fraction of their distance to the world marker cannot triangulate.
+MIN_BASELINE_FRACTION = 0.02
+
+
+def corner_rms_px(result: CalibrationResult) -> dict[int, float]:
+    """Per view (1-based), the corner reprojection error of the final rig, pixels: the root mean
+    square, over the markers, of each marker's mean corner error.
+
+    Over every marker the view sees (the ``adjusted`` rows of
+    :attr:`CalibrationResult.markers` when the bundle adjustment ran, else the
+    ``single`` rows), dropped observations included.
+    """
+    t = result.markers
+    stage = "adjusted" if (t.stage == "adjusted").any() else "single"
+    t = t[t.stage == stage]
+    out = {}
+    for v, g in t.groupby("view"):
+        # mean_px is a mean of distances: rms >= mean; the mean of the squares is bounded by max_px^2
+        n = g.n_corners.to_numpy(float)
+        out[int(v)] = float(np.sqrt((np.asarray(g.mean_px, float) ** 2 * n).sum() / n.sum()))
+    return out
+
+
+def check_calibration(result: CalibrationResult, *, max_corner_rms_px: float | None = 1.5) -> None:
+    """Refuse a calibration that cannot be right.
+
+    - A view whose marker corners reproject further than ``max_corner_rms_px``
+      (:func:`corner_rms_px`): wrong intrinsics, intrinsics of another image
+      size, a moved camera... (``None``: not checked; a warning is given).
+    - Two cameras at the same place (closer than :data:`MIN_BASELINE_FRACTION`
+      of their distance to the world marker): the same video given for two
+      views; nothing can be triangulated.
+
+    Raises
+    ------
+    ExperimentError
+        ``calibration failed: view 1: marker corners reproject 6.27 px rms ...``
+    """
+    cams = result.cameras
+    C = np.array([c.center_world for c in cams])
+    depth = np.linalg.norm(C, axis=1)
+    for i in range(len(cams)):
+        for j in range(i):
+            base = float(np.linalg.norm(C[i] - C[j]))
+            if not base >= MIN_BASELINE_FRACTION * max(float(min(depth[i], depth[j])), 1e-9):
+                raise ExperimentError(
+                    f"calibration failed: views {j + 1} and {i + 1} are {base:.1f} mm apart at {depth[i]:.0f} mm from "
+                    f"the world marker (at least {100 * MIN_BASELINE_FRACTION:g} % of it needed to triangulate); "
+                    f"the same video given for two views?")
+    rms = corner_rms_px(result)
+    bad = {v: r for v, r in rms.items() if max_corner_rms_px is not None and not r <= max_corner_rms_px}
+    if bad:
+        v, r = max(bad.items(), key=lambda kv: kv[1])
+        others = ", ".join(f"view {w}: {x:.2f} px" for w, x in sorted(bad.items()) if w != v)
+        raise ExperimentError(
+            f"calibration failed: view {v}: marker corners reproject {r:.2f} px off (rms over markers; limit "
+            f"calibration.max_corner_rms_px = {max_corner_rms_px:g} px{'; also ' + others if others else ''}); "
+            f"check view {v}'s intrinsics (fx, fy, cx, cy, dist) and image size, or pass --accept-calibration")
+    if max_corner_rms_px is None and rms:
+        v, r = max(rms.items(), key=lambda kv: kv[1])
+        if r > 1.5:
+            warnings.warn(f"calibration accepted although view {v}'s marker corners reproject {r:.2f} px rms",
+                          stacklevel=2)
+
+
+def _calibrate_experiment(exp: "Experiment") -> CalibrationResult:
     from tendrilkit.exceptions import FrameReadError
     from tendrilkit.io import FrameSource, read_ijcv25_extrinsics
 
@@ -1029,18 +1105,29 @@ def calibrate_experiment(exp: "Experiment") -> CalibrationResult:
                      length_mm=L, bundle_adjust=exp.calibration.bundle_adjust, frame=start)
 
 
-def calibrate_to_dir(experiment_path: str | Path, out_dir: str | Path) -> str:
+def calibrate_to_dir(experiment_path: str | Path, out_dir: str | Path, *, overrides: dict | None = None) -> str:
     """``python -m tendrilkit calibrate``: write ``cameras.json`` and the marker table.
 
     Writes ``out_dir/cameras.json`` (EXPERIMENT_FORMAT.md) and
     ``out_dir/calibration_markers.csv`` (:attr:`CalibrationResult.markers`);
-    returns a short summary, one line per view.
+    returns a short summary, one line per view. ``overrides`` replace keys
+    of the experiment's sections, e.g. ``{"calibration": {"max_corner_rms_px":
+    None}}`` (the command line's ``--accept-calibration``).
     """
-    from tendrilkit.io import check_writable_dir, write_cameras, write_csv
+    from tendrilkit.inputs import check_inputs
+    from tendrilkit.io import check_writable_dir, open_views, write_cameras, write_csv
     from tendrilkit.params import load_experiment
 
     exp = load_experiment(experiment_path)
+    if overrides:
+        exp = exp.model_copy(update={k: getattr(exp, k).model_copy(update=v) for k, v in overrides.items()})
     out = check_writable_dir(out_dir)
+    sources = open_views(list(exp.videos))
+    try:
+        check_inputs(exp, sources)
+    finally:
+        for s in sources:
+            s.close()
     res = calibrate_experiment(exp)
     write_cameras(res.cameras, out / "cameras.json")
     write_csv(res.markers, out / "calibration_markers.csv")

@@ -7,7 +7,9 @@ A :class:`Camera` maps world points (mm, world-marker frame) to pixels:
     x_{cam} = R\\,x_{world} + t, \\qquad
     (u, v) = \\mathrm{distort}(x_{cam} / z_{cam}) \\text{ through } K
 
-with OpenCV's distortion model ``dist = (k1, k2, p1, p2, k3)``.
+with OpenCV's distortion model ``dist = (k1, k2, p1, p2, k3)`` (or OpenCV's
+longer models of 8, 12 or 14 coefficients: ``k4, k5, k6`` rational,
+``s1..s4`` thin prism, ``tauX, tauY`` tilted sensor; projected by OpenCV).
 """
 
 from __future__ import annotations
@@ -35,8 +37,9 @@ class Camera:
     ----------
     K : (3, 3) float array
         Intrinsic matrix, pixels.
-    dist : (5,) float array
-        OpenCV distortion ``(k1, k2, p1, p2, k3)``.
+    dist : (5,), (8,), (12,) or (14,) float array
+        OpenCV distortion ``(k1, k2, p1, p2, k3[, k4, k5, k6[, s1, s2, s3, s4[, tauX, tauY]]])``
+        (fewer than 5 are completed with zeros).
     R : (3, 3) float array
         World-to-camera rotation.
     t_mm : (3,) float array
@@ -54,10 +57,10 @@ class Camera:
 
     def __post_init__(self) -> None:
         K = np.asarray(self.K, dtype=float).reshape(3, 3)
-        dist = np.zeros(5)
         d = np.asarray(self.dist, dtype=float).ravel()
-        if d.size > 5:
-            raise ValueError(f"dist must have at most 5 coefficients, got {d.size}")
+        if d.size > 5 and d.size not in (8, 12, 14):
+            raise ValueError(f"dist must have at most 5, or 8, 12 or 14 coefficients (OpenCV), got {d.size}")
+        dist = np.zeros(max(5, d.size))
         dist[: d.size] = d
         object.__setattr__(self, "K", K)
         object.__setattr__(self, "dist", dist)
@@ -104,6 +107,8 @@ class Camera:
         with np.errstate(divide="ignore", invalid="ignore"):
             x = Xc[:, 0] / z
             y = Xc[:, 1] / z
+        if distort and self.has_distortion and self.dist.size > 5:
+            return self._project_opencv(x, y)
         if distort and self.has_distortion:
             k1, k2, p1, p2, k3 = self.dist
             r2 = x * x + y * y
@@ -115,6 +120,16 @@ class Camera:
         u = K[0, 0] * x + K[0, 1] * y + K[0, 2]
         v = K[1, 1] * y + K[1, 2]
         return np.stack([u, v], axis=1)
+
+    def _project_opencv(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """OpenCV's projection of normalised coordinates (the 8, 12 and 14 coefficient models)."""
+        out = np.full((len(x), 2), np.nan)
+        ok = np.isfinite(x) & np.isfinite(y)
+        if ok.any():
+            pts = np.stack([x[ok], y[ok], np.ones(int(ok.sum()))], axis=1).reshape(-1, 1, 3)
+            uv, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), self.K, self.dist)
+            out[ok] = uv.reshape(-1, 2)
+        return out
 
     def undistort_points(self, points_xy: np.ndarray) -> np.ndarray:
         """Ideal pinhole pixels (n, 2) of observed (distorted) pixels (n, 2)."""

@@ -3,7 +3,10 @@
 Every user mistake (:class:`~tendrilkit.exceptions.ExperimentError`) is printed
 as one line ``tendrilkit: error: ...`` and the command exits with code 2; no
 traceback. ``reconstruct`` and ``fit`` exit with 0 when every frame is ``ok``
-and 1 when some failed (the run still completes); Ctrl-C exits with 130.
+and 1 when some failed (the run still completes); a result that cannot be
+written (disk full, quota, read-only) exits with 74 (one line; finished frames
+kept); Ctrl-C exits with 130 and SIGTERM with 143 (one line; finished frames
+kept). Warnings are one line each, ``tendrilkit: warning: ...``.
 Each command's body lives in the library; this module only parses arguments
 and reports.
 """
@@ -11,10 +14,21 @@ and reports.
 from __future__ import annotations
 
 import argparse
+import errno
+import signal
 import sys
+import warnings
 from pathlib import Path
 
-from tendrilkit.exceptions import ExperimentError
+from tendrilkit.exceptions import ExperimentError, OutputWriteError
+
+#: Exit codes of every command (README, "Exit codes").
+EXIT_OK, EXIT_FRAMES_FAILED, EXIT_INPUT, EXIT_WRITE, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 74, 130, 143
+_ACCEPT = {"calibration": {"max_corner_rms_px": None}}
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, handled as Ctrl-C (finished frames kept), exit code 143."""
 
 
 def _cmd_phantom(args: argparse.Namespace) -> int:
@@ -31,7 +45,8 @@ def _cmd_phantom(args: argparse.Namespace) -> int:
 def _cmd_calibrate(args: argparse.Namespace) -> int:
     from tendrilkit.calibration import calibrate_to_dir
 
-    summary = calibrate_to_dir(Path(args.experiment), Path(args.out))
+    summary = calibrate_to_dir(Path(args.experiment), Path(args.out),
+                               overrides=_ACCEPT if args.accept_calibration else None)
     print(summary)
     return 0
 
@@ -40,7 +55,7 @@ def _cmd_reconstruct(args: argparse.Namespace) -> int:
     from tendrilkit.pipeline import run_reconstruct
 
     return run_reconstruct(Path(args.experiment), Path(args.out), workers=args.workers,
-                           progress=not args.quiet)
+                           progress=not args.quiet, overrides=_ACCEPT if args.accept_calibration else None)
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
@@ -62,6 +77,10 @@ def _cmd_batch(args: argparse.Namespace) -> int:
                      workers=args.workers)
 
 
+_ACCEPT_HELP = ("use the calibration even if marker corners reproject beyond calibration.max_corner_rms_px "
+                "(same as max_corner_rms_px: null)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="tendrilkit", description="3D shape of tendrils from three calibrated views (Fan et al., IJCV 2025).")
     sub = p.add_subparsers(dest="command", required=True)
@@ -76,6 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
     ca = sub.add_parser("calibrate", help="camera poses from the world marker; writes cameras.json")
     ca.add_argument("experiment")
     ca.add_argument("--out", required=True)
+    ca.add_argument("--accept-calibration", action="store_true", help=_ACCEPT_HELP)
     ca.set_defaults(func=_cmd_calibrate)
 
     re_ = sub.add_parser("reconstruct", help="calibrate, segment, order, match, triangulate and fit every frame")
@@ -83,6 +103,7 @@ def build_parser() -> argparse.ArgumentParser:
     re_.add_argument("--out", required=True)
     re_.add_argument("--workers", type=int, default=None, help="processes for frames (default: all cores)")
     re_.add_argument("--quiet", action="store_true", help="no progress bar")
+    re_.add_argument("--accept-calibration", action="store_true", help=_ACCEPT_HELP)
     re_.set_defaults(func=_cmd_reconstruct)
 
     fi = sub.add_parser("fit", help="refit the piece-wise clothoid to every frame of a curves.csv")
@@ -100,14 +121,47 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _on_sigterm(signum, frame) -> None:
+    raise Terminated()
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    text = " ".join(str(message).split())
+    print(f"tendrilkit: warning: {text}", file=sys.stderr, flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        old_term = signal.signal(signal.SIGTERM, _on_sigterm)
+    except ValueError:  # not the main thread: SIGTERM keeps its handler
+        old_term = None
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return int(args.func(args) or 0)
     except ExperimentError as e:
         print(f"tendrilkit: error: {e}", file=sys.stderr)
-        return 2
+        return EXIT_INPUT
+    except OutputWriteError as e:
+        print(f"tendrilkit: error: {e}; finished frames are kept: free space (or fix the folder) and run the same "
+              f"command again", file=sys.stderr)
+        return EXIT_WRITE
+    except OSError as e:
+        if e.errno not in (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EFBIG):
+            raise
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"tendrilkit: error: {where}cannot write ({e.strerror}); finished frames are kept: free space and run "
+              f"the same command again", file=sys.stderr)
+        return EXIT_WRITE
+    except Terminated:
+        print("tendrilkit: terminated (SIGTERM); finished frames are kept, run the same command again to continue",
+              file=sys.stderr)
+        return EXIT_TERMINATED
     except KeyboardInterrupt:
         print("tendrilkit: interrupted; finished frames are kept, run the same command again to continue", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
+    finally:
+        if old_term is not None:
+            signal.signal(signal.SIGTERM, old_term)

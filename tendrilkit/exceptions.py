@@ -19,6 +19,10 @@ class ExperimentError(TendrilkitError, ValueError):
     """A mistake in the user's input; the message is one line naming it."""
 
 
+class OutputWriteError(TendrilkitError, OSError):
+    """A result file cannot be written (disk full, quota, permissions); exit code 74."""
+
+
 class FrameError(TendrilkitError):
     """A frame cannot be processed; the run records it and goes on."""
 

@@ -24,15 +24,16 @@ temporary file in ``DIR`` then :func:`os.replace`):
     ``max_error_mm``, ``tau_undefined_fraction`` (no timings: the tables of
     the same input are the same bytes; ``FitSummary.seconds`` has the time).
 
-A frame that cannot be fitted is a ``failed`` row with the reason; the other
-frames go on. A missing or malformed CSV raises
-:class:`~tendrilkit.exceptions.ExperimentError` (one line; exit code 2).
+A frame that cannot be fitted is a ``failed`` row with the reason (fewer than
+8 points, an empty cell); the other frames go on. A missing or malformed CSV
+raises :class:`~tendrilkit.exceptions.ExperimentError` (one line; exit code
+2): a missing column, text where a number is expected, a point listed twice
+in a frame (a frame given twice), a coordinate beyond 1e6 mm or infinite, a
+frame of more than 5000 points (:mod:`tendrilkit.limits`).
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -40,6 +41,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from tendrilkit import limits as L
 from tendrilkit.exceptions import DegenerateCurveError, ExperimentError
 
 __all__ = ["FitOptions", "FitSummary", "run_fit", "fit_curves", "fit_frame"]
@@ -113,14 +115,37 @@ def _read_curves(path: Path) -> pd.DataFrame:
         df["time_s"] = np.nan
     for c in ("frame", "point", "x_mm", "y_mm", "z_mm", "time_s"):
         conv = pd.to_numeric(df[c], errors="coerce")
-        if c in ("frame", "point") and (conv.isna().any() or (conv % 1 != 0).any()):
-            bad = df[c][conv.isna() | (conv % 1 != 0)].iloc[0]
-            raise ExperimentError(f"{path}: column {c}: expected integers, got {bad!r}")
+        text = conv.isna() & df[c].notna()  # a cell that is there but is not a number
+        if text.any():
+            row = int(np.flatnonzero(text.to_numpy())[0])
+            raise ExperimentError(f"{path}: column {c}, row {row + 2} of the file: text where a number is expected")
+        if c in ("frame", "point"):
+            bad = conv.isna() | (conv % 1 != 0) | (conv < 0) | (conv > L.MAX_FRAME)
+            if bad.any():
+                row = int(np.flatnonzero(bad.to_numpy())[0])
+                raise ExperimentError(f"{path}: column {c}, row {row + 2} of the file: expected an integer 0.."
+                                      f"{L.MAX_FRAME}, got {conv.iloc[row]!r}")
+        elif c != "time_s":
+            big = conv.notna() & ~(conv.abs() <= L.MAX_LENGTH_MM)
+            if big.any():
+                row = int(np.flatnonzero(big.to_numpy())[0])
+                raise ExperimentError(f"{path}: column {c}, row {row + 2} of the file: {conv.iloc[row]:g} mm; expected "
+                                      f"a finite coordinate within {L.MAX_LENGTH_MM:g} mm")
         df[c] = conv
     if df.empty:
         raise ExperimentError(f"{path}: no rows")
     df["frame"] = df["frame"].astype(int)
     df["point"] = df["point"].astype(int)
+    dup = df.duplicated(["frame", "point"], keep="first")
+    if dup.any():
+        f, p = (int(x) for x in df.loc[dup, ["frame", "point"]].iloc[0])
+        raise ExperimentError(f"{path}: frame {f}: point {p} is listed twice (the frame given twice?); expected "
+                              f"each frame's points once")
+    counts = df.groupby("frame").size()
+    if counts.max() > L.MAX_POINTS:
+        f = int(counts.idxmax())
+        raise ExperimentError(f"{path}: frame {f}: {int(counts.max())} points; expected at most {L.MAX_POINTS} per "
+                              f"frame (resample the curve)")
     return df
 
 
@@ -143,8 +168,8 @@ def fit_frame(points_mm: np.ndarray, options: FitOptions | None = None, *, frame
             raise DegenerateCurveError(f"expected points of shape (n, 3), got {pts.shape}")
         if not np.all(np.isfinite(pts)):
             raise DegenerateCurveError(f"{int((~np.isfinite(pts)).any(axis=1).sum())} point(s) with missing coordinates")
-        if len(pts) < 5:
-            raise DegenerateCurveError(f"{len(pts)} point(s); at least 5 are needed")
+        if len(pts) < L.MIN_FIT_POINTS:
+            raise DegenerateCurveError(f"curve has {len(pts)} point(s); at least {L.MIN_FIT_POINTS} are needed")
         fit = fit_piecewise_clothoid(pts, n_points=len(pts), **asdict(options))
     except (DegenerateCurveError, ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
         row.update(status="failed", message=f"{type(e).__name__}: {e}")
@@ -179,7 +204,6 @@ def fit_curves(curves: pd.DataFrame, options: FitOptions | None = None) -> tuple
     """Fit every frame of a curves table; returns ``(pwc_curves, segments, metrics)`` tables."""
     curves_out, seg_rows, met_rows = [], [], []
     for frame, g in curves.sort_values(["frame", "point"]).groupby("frame", sort=True):
-        g = g.drop_duplicates("point", keep="first")
         t_s = float(g["time_s"].iloc[0]) if g["time_s"].notna().any() else np.nan
         fitted, segs, row = fit_frame(g[["x_mm", "y_mm", "z_mm"]].to_numpy(float), options, frame=int(frame), time_s=t_s)
         met_rows.append(row)
@@ -192,15 +216,10 @@ def fit_curves(curves: pd.DataFrame, options: FitOptions | None = None) -> tuple
 
 
 def _write_atomic(df: pd.DataFrame, path: Path) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", newline="") as fh:
-            df.to_csv(fh, index=False, float_format="%.9g")
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    from tendrilkit.io import atomic_path
+
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
+        df.to_csv(fh, index=False, float_format="%.9g")
 
 
 def run_fit(curves_csv: Path, out_dir: Path, *, options: FitOptions | None = None) -> FitSummary:
@@ -226,13 +245,10 @@ def run_fit(curves_csv: Path, out_dir: Path, *, options: FitOptions | None = Non
     """
     t0 = time.perf_counter()
     curves_csv, out_dir = Path(curves_csv), Path(out_dir)
+    from tendrilkit.io import check_writable_dir
+
     curves = _read_curves(curves_csv)
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise ExperimentError(f"{out_dir}: cannot create the output folder ({e.strerror or type(e).__name__})") from None
-    if not out_dir.is_dir():
-        raise ExperimentError(f"{out_dir}: expected an output folder, got a file")
+    check_writable_dir(out_dir)
     pwc, segs, mets = fit_curves(curves, options)
     paths = (out_dir / "pwc_curves.csv", out_dir / "pwc_segments.csv", out_dir / "pwc_metrics.csv")
     for df, p in zip((pwc, segs, mets), paths):

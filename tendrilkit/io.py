@@ -1,16 +1,23 @@
 """The only module that touches the disk: frames in, result files out.
 
 Frames come from a video file (any container OpenCV reads) or a folder of
-numbered images (``000000.png``, ...). Result files are written atomically:
-to a temporary file in the same folder, then renamed over the target, so an
-interrupted run never leaves a half-written file.
+numbered images (``000000.png``, ...: the images sorted by the number at the
+end of their names, frame ``k`` is the ``k``-th; a gap in the numbers is no
+missing frame, so files named by timestamps work). Result files are written
+atomically: to a temporary file in the same folder, then renamed over the
+target, so an interrupted run never leaves a half-written file; they get the
+permissions the user's umask gives a new file (``0o666 & ~umask``). A write
+that fails (disk full...) raises :class:`OutputWriteError` naming the file.
 """
 
 from __future__ import annotations
 
+import errno
+import hashlib
 import json
 import os
 import re
+import stat
 import tempfile
 from dataclasses import dataclass
 from contextlib import contextmanager
@@ -22,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from tendrilkit.camera import Camera
-from tendrilkit.exceptions import ExperimentError, FrameReadError
+from tendrilkit.exceptions import ExperimentError, FrameReadError, OutputWriteError
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 
@@ -48,11 +55,11 @@ class FrameSource:
             numbered = [(int(m.group(1)), p) for p in files if (m := re.search(r"(\d+)$", p.stem))]
             if not numbered:
                 raise ExperimentError(f"{self.path}: expected a folder of numbered images (000000.png, ...), found none")
-            numbered.sort()
-            last = numbered[-1][0]
-            by_index = dict(numbered)
-            self._files = [by_index.get(i) for i in range(last + 1)]  # None marks a missing frame
-            first = next(p for p in self._files if p is not None)
+            # frame k is the k-th image in the order of the numbers (then names): never a list up to the
+            # largest number (images named by timestamps)
+            numbered.sort(key=lambda t: (t[0], t[1].name))
+            self._files = [p for _, p in numbered]
+            first = self._files[0]
             img = cv2.imread(str(first), cv2.IMREAD_COLOR)
             if img is None:
                 raise ExperimentError(f"{first}: cannot decode the image")
@@ -78,8 +85,8 @@ class FrameSource:
         if index < 0:
             raise FrameReadError(f"{self.path.name}: frame {index} is negative")
         if self._files is not None:
-            if index >= len(self._files) or self._files[index] is None:
-                raise FrameReadError(f"{self.path.name}: frame {index} is missing")
+            if index >= len(self._files):
+                raise FrameReadError(f"{self.path.name}: frame {index} is missing (the folder has {len(self._files)} images)")
             img = cv2.imread(str(self._files[index]), cv2.IMREAD_COLOR)
             if img is None:
                 raise FrameReadError(f"{self._files[index].name}: frame {index} cannot be decoded")
@@ -124,17 +131,58 @@ def open_views(paths: list[Path]) -> list[FrameSource]:
 
 
 # ---------------------------------------------------------------- atomic writes
+def current_umask() -> int:
+    """The process's umask (read without changing it where /proc allows)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    old = os.umask(0o022)
+    os.umask(old)
+    return old
+
+
+#: errno values that mean "the output cannot be written" (not a bug): exit code 74.
+WRITE_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EIO, errno.EFBIG)
+
+
+def write_error(path: Path, e: OSError) -> OutputWriteError:
+    """The one-line error of a failed write of ``path``."""
+    why = e.strerror or str(e) or type(e).__name__
+    return OutputWriteError(f"{path}: cannot write ({why})")
+
+
 @contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; on success rename it over ``path``."""
+    """Yield a temporary path beside ``path``; on success rename it over ``path``.
+
+    The file gets the mode a new file gets under the umask (``0o666 & ~umask``;
+    ``mkstemp`` alone makes it 0600). An ``OSError`` of the disk (full, quota,
+    read-only, permission) becomes :class:`OutputWriteError` naming ``path``;
+    the previous file, if any, is left as it was.
+    """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        os.close(fd)
+    except OSError as e:
+        raise write_error(path, e) from None
     tmp_path = Path(tmp)
     try:
-        yield tmp_path
-        os.replace(tmp_path, path)
+        try:
+            yield tmp_path
+            os.chmod(tmp_path, 0o666 & ~current_umask())
+            os.replace(tmp_path, path)
+        except OutputWriteError:
+            raise
+        except OSError as e:
+            if e.errno in WRITE_ERRNOS:
+                raise write_error(path, e) from None
+            raise
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
@@ -173,16 +221,107 @@ def read_csv(path: str | Path, *, required: tuple[str, ...] = ()) -> pd.DataFram
 
 
 def check_writable_dir(path: str | Path) -> Path:
-    """Create ``path`` if needed and check that files can be written in it."""
+    """Create ``path`` if needed and check that files can be written in it.
+
+    The error names what is wrong: an existing file where the folder should
+    be, a file among its parents, or a parent that does not accept new files.
+    """
     path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise ExperimentError(f"{path}: output folder cannot be made: an existing file has this name; "
+                              f"expected a folder (or a new name)")
+    parent = path
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if parent != path and not parent.is_dir():
+        raise ExperimentError(f"{path}: output folder cannot be made: {parent} is a file, not a folder")
     try:
         path.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ExperimentError(f"{path}: output folder cannot be made in {parent} ({e.strerror or type(e).__name__}; "
+                              f"expected a folder where you can write)") from None
+    try:
         fd, tmp = tempfile.mkstemp(prefix=".write-test.", dir=path)
         os.close(fd)
         os.unlink(tmp)
     except OSError as e:
-        raise ExperimentError(f"{path}: output folder cannot be written ({e.strerror})") from None
+        raise ExperimentError(f"{path}: output folder cannot be written ({e.strerror or type(e).__name__})") from None
     return path
+
+
+# ------------------------------------------------------------ resume records
+def file_stamp(path: str | Path, *, sample_bytes: int = 1 << 16, n_samples: int = 16) -> dict:
+    """What identifies an input file or image folder cheaply, for resuming.
+
+    A file: its size, modification time (ns) and the SHA-256 of ``n_samples``
+    blocks of ``sample_bytes`` spread evenly over it (first and last block
+    included): a file replaced by another of the same size is noticed. A
+    folder: the same for every file in it (sorted by name; the blocks are 4 kB
+    from the start and the end of each file).
+    """
+    path = Path(path)
+    if path.is_dir():
+        h = hashlib.sha256()
+        for f in sorted(path.iterdir()):
+            if f.is_file():
+                st = f.stat()
+                h.update(f"{f.name}\0{st.st_size}\0{st.st_mtime_ns}\0".encode())
+                h.update(_sampled_digest(f, st.st_size, 4096, 2).encode())
+        return {"folder": True, "digest": h.hexdigest()}
+    st = path.stat()
+    return {"bytes": st.st_size, "mtime_ns": st.st_mtime_ns,
+            "sample_sha256": _sampled_digest(path, st.st_size, sample_bytes, n_samples)}
+
+
+def _sampled_digest(path: Path, size: int, block: int, n: int) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        if size <= block * n:
+            h.update(f.read())
+        else:
+            for k in range(n):
+                f.seek((size - block) * k // (n - 1))
+                h.update(f.read(block))
+    return h.hexdigest()
+
+
+def _result_checksum(fingerprint: str, frame: int, result: dict) -> str:
+    text = json.dumps({"fingerprint": fingerprint, "frame": int(frame), "result": result}, sort_keys=True,
+                      allow_nan=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def write_frame_record(path: str | Path, fingerprint: str, frame: int, result: dict) -> None:
+    """One finished frame's file: the run's fingerprint, the frame number, the result and their checksum."""
+    write_json({"fingerprint": fingerprint, "frame": int(frame),
+                "checksum": _result_checksum(fingerprint, frame, result), "result": result}, path)
+
+
+def read_frame_record(path: str | Path, fingerprint: str, frame: int) -> dict | None:
+    """The result stored for ``frame`` by a run of ``fingerprint``, or None.
+
+    None when the file is missing, unreadable, truncated, of another run, of
+    another frame (a file copied over another) or edited (the checksum does
+    not verify): the frame is then recomputed.
+    """
+    try:
+        path = Path(path)
+        if not path.is_file() or path.stat().st_size > 50_000_000:
+            return None
+        d = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(d, dict) or d.get("fingerprint") != fingerprint or d.get("frame") != frame:
+        return None
+    result = d.get("result")
+    if not isinstance(result, dict) or result.get("frame") != frame:
+        return None
+    try:
+        if d.get("checksum") != _result_checksum(fingerprint, frame, result):
+            return None
+    except (TypeError, ValueError):
+        return None
+    return result
 
 
 # ---------------------------------------------------------------- cameras.json
@@ -198,8 +337,9 @@ def read_cameras(path: str | Path) -> list[Camera]:
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
         return [Camera.from_dict(d) for d in sorted(data, key=lambda d: d["view"])]
-    except (json.JSONDecodeError, KeyError, TypeError, ValueError) as e:
-        raise ExperimentError(f"{path}: not a cameras.json file ({e.__class__.__name__}: {e})") from None
+    except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError, ValueError, AttributeError):
+        raise ExperimentError(f"{path}: not a cameras.json file (expected a JSON list of objects with view, K, "
+                              f"dist, R, t_mm)") from None
 
 
 # ------------------------------------------------------ the authors' data layout
@@ -213,12 +353,18 @@ def read_ijcv25_extrinsics(path: str | Path) -> dict[str, np.ndarray]:
     path = Path(path)
     if not path.is_file():
         raise ExperimentError(f"{path}: extrinsics file not found")
+    expected = "expected rows of 22 comma-separated numbers (ijcv25 layout, data/ijcv25_rig/README.md)"
+    if path.stat().st_size > 100_000_000:
+        raise ExperimentError(f"{path}: not an ijcv25 extrinsics CSV (larger than 100 MB); {expected}")
+    # the messages name the file and what was expected, never its content (it may be any file)
     try:
         a = np.loadtxt(path, delimiter=",", ndmin=2)
-    except ValueError as e:
-        raise ExperimentError(f"{path}: not an ijcv25 extrinsics CSV ({str(e).splitlines()[0]})") from None
-    if a.shape[1] != 22 or a.shape[0] == 0:
-        raise ExperimentError(f"{path}: expected rows of 22 comma-separated numbers (ijcv25 layout), got {a.shape[0]} rows of {a.shape[1]}")
+    except (ValueError, UnicodeDecodeError):
+        raise ExperimentError(f"{path}: not an ijcv25 extrinsics CSV; {expected}") from None
+    if a.ndim != 2 or a.shape[1] != 22 or a.shape[0] == 0:
+        raise ExperimentError(f"{path}: {expected}, got {a.shape[0]} rows of {a.shape[1] if a.ndim == 2 else 0}")
+    if not np.all(np.isfinite(a)):
+        raise ExperimentError(f"{path}: {expected}; found a value that is not a finite number")
     M = a[:, 13:22].reshape(-1, 3, 3)
     return {
         "frame": a[:, 0].astype(int),

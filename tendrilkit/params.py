@@ -13,9 +13,11 @@ own choices; each key has a documented default (see the classes below).
 
 from __future__ import annotations
 
+import reprlib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
+import numpy as np
 import yaml
 from pydantic import (
     BaseModel,
@@ -26,6 +28,7 @@ from pydantic import (
     model_validator,
 )
 
+from tendrilkit import limits as L
 from tendrilkit.exceptions import ExperimentError
 
 SITES = ("S1", "S2", "S3", "S4")
@@ -37,14 +40,20 @@ class _Strict(BaseModel):
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 NonNegFloat = Annotated[float, Field(ge=0)]
+#: A pixel distance or size of an option (tolerance, radius, window).
+OptionPx = Annotated[float, Field(ge=0, le=L.MAX_OPTION_PX)]
+Weight = Annotated[float, Field(ge=0, le=L.MAX_WEIGHT)]
+Pixel = Annotated[float, Field(ge=-L.MAX_PIXEL, le=L.MAX_PIXEL)]
+PixelInt = Annotated[int, Field(ge=-int(L.MAX_PIXEL), le=int(L.MAX_PIXEL))]
+FrameIndex = Annotated[int, Field(ge=0, le=L.MAX_FRAME)]
 
 
 class FrameRange(_Strict):
     """0-based frame selection, ``stop`` exclusive (``null``: to the end)."""
 
-    start: int = Field(0, ge=0)
-    stop: int | None = Field(None, ge=1)
-    step: int = Field(1, ge=1)
+    start: int = Field(0, ge=0, le=L.MAX_FRAME)
+    stop: int | None = Field(None, ge=1, le=L.MAX_FRAME)
+    step: int = Field(1, ge=1, le=L.MAX_FRAME)
 
     @model_validator(mode="after")
     def _order(self) -> "FrameRange":
@@ -54,47 +63,64 @@ class FrameRange(_Strict):
 
 
 class CameraIntrinsics(_Strict):
-    """Pinhole intrinsics of one view, pixels; ``dist`` in OpenCV order."""
+    """Pinhole intrinsics of one view, pixels; ``dist`` in OpenCV order.
 
-    view: int = Field(ge=1)
-    fx: PositiveFloat
-    fy: PositiveFloat
-    cx: float
-    cy: float
-    dist: list[float] = Field(default_factory=lambda: [0.0] * 5)
+    ``fx``, ``fy`` in (0, 1e5] px, ``cx``, ``cy`` within 1e5 px (and, once the
+    videos are open, plausible for the image size: :func:`check_against_images`);
+    ``dist``: 4, 5, 8, 12 or 14 coefficients (OpenCV's ``k1, k2, p1, p2[, k3[,
+    k4, k5, k6[, s1, s2, s3, s4[, tauX, tauY]]]]``; 4 are completed with
+    ``k3 = 0``), each within 1e4.
+    """
+
+    view: int = Field(ge=1, le=100)
+    fx: float = Field(gt=0, le=L.MAX_FOCAL_PX)
+    fy: float = Field(gt=0, le=L.MAX_FOCAL_PX)
+    cx: Pixel
+    cy: Pixel
+    dist: list[Annotated[float, Field(ge=-L.MAX_DIST_COEFF, le=L.MAX_DIST_COEFF)]] = Field(
+        default_factory=lambda: [0.0] * 5, max_length=14)
 
     @field_validator("dist")
     @classmethod
     def _dist(cls, v: list[float]) -> list[float]:
-        if len(v) not in (4, 5):
-            raise ValueError(f"expected 4 or 5 coefficients (k1, k2, p1, p2[, k3]), got {len(v)}")
-        return list(v) + [0.0] * (5 - len(v))
+        if len(v) not in L.DIST_LENGTHS:
+            raise ValueError("expected 4, 5, 8, 12 or 14 coefficients in OpenCV's order (k1, k2, p1, p2, k3, ...)")
+        return list(v) + [0.0] * (5 - len(v)) if len(v) < 5 else list(v)
 
 
 class Marker(_Strict):
     """The ArUco marker that defines the world frame."""
 
     dictionary: str
-    id: int = Field(ge=0)
-    length_mm: PositiveFloat
+    id: int = Field(ge=0, le=100_000)
+    length_mm: float = Field(gt=0, le=L.MAX_LENGTH_MM)
 
     @field_validator("dictionary")
     @classmethod
     def _dictionary(cls, v: str) -> str:
         import cv2
 
-        if not v.startswith("DICT_") or not hasattr(cv2.aruco, v):
+        if not v.startswith("DICT_") or not isinstance(getattr(cv2.aruco, v, None), int):
             raise ValueError("expected a cv2.aruco predefined dictionary name such as DICT_ARUCO_ORIGINAL")
         return v
+
+    @model_validator(mode="after")
+    def _id_in_dictionary(self) -> "Marker":
+        import cv2
+
+        n = int(cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, self.dictionary)).bytesList.shape[0])
+        if self.id >= n:
+            raise ValueError(f"marker.id: {self.dictionary} holds ids 0..{n - 1}, got {self.id}")
+        return self
 
 
 class ViewMarks(_Strict):
     """What a user marks on the first frame of one view (pixels)."""
 
-    view: int = Field(ge=1)
-    roi: tuple[int, int, int, int]
-    keep_out: tuple[int, int, int, int] | None = None
-    base_point: tuple[float, float]
+    view: int = Field(ge=1, le=100)
+    roi: tuple[PixelInt, PixelInt, PixelInt, PixelInt]
+    keep_out: tuple[PixelInt, PixelInt, PixelInt, PixelInt] | None = None
+    base_point: tuple[Pixel, Pixel]
 
     @field_validator("roi", "keep_out")
     @classmethod
@@ -108,7 +134,7 @@ class Extrinsics(_Strict):
     """Camera poses from the authors' files instead of marker detection."""
 
     format: Literal["ijcv25"]
-    files: list[Path]
+    files: list[Path] = Field(max_length=100)
 
 
 class Segmentation(_Strict):
@@ -128,8 +154,8 @@ class Segmentation(_Strict):
 
     channel: Literal["blue", "hsv"] = "blue"
     threshold: Literal["otsu"] | Annotated[int, Field(ge=0, le=255)] = "otsu"
-    opening_radius_px: int = Field(1, ge=0)
-    min_component_px: int = Field(50, ge=0)
+    opening_radius_px: int = Field(1, ge=0, le=1000)
+    min_component_px: int = Field(50, ge=0, le=10**9)
 
 
 class Skeleton(_Strict):
@@ -145,10 +171,10 @@ class Skeleton(_Strict):
     where the keep-out box cuts the tendril).
     """
 
-    prune_px: float = Field(12.0, ge=0)
-    merge_width: float = Field(1.5, ge=0)
-    smooth_px: float = Field(1.5, ge=0)
-    tip_inset: float = Field(1.0, ge=0)
+    prune_px: OptionPx = 12.0
+    merge_width: float = Field(1.5, ge=0, le=1000)
+    smooth_px: OptionPx = 1.5
+    tip_inset: float = Field(1.0, ge=0, le=1000)
 
 
 class OrderingOverride(_Strict):
@@ -157,10 +183,10 @@ class OrderingOverride(_Strict):
     candidate (0-based, candidates listed smoothest first), as recorded in the
     frame's ordering decisions."""
 
-    frame: int = Field(ge=0)
-    view: int = Field(ge=1)
-    junction: int = Field(ge=0)
-    branch: int = Field(ge=0)
+    frame: FrameIndex
+    view: int = Field(ge=1, le=100)
+    junction: int = Field(ge=0, le=10**6)
+    branch: int = Field(ge=0, le=10**6)
 
 
 class Ordering(_Strict):
@@ -179,10 +205,10 @@ class Ordering(_Strict):
     """
 
     method: Literal["smooth", "paper"] = "smooth"
-    tangent_window_px: float = Field(15.0, gt=0)
-    zone_width: float = Field(1.0, ge=0)
+    tangent_window_px: float = Field(15.0, gt=0, le=L.MAX_OPTION_PX)
+    zone_width: float = Field(1.0, ge=0, le=1000)
     max_unused_fraction: float = Field(0.1, ge=0, le=1)
-    overrides: list[OrderingOverride] = Field(default_factory=list)
+    overrides: list[OrderingOverride] = Field(default_factory=list, max_length=100_000)
 
 
 class Correspondence(_Strict):
@@ -202,8 +228,8 @@ class Correspondence(_Strict):
     """
 
     method: Literal["epipolar", "frechet"] = "epipolar"
-    max_distance_px: PositiveFloat = 8.0
-    depth_smoothing: NonNegFloat = 100.0
+    max_distance_px: float = Field(8.0, gt=0, le=L.MAX_OPTION_PX)
+    depth_smoothing: Weight = 100.0
 
 
 class Triangulation(_Strict):
@@ -241,7 +267,7 @@ class Smoothing(_Strict):
     fitted on the 3D points, so a strong smoothing costs little accuracy.
     """
 
-    length_mm: PositiveFloat | None = None
+    length_mm: Annotated[float, Field(gt=0, le=L.MAX_LENGTH_MM)] | None = None
 
 
 class Fit(_Strict):
@@ -264,33 +290,61 @@ class Fit(_Strict):
     selection: Literal["auto", "fixed"] = "auto"
     criterion: Literal["bic", "r2"] = "bic"
     target_r2: float = Field(0.999, gt=0, lt=1)
-    penalty_kappa: NonNegFloat = 0.01
-    penalty_tau: NonNegFloat = 0.01
+    penalty_kappa: Weight = 0.01
+    penalty_tau: Weight = 0.01
     score: Literal["l2", "l1"] = "l2"
-    max_segments: int = Field(10, ge=1)
+    max_segments: int = Field(10, ge=1, le=1000)
     refine: bool = True
 
 
 class Calibration(_Strict):
     """Marker calibration: ``bundle_adjust`` refines the rig with every
-    marker that two or more views see (world marker fixed)."""
+    marker that two or more views see (world marker fixed);
+    ``max_corner_rms_px``: a calibration whose marker corners reproject, in
+    some view, further than this (root mean square over the corners of every
+    marker the view sees, pixels) has failed: the run stops with exit code 2
+    naming the view and the figure (wrong intrinsics, a video of another
+    size...); ``null`` accepts any calibration (the command line's
+    ``--accept-calibration``)."""
 
     bundle_adjust: bool = True
+    max_corner_rms_px: Annotated[float, Field(gt=0, le=L.MAX_OPTION_PX)] | None = 1.5
+
+
+def folder_name_problem(name: str) -> str | None:
+    """Why ``name`` cannot be an experiment's output folder name (None: it can).
+
+    A name is one safe path component: 1-100 characters, none of
+    ``/ \\ : * ? " < > |`` nor a control character, no surrounding spaces,
+    not starting with a dot (so neither ``.`` nor ``..``).
+    """
+    if not isinstance(name, str) or not name:
+        return "expected a non-empty text usable as a folder name"
+    bad = set('/\\:*?"<>|') & set(name)
+    if bad or name.strip() != name:
+        return f"expected a name usable as a folder name (no {''.join(sorted(bad)) or 'surrounding spaces'})"
+    if any(ord(c) < 32 or ord(c) == 127 for c in name):
+        return "expected a name usable as a folder name (no control characters)"
+    if name.startswith("."):
+        return "expected a name usable as a folder name (not '.', '..' or starting with a dot)"
+    if len(name) > 100:
+        return "expected a name usable as a folder name (at most 100 characters)"
+    return None
 
 
 class Experiment(_Strict):
     """A validated experiment; every path is absolute."""
 
-    name: str = Field(min_length=1)
+    name: str = Field(min_length=1, max_length=100)
     stimulation_site: Literal["S1", "S2", "S3", "S4"] | None = None
-    videos: list[Path] = Field(min_length=1)
-    fps: PositiveFloat
-    reference_view: int = Field(ge=1)
+    videos: list[Path] = Field(min_length=1, max_length=100)
+    fps: float = Field(gt=0, le=L.MAX_FPS)
+    reference_view: int = Field(ge=1, le=100)
     frames: FrameRange = Field(default_factory=FrameRange)
-    cameras: list[CameraIntrinsics] = Field(min_length=1)
+    cameras: list[CameraIntrinsics] = Field(min_length=1, max_length=100)
     marker: Marker
-    views: list[ViewMarks] = Field(min_length=1)
-    points: int = Field(200, ge=10, le=5000)
+    views: list[ViewMarks] = Field(min_length=1, max_length=100)
+    points: int = Field(200, ge=10, le=L.MAX_POINTS)
     extrinsics: Extrinsics | None = None
     segmentation: Segmentation = Field(default_factory=Segmentation)
     skeleton: Skeleton = Field(default_factory=Skeleton)
@@ -306,9 +360,9 @@ class Experiment(_Strict):
     @field_validator("name")
     @classmethod
     def _name(cls, v: str) -> str:
-        bad = set('/\\:*?"<>|') & set(v)
-        if bad or v.strip() != v:
-            raise ValueError(f"expected a name usable as a folder name (no {''.join(sorted(bad)) or 'surrounding spaces'})")
+        problem = folder_name_problem(v)
+        if problem:
+            raise ValueError(problem)
         return v
 
     @model_validator(mode="after")
@@ -383,6 +437,19 @@ def _user_loc(loc: tuple, data: Any) -> tuple:
     return tuple(out)
 
 
+_REPR = reprlib.Repr()
+_REPR.maxstring = _REPR.maxother = 60
+_REPR.maxlist = _REPR.maxtuple = _REPR.maxdict = _REPR.maxset = 6
+_REPR.maxlevel = 3
+_REPR.maxlong = 40
+
+
+def short_repr(value: Any, limit: int = 80) -> str:
+    """``repr`` of a value, bounded in work and length (a YAML alias bomb is never expanded)."""
+    text = _REPR.repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _format_error(err: dict, data: Any) -> str:
     loc = _user_loc(tuple(err["loc"]), data)
     key = _loc(loc) or "(top level)"
@@ -394,16 +461,14 @@ def _format_error(err: dict, data: Any) -> str:
         parent = loc[:-1] if loc and isinstance(loc[-1], int) else loc
         _, pvalue = _lookup(data, parent)
         hint = _SHAPES.get(str(parent[-1]) if parent else "", "a different number of items")
-        return f"{_loc(parent)}: expected {hint} (got {pvalue!r})"
+        return f"{_loc(parent)}: expected {hint} (got {short_repr(pvalue)})"
     if kind == "missing":
         return f"{key}: required key is missing"
     msg = err["msg"]
     if msg.startswith("Value error, "):
         msg = msg[len("Value error, "):]
-    shown = f"{value!r}" if found else "nothing"
-    if len(shown) > 80:
-        shown = shown[:77] + "..."
-    if kind == "value_error" and msg.startswith(tuple(f"{k}:" for k in ("videos", "cameras", "views", "reference_view", "extrinsics.files"))):
+    shown = short_repr(value) if found else "nothing"
+    if kind == "value_error" and msg.startswith(tuple(f"{k}:" for k in ("videos", "cameras", "views", "reference_view", "extrinsics.files", "marker.id"))):
         return msg
     return f"{key}: {msg.lower() if msg[:1].isupper() and not msg[:2].isupper() else msg} (got {shown})"
 
@@ -458,27 +523,126 @@ def load_experiment(path: str | Path, *, check_files: bool = True) -> Experiment
         raise ExperimentError(f"{path}: experiment file not found")
     if path.is_dir():
         raise ExperimentError(f"{path}: expected an experiment YAML file, got a folder")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise ExperimentError(f"{path}: cannot read the experiment file ({e.__class__.__name__})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        line = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
-        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise ExperimentError(f"{path}: YAML syntax error at {line}{problem}") from None
+    text = read_experiment_text(path)
+    data = parse_yaml(text, source=path)
     exp = parse_experiment(data, source=path.resolve())
     if check_files:
         for i, v in enumerate(exp.videos):
             if not v.exists():
                 raise ExperimentError(f"{path}: videos[{i}]: file not found: {v}")
+        for i, v in enumerate(exp.videos):
+            for j in range(i):
+                if _same_file(v, exp.videos[j]):
+                    raise ExperimentError(f"{path}: videos[{i}]: the same file as videos[{j}] ({v.name}); "
+                                          f"expected one recording per view")
         if exp.extrinsics is not None:
             for i, f in enumerate(exp.extrinsics.files):
                 if not f.exists():
                     raise ExperimentError(f"{path}: extrinsics.files[{i}]: file not found: {f}")
     return exp
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a == b or a.samefile(b)
+    except OSError:
+        return False
+
+
+def read_experiment_text(path: Path, *, max_bytes: int = L.MAX_EXPERIMENT_BYTES) -> str:
+    """The text of an experiment file, at most ``max_bytes`` read (``/dev/zero`` cannot exhaust memory)."""
+    try:
+        with open(path, "rb") as f:
+            raw = f.read(max_bytes + 1)
+    except OSError as e:
+        raise ExperimentError(f"{path}: cannot read the experiment file ({e.strerror or e.__class__.__name__})") from None
+    if len(raw) > max_bytes:
+        raise ExperimentError(f"{path}: larger than {max_bytes // 1_000_000} MB; expected an experiment YAML file "
+                              f"of a few kB")
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ExperimentError(f"{path}: not a text file (expected UTF-8 YAML)") from None
+
+
+class _ExperimentLoader(yaml.SafeLoader):
+    """PyYAML's safe loader that refuses a key given twice in one mapping and
+    documents that expand (aliases included) to more than ``limits.MAX_YAML_NODES`` nodes."""
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen: dict = {}
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge" or not isinstance(key_node, yaml.ScalarNode):
+                    continue
+                key = self.construct_object(key_node, deep=False)
+                try:
+                    hash(key)
+                except TypeError:  # unhashable: the base class reports it
+                    continue
+                if key in seen:
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"key {short_repr(key, 40)} is given twice (first on line {seen[key] + 1})",
+                        key_node.start_mark)
+                seen[key] = key_node.start_mark.line
+        return super().construct_mapping(node, deep=deep)
+
+    def get_single_node(self):
+        node = super().get_single_node()
+        if node is not None:
+            _count_nodes(node, L.MAX_YAML_NODES)
+        return node
+
+
+def _count_nodes(root, limit: int) -> int:
+    """Nodes of a YAML graph with every alias expanded; raises past ``limit`` or on a recursive alias."""
+    sizes: dict[int, int] = {}
+
+    def size(node) -> int:
+        key = id(node)
+        if key in sizes:
+            if sizes[key] < 0:
+                raise yaml.composer.ComposerError(None, None, "an alias refers to its own anchor (recursive data)",
+                                                  node.start_mark)
+            return sizes[key]
+        sizes[key] = -1
+        n = 1
+        if isinstance(node, yaml.SequenceNode):
+            for c in node.value:
+                n += size(c)
+                if n > limit:
+                    break
+        elif isinstance(node, yaml.MappingNode):
+            for k, v in node.value:
+                n += size(k) + size(v)
+                if n > limit:
+                    break
+        if n > limit:
+            raise yaml.composer.ComposerError(None, None, f"the document expands to more than {limit} values "
+                                              f"(aliases repeated); expected an experiment file", node.start_mark)
+        sizes[key] = n
+        return n
+
+    return size(root)
+
+
+def parse_yaml(text: str, *, source: Path | str | None = None) -> Any:
+    """Parse YAML text safely: no key twice in a mapping, bounded alias expansion.
+
+    Raises :class:`ExperimentError` naming ``source``, the line and the problem.
+    """
+    where = f"{source}: " if source is not None else ""
+    try:
+        return yaml.load(text, Loader=_ExperimentLoader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        line = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
+        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        kind = "YAML error" if isinstance(e, (yaml.constructor.ConstructorError, yaml.composer.ComposerError)) \
+            else "YAML syntax error"
+        raise ExperimentError(f"{where}{kind} at {line}{problem}") from None
+    except RecursionError:
+        raise ExperimentError(f"{where}YAML nested too deeply; expected an experiment file") from None
 
 
 def experiment_to_dict(exp: Experiment) -> dict:
@@ -487,15 +651,44 @@ def experiment_to_dict(exp: Experiment) -> dict:
 
 
 def check_against_images(exp: Experiment, sizes_wh: list[tuple[int, int]]) -> None:
-    """Check the per-view marks against the views' image sizes (width, height) px.
+    """Check the intrinsics and the per-view marks against the views' image sizes (width, height) px.
 
-    Raises :class:`ExperimentError` naming the view and key when an ROI, a
-    keep-out box or a base point lies outside its image, or the ROI is too
-    small to hold a tendril.
+    Raises :class:`ExperimentError` naming the view and key when:
+
+    - the principal point lies outside the image or further than a quarter
+      of its width (height) from its centre, or a focal length is not between
+      0.2 and 40 times the image width, or ``fy / fx`` is not between 1/2 and
+      2 (intrinsics made for another image size, or a typo);
+    - an ROI, a keep-out box or a base point lies outside its image, or the
+      ROI is too small to hold a tendril;
+    - the base point lies outside the ROI; the keep-out box does not overlap
+      the ROI, covers half of it or more, or lies away from the base point
+      (further than its own diagonal, at least 20 px).
+
+    The marks against the first frame's content are checked by
+    :func:`tendrilkit.inputs.check_marks_on_frame`.
     """
     where = f"{exp.source}: " if exp.source is not None else ""
     if len(sizes_wh) != exp.n_views:
         raise ExperimentError(f"{where}videos: expected {exp.n_views} readable videos, got {len(sizes_wh)}")
+    for i, (cam, (w, h)) in enumerate(zip(exp.cameras, sizes_wh)):
+        key = f"{where}cameras[{i}]"
+        if not (0 <= cam.cx <= w and 0 <= cam.cy <= h):
+            raise ExperimentError(f"{key}: principal point ({cam.cx:g}, {cam.cy:g}) is outside the {w}x{h} image of "
+                                  f"view {cam.view}; intrinsics made for another image size?")
+        if abs(cam.cx - w / 2) > L.MAX_PRINCIPAL_OFFSET * w or abs(cam.cy - h / 2) > L.MAX_PRINCIPAL_OFFSET * h:
+            raise ExperimentError(f"{key}: principal point ({cam.cx:g}, {cam.cy:g}) is far from the centre "
+                                  f"({w / 2:g}, {h / 2:g}) of the {w}x{h} image of view {cam.view} (expected within "
+                                  f"{L.MAX_PRINCIPAL_OFFSET:g} of its width and height); intrinsics made for another "
+                                  f"image size?")
+        for name, f in (("fx", cam.fx), ("fy", cam.fy)):
+            if not L.MIN_FOCAL_PER_WIDTH * w <= f <= L.MAX_FOCAL_PER_WIDTH * w:
+                raise ExperimentError(f"{key}.{name}: {f:g} px is not a plausible focal length for the {w}x{h} image "
+                                      f"of view {cam.view} (expected {L.MIN_FOCAL_PER_WIDTH:g} to "
+                                      f"{L.MAX_FOCAL_PER_WIDTH:g} times the width)")
+        if not 1 / L.MAX_ASPECT <= cam.fy / cam.fx <= L.MAX_ASPECT:
+            raise ExperimentError(f"{key}: fy / fx = {cam.fy / cam.fx:.3g}; expected square-ish pixels "
+                                  f"(1/{L.MAX_ASPECT:g} to {L.MAX_ASPECT:g})")
     for i, (marks, (w, h)) in enumerate(zip(exp.views, sizes_wh)):
         x, y, bw, bh = marks.roi
         if x < 0 or y < 0 or x + bw > w or y + bh > h:
@@ -509,8 +702,25 @@ def check_against_images(exp: Experiment, sizes_wh: list[tuple[int, int]]) -> No
         bx, by = marks.base_point
         if not (0 <= bx < w and 0 <= by < h):
             raise ExperimentError(f"{where}views[{i}].base_point: {list(marks.base_point)} is outside the {w}x{h} image of view {marks.view}")
-        if not (x - 50 <= bx <= x + bw + 50 and y - 50 <= by <= y + bh + 50):
-            raise ExperimentError(f"{where}views[{i}].base_point: {list(marks.base_point)} is far outside the roi {list(marks.roi)} of view {marks.view}")
+        if not (x <= bx <= x + bw and y <= by <= y + bh):
+            raise ExperimentError(f"{where}views[{i}].base_point: {list(marks.base_point)} is outside the roi {list(marks.roi)} of view {marks.view}")
+        if marks.keep_out is not None:
+            kx, ky, kw, kh = marks.keep_out
+            ox = max(0, min(x + bw, kx + kw) - max(x, kx))
+            oy = max(0, min(y + bh, ky + kh) - max(y, ky))
+            if ox * oy == 0:
+                raise ExperimentError(f"{where}views[{i}].keep_out: {list(marks.keep_out)} does not overlap the roi "
+                                      f"{list(marks.roi)} of view {marks.view}; expected a box between tendril and stem, at the base point")
+            if ox * oy >= 0.5 * bw * bh:
+                raise ExperimentError(f"{where}views[{i}].keep_out: {list(marks.keep_out)} covers "
+                                      f"{100 * ox * oy / (bw * bh):.0f} % of the roi {list(marks.roi)} of view {marks.view}; "
+                                      f"expected a small box between tendril and stem, at the base point")
+            gap = float(np.hypot(max(kx - bx, 0, bx - (kx + kw)), max(ky - by, 0, by - (ky + kh))))
+            reach = max(20.0, float(np.hypot(kw, kh)))
+            if gap > reach:
+                raise ExperimentError(f"{where}views[{i}].keep_out: {list(marks.keep_out)} is {gap:.0f} px from the "
+                                      f"base point {list(marks.base_point)} of view {marks.view}; expected the box "
+                                      f"between tendril and stem, at the base point (within {reach:.0f} px)")
 
 
 def views_yaml_snippet(exp: Experiment) -> str:

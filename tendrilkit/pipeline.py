@@ -70,11 +70,16 @@ Tracking and workers
 Resuming
     Every finished frame is written atomically to
     ``DIR/frames/frame_000123.json`` with a fingerprint of the run (resolved
-    experiment, video files, cameras, tendrilkit's version and source code). Running the same
-    command again reuses the calibration it wrote (``cameras.json``, stamped
-    in ``frames/calibration_stamp.json``), skips the frames whose file has
-    the same fingerprint and assembles the tables from the per-frame files;
-    an interrupted run (Ctrl-C) keeps its finished frames.
+    experiment including ``frames`` start and step, since tracking depends on
+    the frames seen; each video's size, modification time and a hash of 16
+    blocks spread over it; cameras; tendrilkit's version and source code), its
+    frame number and a checksum of its content (:func:`tendrilkit.io.write_frame_record`).
+    Running the same command again reuses the calibration it wrote
+    (``cameras.json``, stamped in ``frames/calibration_stamp.json``), skips
+    the frames whose file verifies (same fingerprint, same frame, checksum;
+    an edited, truncated or copied file is recomputed) and assembles the
+    tables from the per-frame files; an interrupted run (Ctrl-C, SIGTERM)
+    keeps its finished frames.
 
 Exit code
     0 if every frame is ``ok``, 1 if some failed (the run still completes and
@@ -478,6 +483,7 @@ def _worker_init() -> None:
     import cv2
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # and SIGTERM; Pool.terminate() ends the workers with it
     cv2.setNumThreads(1)
 
 
@@ -524,7 +530,9 @@ def frame_fingerprint(exp, cameras: list[Camera], video_info: list[dict]) -> str
         "format": _FORMAT_VERSION,
         "version": version,
         "code": _code_digest(),
+        # frames: start and step change the tracking (the frames seen); stop does not change a frame's result
         "experiment": {k: v for k, v in experiment_to_dict(exp).items() if k not in ("frames", "name")},
+        "frames": {"start": exp.frames.start, "step": exp.frames.step},
         "videos": video_info,
         "cameras": [c.to_dict(i + 1) for i, c in enumerate(cameras)],
     }
@@ -538,15 +546,6 @@ def _code_digest() -> str:
     for p in sorted(Path(__file__).resolve().parent.glob("*.py")):
         h.update(p.name.encode())
         h.update(p.read_bytes())
-    return h.hexdigest()
-
-
-def _folder_stamp(folder: Path) -> str:
-    """SHA-256 of an image folder's file names, sizes and modification times (a replaced image reruns)."""
-    h = hashlib.sha256()
-    for f in sorted(folder.iterdir()):
-        st = f.stat()
-        h.update(f"{f.name}\0{st.st_size}\0{st.st_mtime_ns}\n".encode())
     return h.hexdigest()
 
 
@@ -566,20 +565,18 @@ def _frame_path(out: Path, frame: int) -> Path:
 
 
 def _load_done(out: Path, frames: list[int], fp: str) -> dict[int, FrameResult]:
+    """The finished frames whose file verifies (:func:`tendrilkit.io.read_frame_record`); the others are recomputed."""
+    from tendrilkit.io import read_frame_record
+
     done = {}
     for f in frames:
-        p = _frame_path(out, f)
-        if not p.is_file():
+        d = read_frame_record(_frame_path(out, f), fp, f)
+        if d is None:
             continue
         try:
-            d = json.loads(p.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError):
+            done[f] = FrameResult.from_json(d)
+        except (KeyError, TypeError, ValueError, AttributeError):
             continue
-        if d.get("fingerprint") == fp:
-            try:
-                done[f] = FrameResult.from_json(d["result"])
-            except (KeyError, TypeError, ValueError):
-                continue
     return done
 
 
@@ -693,8 +690,10 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         calibration fails.
     """
     from tendrilkit.calibration import calibrate_experiment
-    from tendrilkit.io import check_writable_dir, open_views, read_cameras, write_cameras, write_csv, write_json
-    from tendrilkit.params import check_against_images, load_experiment
+    from tendrilkit.inputs import check_inputs
+    from tendrilkit.io import (check_writable_dir, file_stamp, open_views, read_cameras, write_cameras, write_csv,
+                               write_frame_record, write_json)
+    from tendrilkit.params import load_experiment
     from tendrilkit.progress import progress as progress_bar
 
     exp = _with_overrides(load_experiment(experiment_path), overrides)
@@ -703,13 +702,12 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     try:
         sizes = [(s.width, s.height) for s in sources]
         counts = [s.frame_count for s in sources]
-        video_info = [{"path": str(p), "bytes": p.stat().st_size if p.is_file() else _folder_stamp(p),
-                       "frames": n, "width": w, "height": h}
+        video_info = [{"path": str(p), **file_stamp(p), "frames": n, "width": w, "height": h}
                       for p, n, (w, h) in zip(exp.videos, counts, sizes)]
+        check_inputs(exp, sources)
     finally:
         for s in sources:
             s.close()
-    check_against_images(exp, sizes)
     n_video = max(counts)  # a shorter view's missing frames fail in that view only (FrameReadError)
     fr = exp.frames
     stop = n_video if fr.stop is None else min(fr.stop, n_video)
@@ -743,7 +741,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     V = exp.n_views
 
     def save(res: FrameResult) -> None:
-        write_json({"fingerprint": fp, "result": res.to_json()}, _frame_path(out, res.frame))
+        write_frame_record(_frame_path(out, res.frame), fp, res.frame, res.to_json())
         done[res.frame] = res
 
     # runs of consecutive to-do frames (done frames between them carry the tracking state)

@@ -80,7 +80,7 @@ BAD_CASES = [
     (("fps",), "fast", ["fps", "'fast'"]),
     (("fps",), -3, ["fps", "-3"]),
     (("cameras", 0, "fx"), "abc", ["cameras[0].fx", "'abc'"]),
-    (("cameras", 1, "dist"), [1, 2], ["cameras[1].dist", "4 or 5"]),
+    (("cameras", 1, "dist"), [1, 2], ["cameras[1].dist", "4, 5, 8, 12 or 14", "[1, 2]"]),
     (("cameras",), GOOD["cameras"][:2], ["cameras", "one entry per video (3)", "got 2"]),
     (("views",), GOOD["views"][:1], ["views", "one entry per video (3)", "got 1"]),
     (("videos",), ["a.mp4"], ["videos", "at least 2"]),
