@@ -411,6 +411,7 @@ _SHAPES = {
     "roi": "4 numbers [x, y, w, h]",
     "keep_out": "4 numbers [x, y, w, h]",
     "base_point": "2 numbers [x, y]",
+    "dist": "4, 5, 8, 12 or 14 coefficients in OpenCV's order (k1, k2, p1, p2, k3, ...)",
 }
 
 
