@@ -45,7 +45,8 @@ def reference(tmp_path_factory):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("sig,after", [(signal.SIGINT, 1), (signal.SIGKILL, 2)], ids=["ctrl-c", "killed"])
+@pytest.mark.parametrize("sig,after", [(signal.SIGINT, 1), (signal.SIGTERM, 1), (signal.SIGKILL, 2)],
+                         ids=["ctrl-c", "sigterm", "killed"])
 def test_interrupt_and_resume(reference, tmp_path, capsys, sig, after):
     exp, ref = reference
     out = tmp_path / "out"
@@ -68,6 +69,10 @@ def test_interrupt_and_resume(reference, tmp_path, capsys, sig, after):
         assert proc.returncode == 130, stderr
         assert stderr.strip().splitlines()[-1].startswith("tendrilkit: interrupted; finished frames are kept")
         assert "Traceback" not in stderr
+    elif sig == signal.SIGTERM:  # as Ctrl-C: one line, finished frames kept, its own code
+        assert proc.returncode == 143, stderr
+        assert stderr.strip().splitlines() == [stderr.strip().splitlines()[-1]], stderr
+        assert stderr.strip().startswith("tendrilkit: terminated (SIGTERM); finished frames are kept")
     else:
         assert proc.returncode == -signal.SIGKILL
     assert after <= len(kept) < N_FRAMES, "the interrupt came too late to test resuming"
@@ -95,21 +100,100 @@ def test_interrupt_and_resume(reference, tmp_path, capsys, sig, after):
 
 @pytest.mark.slow
 def test_frame_file_of_another_run_is_recomputed(reference, tmp_path):
-    """A stale frame file (other fingerprint) or a corrupt one is never reused."""
+    """A stale frame file (other fingerprint), an edited one, one copied over another frame's,
+    one with ``"reprojection": null`` or a truncated one is never reused: it is recomputed."""
     exp, ref = reference
     out = tmp_path / "out"
     import shutil
 
     shutil.copytree(ref, out)
-    f1 = out / "frames" / "frame_000001.json"
-    d = json.loads(f1.read_text())
-    d["fingerprint"] = "0" * 64
+    frames = out / "frames"
+    f1, f2, f3 = (frames / f"frame_00000{i}.json" for i in (1, 2, 3))
+    original1 = f1.read_bytes()
+    d = json.loads(original1)  # edited by hand, fingerprint kept
     d["result"]["points_mm"] = [[0.0, 0.0, 0.0]] * len(d["result"]["points_mm"])
     f1.write_text(json.dumps(d))
-    (out / "frames" / "frame_000002.json").write_text('{"fingerprint": "trunc')
+    f2.write_bytes(original1)  # frame 1's file copied over frame 2's
+    d = json.loads(f3.read_text())
+    d["result"]["reprojection"] = None
+    f3.write_text(json.dumps(d))
+    f0 = frames / "frame_000000.json"
+    stamp0 = f0.stat().st_mtime_ns
     assert cli.main(["reconstruct", str(exp), "--out", str(out), "--workers", "1", "--quiet"]) == 0
     for name in RESULT_FILES:
         assert (out / name).read_bytes() == (ref / name).read_bytes(), name
+    assert f0.stat().st_mtime_ns == stamp0  # the intact frame was reused
+    for f in (f1, f2, f3):
+        assert f.read_bytes() == (ref / "frames" / f.name).read_bytes()  # recomputed to the same record
+    # a stale fingerprint or a truncated file: recomputed too
+    d = json.loads(f1.read_text())
+    d["fingerprint"] = "0" * 64
+    f1.write_text(json.dumps(d))
+    f2.write_text('{"fingerprint": "trunc')
+    assert cli.main(["reconstruct", str(exp), "--out", str(out), "--workers", "1", "--quiet"]) == 0
+    for name in RESULT_FILES:
+        assert (out / name).read_bytes() == (ref / name).read_bytes(), name
+
+
+@pytest.mark.slow
+def test_disk_full_mid_run_exits_74_and_keeps_the_finished_frames(reference, tmp_path, capsys, monkeypatch):
+    """The third frame file hits a full disk: one line, exit code 74, two frames kept; the rerun completes identically."""
+    import errno
+
+    from tendrilkit import io
+
+    exp, ref = reference
+    out = tmp_path / "out"
+    real = io.write_frame_record
+    calls = []
+
+    def filling(path, *args):
+        calls.append(path)
+        if len(calls) >= 3:
+            with io.atomic_path(path):
+                raise OSError(errno.ENOSPC, "No space left on device")
+        real(path, *args)
+
+    monkeypatch.setattr(io, "write_frame_record", filling)
+    code = cli.main(_command(exp, out)[3:])
+    stdout, stderr = capsys.readouterr()
+    assert code == 74, stderr
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in stderr
+    assert "frame_000002.json: cannot write (No space left on device)" in lines[0] and "finished frames are kept" in lines[0]
+    assert [p.name for p in _frame_files(out)] == ["frame_000000.json", "frame_000001.json"]
+    assert not list(out.rglob(".*.tmp"))
+    monkeypatch.setattr(io, "write_frame_record", real)  # space freed
+    assert cli.main(_command(exp, out)[3:]) == 0
+    for name in RESULT_FILES:
+        assert (out / name).read_bytes() == (ref / name).read_bytes(), name
+
+
+@pytest.mark.slow
+def test_video_replaced_by_a_file_of_the_same_size_is_not_reused(reference, tmp_path):
+    """Same size and modification time, other content: the calibration and every frame are redone."""
+    exp, ref = reference
+    import shutil
+
+    work = tmp_path / "exp"
+    shutil.copytree(exp.parent, work)
+    exp2 = work / exp.name
+    out = tmp_path / "out"
+    assert cli.main(_command(exp2, out)[3:] + ["--workers", "1"]) == 0
+    first = {p.name: json.loads(p.read_text())["fingerprint"] for p in _frame_files(out)}
+    stamp = (out / "frames" / "calibration_stamp.json").read_text()
+    video = work / "view2.mp4"
+    st = video.stat()
+    data = bytearray(video.read_bytes())
+    i = len(data) // 2
+    data[i:i + 64] = bytes(64)  # a few bytes of one frame's compressed data
+    video.write_bytes(bytes(data))
+    os.utime(video, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert video.stat().st_size == st.st_size and video.stat().st_mtime_ns == st.st_mtime_ns
+    cli.main(_command(exp2, out)[3:])
+    assert (out / "frames" / "calibration_stamp.json").read_text() != stamp
+    after = {p.name: json.loads(p.read_text())["fingerprint"] for p in _frame_files(out)}
+    assert after.keys() == first.keys() and all(after[k] != first[k] for k in first)
 
 
 def test_atomic_write_keeps_the_old_file_when_writing_fails(tmp_path, monkeypatch):
