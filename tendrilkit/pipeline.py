@@ -85,8 +85,10 @@ Exit code
     0 if every frame is ``ok``, 1 if some failed (the run still completes and
     writes every table); user mistakes raise
     :class:`~tendrilkit.exceptions.ExperimentError` (exit code 2 in the CLI);
-    Ctrl-C propagates ``KeyboardInterrupt`` (exit code 130 in the CLI) after
-    the finished frames are on disk. The last line printed is
+    Ctrl-C propagates ``KeyboardInterrupt`` (exit code 130 in the CLI; SIGTERM
+    143) after the finished frames are on disk; a result file that cannot be
+    written raises :class:`~tendrilkit.exceptions.OutputWriteError` (exit
+    code 74), the finished frames kept. The last line printed is
     ``N frames: X ok, Y failed``.
 """
 
