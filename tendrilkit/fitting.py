@@ -53,6 +53,8 @@ METRIC_COLUMNS = (
     "sse_tip_mm2", "rmse_mm", "max_error_mm", "tau_undefined_fraction",
 )
 SEGMENT_COLUMNS = ("frame", "kind", "segment", "s0_mm", "s1_mm", "value_s0", "value_s1")
+#: Largest curves.csv read, bytes (10,000 frames of 200 points are about 120 MB).
+MAX_CURVES_BYTES = 2_000_000_000
 
 
 @dataclass(frozen=True)
@@ -104,6 +106,11 @@ def _read_curves(path: Path) -> pd.DataFrame:
         raise ExperimentError(f"{path}: curves file not found")
     if path.is_dir():
         raise ExperimentError(f"{path}: expected a curves.csv file, got a folder")
+    if not path.is_file():  # a device or a pipe (/dev/zero) would never end
+        raise ExperimentError(f"{path}: expected a curves.csv file, got a special file")
+    if path.stat().st_size > MAX_CURVES_BYTES:
+        raise ExperimentError(f"{path}: larger than {MAX_CURVES_BYTES // 1_000_000_000} GB; expected a curves.csv "
+                              f"(split it by frames)")
     try:
         df = pd.read_csv(path)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as e:
@@ -168,8 +175,10 @@ def fit_frame(points_mm: np.ndarray, options: FitOptions | None = None, *, frame
             raise DegenerateCurveError(f"expected points of shape (n, 3), got {pts.shape}")
         if not np.all(np.isfinite(pts)):
             raise DegenerateCurveError(f"{int((~np.isfinite(pts)).any(axis=1).sum())} point(s) with missing coordinates")
-        if len(pts) < L.MIN_FIT_POINTS:
-            raise DegenerateCurveError(f"curve has {len(pts)} point(s); at least {L.MIN_FIT_POINTS} are needed")
+        n_distinct = len(np.unique(pts, axis=0)) if len(pts) else 0
+        if n_distinct < L.MIN_FIT_POINTS:
+            raise DegenerateCurveError(f"curve has {n_distinct} distinct point(s); at least {L.MIN_FIT_POINTS} "
+                                       f"are needed")
         fit = fit_piecewise_clothoid(pts, n_points=len(pts), **asdict(options))
     except (DegenerateCurveError, ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
         row.update(status="failed", message=f"{type(e).__name__}: {e}")

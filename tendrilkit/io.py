@@ -50,6 +50,9 @@ class FrameSource:
         self._files: list[Path] | None = None
         if not self.path.exists():
             raise ExperimentError(f"{self.path}: video not found")
+        if not (self.path.is_dir() or self.path.is_file()):  # a device or a pipe (/dev/zero) would never end
+            raise ExperimentError(f"{self.path}: expected a video file or a folder of numbered images, got a "
+                                  f"special file")
         if self.path.is_dir():
             files = [p for p in self.path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES]
             numbered = [(int(m.group(1)), p) for p in files if (m := re.search(r"(\d+)$", p.stem))]
@@ -260,6 +263,8 @@ def file_stamp(path: str | Path, *, sample_bytes: int = 1 << 16, n_samples: int 
     from the start and the end of each file).
     """
     path = Path(path)
+    if not (path.is_dir() or path.is_file()):
+        raise ExperimentError(f"{path}: expected a video file or a folder of numbered images, got a special file")
     if path.is_dir():
         h = hashlib.sha256()
         for f in sorted(path.iterdir()):

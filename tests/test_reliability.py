@@ -575,6 +575,18 @@ def test_fit_input_that_cannot_be_right(tmp_path, capsys, case, words):
 def test_fit_minimum_point_count_is_the_same_everywhere(tmp_path):
     from tendrilkit.fitting import fit_curves
 
-    _, _, met = fit_curves(pd.concat([_curve(0, n=5), _curve(1, n=7)]))
+    same = _curve(2, n=20).assign(x_mm=1.0, y_mm=2.0, z_mm=3.0)  # 20 points at 1 place
+    _, _, met = fit_curves(pd.concat([_curve(0, n=5), _curve(1, n=7), same]))
     assert (met.status == "failed").all()
     assert all(f"at least {L.MIN_FIT_POINTS} are needed" in m for m in met.message), met.message.tolist()
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="no /dev/zero")
+def test_special_files_as_inputs_are_refused_not_read(tmp_path, capsys):
+    from tendrilkit.io import FrameSource, file_stamp
+
+    for fn in (FrameSource, file_stamp):
+        with pytest.raises(ExperimentError, match="special file"):
+            fn(Path("/dev/zero"))
+    code = cli.main(["fit", "/dev/zero", "--out", str(tmp_path / "out")])
+    assert code == 2 and "special file" in _one_line(capsys.readouterr().err)
