@@ -27,8 +27,11 @@ MAX_PIXEL = 1e5
 MAX_DIST_COEFF = 1e4
 #: Distortion coefficient counts OpenCV supports (k1 k2 p1 p2 [k3 [k4 k5 k6 [s1 s2 s3 s4 [tauX tauY]]]]).
 DIST_LENGTHS = (4, 5, 8, 12, 14)
-#: Frames per second.
+#: Frames per second (1e-6: one frame in 11.6 days).
+MIN_FPS = 1e-6
 MAX_FPS = 1e6
+#: Smallest world marker side, mm.
+MIN_MARKER_MM = 0.1
 #: Frame indices.
 MAX_FRAME = 10**9
 #: World lengths, mm (marker side, smoothing length, coordinates of a curves.csv).

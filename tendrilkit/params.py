@@ -93,7 +93,7 @@ class Marker(_Strict):
 
     dictionary: str
     id: int = Field(ge=0, le=100_000)
-    length_mm: float = Field(gt=0, le=L.MAX_LENGTH_MM)
+    length_mm: float = Field(ge=L.MIN_MARKER_MM, le=L.MAX_LENGTH_MM)
 
     @field_validator("dictionary")
     @classmethod
@@ -338,7 +338,7 @@ class Experiment(_Strict):
     name: str = Field(min_length=1, max_length=100)
     stimulation_site: Literal["S1", "S2", "S3", "S4"] | None = None
     videos: list[Path] = Field(min_length=1, max_length=100)
-    fps: float = Field(gt=0, le=L.MAX_FPS)
+    fps: float = Field(ge=L.MIN_FPS, le=L.MAX_FPS)
     reference_view: int = Field(ge=1, le=100)
     frames: FrameRange = Field(default_factory=FrameRange)
     cameras: list[CameraIntrinsics] = Field(min_length=1, max_length=100)
@@ -524,6 +524,8 @@ def load_experiment(path: str | Path, *, check_files: bool = True) -> Experiment
         raise ExperimentError(f"{path}: experiment file not found")
     if path.is_dir():
         raise ExperimentError(f"{path}: expected an experiment YAML file, got a folder")
+    if not path.is_file():  # a device or a pipe: never read without end
+        raise ExperimentError(f"{path}: expected an experiment YAML file, got a special file")
     text = read_experiment_text(path)
     data = parse_yaml(text, source=path)
     exp = parse_experiment(data, source=path.resolve())

@@ -89,7 +89,7 @@ BAD_CASES = [
     (("views", 0, "roi"), [10, 10, 0, 5], ["views[0].roi", "positive width"]),
     (("views", 2, "base_point"), "centre", ["views[2].base_point", "'centre'"]),
     (("marker", "dictionary"), "DICT_NOPE", ["marker.dictionary", "DICT_NOPE"]),
-    (("marker", "length_mm"), 0, ["marker.length_mm", "greater than 0"]),
+    (("marker", "length_mm"), 0, ["marker.length_mm", "greater than or equal to 0.1"]),
     (("frames",), {"start": 10, "stop": 5}, ["frames", "stop (5)", "start (10)"]),
     (("stimulation_site",), "S5", ["stimulation_site", "'S5'"]),
     (("segmentation",), {"threshold": 300}, ["segmentation.threshold", "'otsu'", "255", "300"]),

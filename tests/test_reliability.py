@@ -98,7 +98,7 @@ def test_files_that_would_hang_or_explode(tmp_path, how):
         if not Path("/dev/zero").exists():
             pytest.skip("no /dev/zero")
         f = Path("/dev/zero")
-        words = "larger than 1 MB"
+        words = "special file"
     elif how == "deep":
         f = _write(tmp_path, "name: " + "[" * 3000 + "]" * 3000 + "\n")
         words = "nested too deeply"
