@@ -309,12 +309,19 @@ def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False
         raise ExperimentError(f"{notebooks_dir()}: no numbered notebooks found")
     workers = max(1, min(workers or os.cpu_count() or 1, len(experiments)))
     outcomes: list[ExperimentOutcome] = []
-    with ProcessPoolExecutor(max_workers=workers, initializer=_worker_signals) as pool:
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_signals)
+    try:
         futures = [pool.submit(_run_one, str(p), str(reports_dir), force) for p in experiments]
         for fut in progress(as_completed(futures), total=len(futures), desc="experiments"):
             o = fut.result()
             outcomes.append(o)
             print(f"{o.name}: {o.status}{' - ' + o.message if o.message else ''}", file=sys.stderr, flush=True)
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: stop the running experiments too (their finished frames stay)
+        for proc in list(getattr(pool, "_processes", {}).values()):
+            proc.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
     outcomes.sort(key=lambda o: o.name)
     comp = run_comparison(outcomes, Path(reports_dir))
     if comp is not None:
