@@ -149,3 +149,28 @@ def test_container_fps_disagreeing_with_the_file_is_mentioned(phantom, tmp_path,
     lines = err.strip().splitlines()
     assert lines and all(x.startswith("tendrilkit: warning: videos[") for x in lines), err
     assert "view1.mp4 is stored at 4 fps but the experiment file says fps: 5" in lines[0]
+
+
+from hypothesis import HealthCheck, event, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from tests.test_reliability import ABSURD, NUMERIC, _set  # noqa: E402
+
+
+@settings(max_examples=12, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(changes=st.lists(st.tuples(st.sampled_from(NUMERIC), ABSURD), min_size=1, max_size=2))
+def test_absurd_numbers_on_real_videos(phantom, tmp_path_factory, capsys, changes):
+    """Huge, tiny and non-finite numbers in any numeric key next to real videos: one line and exit 2, or a calibration."""
+    d = yaml.safe_load(phantom.read_text())
+    d["videos"] = [str(phantom.parent / v) for v in d["videos"]]
+    for path, value in changes:
+        _set(d, path, value)
+    folder = tmp_path_factory.mktemp("absurd_video")
+    exp = folder / "experiment.yaml"
+    exp.write_text(yaml.safe_dump(d))
+    code, _, err = run_cli(capsys, "calibrate", exp, "--out", folder / "cal")
+    event(f"exit {code}")
+    assert "Traceback" not in err and code in (0, 2), err
+    if code == 2:
+        assert _last_line(err).startswith("tendrilkit: error: ")
