@@ -241,8 +241,8 @@ def check_writable_dir(path: str | Path) -> Path:
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise ExperimentError(f"{path}: output folder cannot be made in {parent} ({e.strerror or type(e).__name__}; "
-                              f"expected a folder where you can write)") from None
+        raise ExperimentError(f"{path}: output folder cannot be made: {parent} does not accept new folders "
+                              f"({e.strerror or type(e).__name__}); expected a folder where you can write") from None
     try:
         fd, tmp = tempfile.mkstemp(prefix=".write-test.", dir=path)
         os.close(fd)

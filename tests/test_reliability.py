@@ -590,3 +590,12 @@ def test_special_files_as_inputs_are_refused_not_read(tmp_path, capsys):
             fn(Path("/dev/zero"))
     code = cli.main(["fit", "/dev/zero", "--out", str(tmp_path / "out")])
     assert code == 2 and "special file" in _one_line(capsys.readouterr().err)
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="no /proc")
+def test_out_in_a_system_folder_says_so(tmp_path, capsys):
+    csv = tmp_path / "curves.csv"
+    _curve(0).to_csv(csv, index=False)
+    code = cli.main(["fit", str(csv), "--out", "/proc/tendrilkit-test/out"])
+    line = _one_line(capsys.readouterr().err)
+    assert code == 2 and "/proc does not accept new folders" in line
