@@ -1124,7 +1124,7 @@ def calibrate_to_dir(experiment_path: str | Path, out_dir: str | Path, *, overri
     out = check_writable_dir(out_dir)
     sources = open_views(list(exp.videos))
     try:
-        check_inputs(exp, sources)
+        check_inputs(exp, sources, marks_on_frame=False)  # the marks' geometry only: calibrating does not use them
     finally:
         for s in sources:
             s.close()

@@ -32,7 +32,7 @@ BASE_POINT_REACH_PX = 10.0
 TIME_LAPSE_RATIO = 0.1
 
 
-def check_inputs(exp, sources) -> None:
+def check_inputs(exp, sources, *, marks_on_frame: bool = True) -> None:
     """Every check of the module docstring, on the opened frame sources (view order).
 
     Parameters
@@ -40,6 +40,9 @@ def check_inputs(exp, sources) -> None:
     exp : tendrilkit.params.Experiment
     sources : list of tendrilkit.io.FrameSource
         The views, opened (``width``, ``height``, ``fps``, ``read``).
+    marks_on_frame : bool, keyword-only
+        Also check the marks against the first frame's content
+        (``reconstruct``; ``calibrate`` does not use the marks).
 
     Raises
     ------
@@ -48,6 +51,8 @@ def check_inputs(exp, sources) -> None:
     """
     check_against_images(exp, [(s.width, s.height) for s in sources])
     check_video_fps(exp, [s.fps for s in sources])
+    if not marks_on_frame:
+        return
     images = []
     for s in sources:
         try:

@@ -114,9 +114,10 @@ def test_video_of_another_size_than_its_intrinsics(tmp_path_factory, tmp_path, c
 def test_marks_that_cannot_be_right(phantom, tmp_path, capsys, case, change, words):
     exp = copy_experiment(phantom, tmp_path / "exp")
     _edit(exp, lambda d: change(d["views"][0]))
-    for cmd in (["calibrate", exp, "--out", tmp_path / "cal"],
-                ["reconstruct", exp, "--out", tmp_path / "out", "--workers", "1", "--quiet"]):
-        code, _, err = run_cli(capsys, *cmd)
+    code, _, err = run_cli(capsys, "reconstruct", exp, "--out", tmp_path / "out", "--workers", "1", "--quiet")
+    assert_one_line_error(code, err, *words)
+    if "background" not in case:  # calibrate checks the marks' geometry, not the frame's content
+        code, _, err = run_cli(capsys, "calibrate", exp, "--out", tmp_path / "cal")
         assert_one_line_error(code, err, *words)
     assert not list((tmp_path / "out").rglob("frame_*.json"))
 
