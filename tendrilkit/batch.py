@@ -268,7 +268,8 @@ def check_batch_names(experiments: list[Path]) -> None:
     run, which reports it as failed). Raises :class:`ExperimentError` naming
     the file(s) before anything runs.
     """
-    from tendrilkit.params import folder_name_problem, parse_yaml, read_experiment_text
+    from tendrilkit.params import folder_name_problem
+    from tendrilkit.safe_yaml import parse_yaml, read_experiment_text, short_repr
 
     seen: dict[str, Path] = {}
     for p in experiments:
@@ -281,8 +282,6 @@ def check_batch_names(experiments: list[Path]) -> None:
         name = data["name"]
         problem = folder_name_problem(name) if isinstance(name, str) else "expected a text usable as a folder name"
         if problem:
-            from tendrilkit.params import short_repr
-
             raise ExperimentError(f"{p}: name: {problem} (got {short_repr(name)})")
         if name == "comparison":
             raise ExperimentError(f"{p}: name: 'comparison' is the folder of the cross-site notebook; expected "
