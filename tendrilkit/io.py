@@ -17,7 +17,6 @@ import hashlib
 import json
 import os
 import re
-import stat
 import tempfile
 from dataclasses import dataclass
 from contextlib import contextmanager
