@@ -854,11 +854,33 @@ def _law_columns(s, knots, values, free_knots):
     n = s.shape[0]
     p = m + (m - 2 if free_knots else 0)
     G = np.zeros((n - 1, p))
-    e = np.zeros(m)
+    I = np.empty(n)
     for j in range(m):
-        e[:] = 0.0
-        e[j] = 1.0
-        G[:, j] = _pwl_step_means(s, knots, e)
+        # the step means of the hat of knot j (as _pwl_step_means of the unit vector, the same
+        # arithmetic): its integral is 0 up to knots[j-1] and constant from knots[j+1]
+        lo = knots[j - 1] if j > 0 else knots[0]
+        hi = knots[j + 1] if j < m - 1 else knots[m - 1]
+        i0 = 0 if j == 0 else 0.5 * (knots[j] - knots[j - 1]) * (0.0 + 1.0)
+        after = i0 + (0.5 * (knots[j + 1] - knots[j]) * (1.0 + 0.0) if j < m - 1 else 0.0)
+        for i in range(n):
+            x = s[i]
+            if x <= lo and j > 0:
+                I[i] = 0.0
+            elif x >= hi and j < m - 1:
+                I[i] = after
+            else:
+                x = min(max(x, knots[0]), knots[m - 1])
+                if j > 0 and x <= knots[j]:
+                    a = j - 1  # the rising half: values 0 -> 1
+                    d = knots[j] - knots[a]
+                    v = 0.0 + (1.0 - 0.0) * (x - knots[a]) / d if d > 0 else 0.0
+                    I[i] = 0.0 + 0.5 * (x - knots[a]) * (0.0 + v)
+                else:
+                    d = knots[j + 1] - knots[j] if j < m - 1 else 0.0
+                    v = 1.0 + (0.0 - 1.0) * (x - knots[j]) / d if d > 0 else 1.0
+                    I[i] = i0 + 0.5 * (x - knots[j]) * (1.0 + v)
+        for i in range(n - 1):
+            G[i, j] = (I[i + 1] - I[i]) / (s[i + 1] - s[i])
     if free_knots:
         for k in range(1, m - 1):
             t0, t1, t2 = knots[k - 1], knots[k], knots[k + 1]
