@@ -27,20 +27,31 @@ temporary file in ``DIR`` then :func:`os.replace`):
 A frame that cannot be fitted is a ``failed`` row with the reason; the other
 frames go on. A missing or malformed CSV raises
 :class:`~tendrilkit.exceptions.ExperimentError` (one line; exit code 2).
+
+The command reads and writes its tables with the standard library's ``csv``
+module, in pandas' format (``to_csv(index=False, float_format="%.9g")``: the
+same bytes), so that ``python -m tendrilkit fit`` does not pay the import of
+pandas (about a second); :func:`fit_curves` and the table helpers used by
+``reconstruct`` keep pandas.
 """
 
 from __future__ import annotations
 
+import csv
+import math
 import os
 import tempfile
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from tendrilkit.exceptions import DegenerateCurveError, ExperimentError
+
+if TYPE_CHECKING:  # pandas is imported where a table is made (not by the fit command)
+    import pandas as pd
 
 __all__ = ["FitOptions", "FitSummary", "run_fit", "fit_curves", "fit_frame"]
 
@@ -98,6 +109,8 @@ class FitSummary:
 
 
 def _read_curves(path: Path) -> pd.DataFrame:
+    import pandas as pd
+
     if not path.exists():
         raise ExperimentError(f"{path}: curves file not found")
     if path.is_dir():
@@ -163,12 +176,16 @@ def fit_frame(points_mm: np.ndarray, options: FitOptions | None = None, *, frame
 
 def curves_table(frame: int, time_s: float, points_mm: np.ndarray) -> pd.DataFrame:
     """One frame's points as rows of ``curves.csv`` / ``pwc_curves.csv``."""
+    import pandas as pd
+
     n = len(points_mm)
     return pd.DataFrame({"frame": int(frame), "time_s": time_s, "point": np.arange(n),
                          "x_mm": points_mm[:, 0], "y_mm": points_mm[:, 1], "z_mm": points_mm[:, 2]})
 
 
 def metrics_table(rows: list[dict]) -> pd.DataFrame:
+    import pandas as pd
+
     mets = pd.DataFrame(rows, columns=list(METRIC_COLUMNS))
     for c in ("n_points", "n_kappa", "n_tau"):
         mets[c] = mets[c].astype("Int64")
@@ -177,6 +194,8 @@ def metrics_table(rows: list[dict]) -> pd.DataFrame:
 
 def fit_curves(curves: pd.DataFrame, options: FitOptions | None = None) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
     """Fit every frame of a curves table; returns ``(pwc_curves, segments, metrics)`` tables."""
+    import pandas as pd
+
     curves_out, seg_rows, met_rows = [], [], []
     for frame, g in curves.sort_values(["frame", "point"]).groupby("frame", sort=True):
         g = g.drop_duplicates("point", keep="first")
@@ -203,6 +222,111 @@ def _write_atomic(df: pd.DataFrame, path: Path) -> None:
         raise
 
 
+# ---------------------------------------------------------------- the command's tables without pandas
+
+
+def _csv_error(path: Path, e: Exception) -> ExperimentError:
+    return ExperimentError(f"{path}: cannot read as CSV ({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''})")
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
+def _read_curve_frames(path: Path) -> list[tuple[int, float, np.ndarray]]:
+    """``(frame, time_s, (n, 3) points)`` per frame of a curves.csv, frames and points in order.
+
+    The checks and messages of :func:`_read_curves` (pandas), with the csv
+    module: a missing column, a non-integer ``frame`` or ``point``, no rows,
+    more fields than the header are errors; a coordinate that is not a number
+    is NaN (that frame then fails); for a repeated ``(frame, point)`` the
+    first row counts.
+    """
+    if not path.exists():
+        raise ExperimentError(f"{path}: curves file not found")
+    if path.is_dir():
+        raise ExperimentError(f"{path}: expected a curves.csv file, got a folder")
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            rows = list(csv.reader(fh))
+    except (UnicodeDecodeError, OSError, csv.Error) as e:
+        raise _csv_error(path, e) from None
+    rows = [r for r in rows if r]  # blank lines are skipped (as pandas does)
+    if not rows:
+        raise ExperimentError(f"{path}: cannot read as CSV (EmptyDataError: No columns to parse from file)")
+    header, body = rows[0], rows[1:]
+    for i, r in enumerate(body):
+        if len(r) > len(header):
+            raise ExperimentError(f"{path}: cannot read as CSV (ParserError: Error tokenizing data. C error: "
+                                  f"Expected {len(header)} fields in line {i + 2}, saw {len(r)})")
+    missing = [c for c in ("frame", "point", "x_mm", "y_mm", "z_mm") if c not in header]
+    if missing:
+        raise ExperimentError(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(CURVE_COLUMNS)}")
+    col = {c: header.index(c) for c in CURVE_COLUMNS if c in header}
+
+    def field(r, c):
+        j = col.get(c)
+        return r[j] if j is not None and j < len(r) else ""
+
+    keys = []
+    for c in ("frame", "point"):
+        vals = [_number(field(r, c)) for r in body]
+        for r, v in zip(body, vals):
+            if not math.isfinite(v) or v % 1 != 0:
+                raise ExperimentError(f"{path}: column {c}: expected integers, got {field(r, c)!r}")
+        keys.append([int(v) for v in vals])
+    if not body:
+        raise ExperimentError(f"{path}: no rows")
+    xyz = np.array([[_number(field(r, "x_mm")), _number(field(r, "y_mm")), _number(field(r, "z_mm"))] for r in body],
+                   dtype=float).reshape(-1, 3)
+    t = np.array([_number(field(r, "time_s")) for r in body], dtype=float)
+    frame, point = np.array(keys[0], dtype=np.int64), np.array(keys[1], dtype=np.int64)
+    order = np.lexsort((point, frame))  # stable: the first of repeated (frame, point) rows stays first
+    out = []
+    bounds = np.flatnonzero(np.diff(frame[order])) + 1
+    for g in np.split(order, bounds):
+        _, first = np.unique(point[g], return_index=True)
+        g = g[np.sort(first)]
+        t_s = float(t[g[0]]) if np.any(~np.isnan(t[g])) else math.nan
+        out.append((int(frame[g[0]]), t_s, xyz[g]))
+    return out
+
+
+def _cell(v) -> str:
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return ""
+    if isinstance(v, (float, np.floating)):
+        return "%.9g" % v
+    return str(v)
+
+
+def _write_rows(path: Path, columns, rows, float_columns) -> None:
+    """Write a table as pandas' ``to_csv(index=False, float_format="%.9g")`` would (atomically).
+
+    ``float_columns``: the columns pandas would hold as floats (their
+    integers written as floats too, e.g. ``1`` as ``1``).
+    """
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", newline="") as fh:
+            w = csv.writer(fh, lineterminator="\n")
+            w.writerow(columns)
+            for r in rows:
+                w.writerow([_cell(float(v)) if (c in float_columns and v is not None and v != "") else _cell(v)
+                            for c, v in zip(columns, r)])
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+_METRIC_FLOATS = frozenset(c for c in METRIC_COLUMNS if c not in ("frame", "status", "message", "n_points", "n_kappa", "n_tau"))
+
+
 def run_fit(curves_csv: Path, out_dir: Path, *, options: FitOptions | None = None) -> FitSummary:
     """Refit the piece-wise clothoid to every frame of ``curves_csv``; write the tables to ``out_dir``.
 
@@ -226,16 +350,23 @@ def run_fit(curves_csv: Path, out_dir: Path, *, options: FitOptions | None = Non
     """
     t0 = time.perf_counter()
     curves_csv, out_dir = Path(curves_csv), Path(out_dir)
-    curves = _read_curves(curves_csv)
+    frames = _read_curve_frames(curves_csv)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise ExperimentError(f"{out_dir}: cannot create the output folder ({e.strerror or type(e).__name__})") from None
     if not out_dir.is_dir():
         raise ExperimentError(f"{out_dir}: expected an output folder, got a file")
-    pwc, segs, mets = fit_curves(curves, options)
+    curve_rows, seg_rows, met_rows = [], [], []
+    for frame, t_s, pts in frames:
+        fitted, segs, row = fit_frame(pts, options, frame=frame, time_s=t_s)
+        met_rows.append([row[c] for c in METRIC_COLUMNS])
+        seg_rows.extend([s[c] for c in SEGMENT_COLUMNS] for s in segs)
+        if fitted is not None:
+            curve_rows.extend([frame, t_s, i, *p] for i, p in enumerate(fitted.tolist()))
     paths = (out_dir / "pwc_curves.csv", out_dir / "pwc_segments.csv", out_dir / "pwc_metrics.csv")
-    for df, p in zip((pwc, segs, mets), paths):
-        _write_atomic(df, p)
-    ok = int((mets["status"] == "ok").sum())
-    return FitSummary(len(mets), ok, len(mets) - ok, time.perf_counter() - t0, *paths)
+    _write_rows(paths[0], CURVE_COLUMNS, curve_rows, {"time_s", "x_mm", "y_mm", "z_mm"})
+    _write_rows(paths[1], SEGMENT_COLUMNS, seg_rows, {"s0_mm", "s1_mm", "value_s0", "value_s1"})
+    _write_rows(paths[2], METRIC_COLUMNS, met_rows, _METRIC_FLOATS)
+    ok = sum(r[METRIC_COLUMNS.index("status")] == "ok" for r in met_rows)
+    return FitSummary(len(met_rows), ok, len(met_rows) - ok, time.perf_counter() - t0, *paths)
