@@ -2,11 +2,11 @@
 
     .venv/bin/python benchmarks/bench_pwc.py [--frames 100]
 
-1. one 200-point frame: automatic penalty selection + rebuild (issue target: <= 50 ms;
+1. one 200-point frame: automatic penalty selection + rebuild (issue 17 target: <= 5 ms;
    the paper: about 200 s; a port of the reference's 10-step search: about 4 s);
 2. the paper's grid search on the same frames;
 3. ``python -m tendrilkit fit`` on a 100-frame curves.csv, process start included
-   (issue target: <= 10 s), run twice: the first run may compile numba's cache.
+   (issue 17 target: <= 2 s), run twice: the first run may compile numba's cache.
 Also prints the accuracy on the seeded noisy ground-truth curves.
 """
 
@@ -50,7 +50,7 @@ def main() -> None:
         r2.append(f.r2)
     times, cpu, dist, r2 = 1e3 * np.array(times), 1e3 * np.array(cpu), np.array(dist), np.array(r2)
     print(f"auto selection + rebuild, 200 points: wall median {np.median(times):.1f} ms, "
-          f"mean {times.mean():.1f} ms, max {times.max():.1f} ms (target <= 50 ms); "
+          f"mean {times.mean():.1f} ms, max {times.max():.1f} ms (target <= 5 ms); "
           f"CPU median {np.median(cpu):.1f} ms, mean {cpu.mean():.1f} ms (the machine is shared: "
           f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
     print(f"accuracy (0.15 mm noise): mean distance to truth median {np.median(dist):.3f} mm, "
@@ -103,7 +103,7 @@ def main() -> None:
             c1 = os.times()
             child_cpu = (c1.children_user - c0.children_user) + (c1.children_system - c0.children_system)
             print(f"fit command, {args.frames} frames, run {run}: {dt:.2f} s end to end, {child_cpu:.2f} s CPU "
-                  f"(target <= 10 s)"
+                  f"(target <= 2 s)"
                   f" [{r.stdout.strip() or r.stderr.strip()}]")
 
 

@@ -31,12 +31,18 @@ from tendrilkit.camera import Camera
 from tendrilkit.exceptions import ExperimentError, FrameReadError, OutputWriteError
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+#: A video read jumping forward by at most this many frames steps over them with
+#: ``grab()`` (no BGR image made); a longer jump, or one backwards, seeks.
+MAX_GRAB_FRAMES = 64
 
 
 class FrameSource:
     """Random access to the frames of one view (video file or image folder).
 
     Frames are BGR ``uint8`` arrays of shape ``(height, width, 3)``.
+    Reading frames in increasing order with gaps (``frames.step`` > 1) steps
+    over the skipped frames of a video with ``grab()`` (no image made), up to
+    :data:`MAX_GRAB_FRAMES` ahead; an image folder reads only the frames asked.
     Opening checks the source and raises :class:`ExperimentError` naming the
     file when it is not a readable video; reading a frame that is missing or
     broken raises :class:`FrameReadError` (the frame fails, the run goes on).
@@ -98,7 +104,16 @@ class FrameSource:
         assert self._cap is not None
         if index == 0 and self._first is not None and self._next == 1:
             return self._first.copy()
-        if index != self._next:
+        if 0 < self._next < index <= self._next + MAX_GRAB_FRAMES:
+            # a short jump forward (frames.step > 1): step over the frames with grab(),
+            # which demuxes (and, for inter-frame codecs, decodes) without converting
+            # them to BGR images; a seek would decode again from the previous key frame
+            while self._next < index:
+                if not self._cap.grab():
+                    self._next = -1
+                    raise FrameReadError(f"{self.path.name}: frame {index} cannot be read (the video has {self.frame_count} frames)")
+                self._next += 1
+        elif index != self._next:
             self._cap.set(cv2.CAP_PROP_POS_FRAMES, index)
         ok, img = self._cap.read()
         if not ok or img is None:

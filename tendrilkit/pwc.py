@@ -750,45 +750,57 @@ def fit_scores(fitted_mm: np.ndarray, data_mm: np.ndarray, s_mm: np.ndarray) -> 
 @njit(cache=True)
 def _lm_jacobian(s, P, T, B, R, X, Mk, Mt):
     # Mk, Mt: (n-1, p) derivatives of the step means per parameter
-    """(3n, p + 6) Jacobian of the registered points (values, then rotation, translation)."""
+    """(3n, p + 6) Jacobian of the registered points (values, then rotation, translation).
+
+    One pass over the points, every parameter's two running sums updated per
+    step (rows of the Jacobian written contiguously).
+    """
     n = P.shape[0]
     nk = Mk.shape[1]
     p = nk + Mt.shape[1]
     J = np.zeros((3 * n, p + 6))
-    A = np.zeros(3)
-    C = np.zeros(3)
-    dP = np.zeros(3)
-    for q in range(p):
-        A[:] = 0.0
-        C[:] = 0.0
-        for j in range(n):
-            if j > 0:
-                i = j - 1
-                h = s[j] - s[i]
-                if q < nk:
-                    c = h * Mk[i, q]
-                    ax = c * 0.5 * (B[i, 0] + B[j, 0])
-                    ay = c * 0.5 * (B[i, 1] + B[j, 1])
-                    az = c * 0.5 * (B[i, 2] + B[j, 2])
-                else:
-                    c = h * Mt[i, q - nk]
-                    ax = c * 0.5 * (T[i, 0] + T[j, 0])
-                    ay = c * 0.5 * (T[i, 1] + T[j, 1])
-                    az = c * 0.5 * (T[i, 2] + T[j, 2])
-                mx = 0.5 * (P[i, 0] + P[j, 0])
-                my = 0.5 * (P[i, 1] + P[j, 1])
-                mz = 0.5 * (P[i, 2] + P[j, 2])
-                A[0] += ax
-                A[1] += ay
-                A[2] += az
-                C[0] += ay * mz - az * my
-                C[1] += az * mx - ax * mz
-                C[2] += ax * my - ay * mx
-            dP[0] = A[1] * P[j, 2] - A[2] * P[j, 1] - C[0]
-            dP[1] = A[2] * P[j, 0] - A[0] * P[j, 2] - C[1]
-            dP[2] = A[0] * P[j, 1] - A[1] * P[j, 0] - C[2]
-            for c3 in range(3):
-                J[3 * j + c3, q] = R[c3, 0] * dP[0] + R[c3, 1] * dP[1] + R[c3, 2] * dP[2]
+    A = np.zeros((p, 3))
+    C = np.zeros((p, 3))
+    for j in range(1, n):
+        i = j - 1
+        h = s[j] - s[i]
+        bx = 0.5 * (B[i, 0] + B[j, 0])
+        by = 0.5 * (B[i, 1] + B[j, 1])
+        bz = 0.5 * (B[i, 2] + B[j, 2])
+        tx = 0.5 * (T[i, 0] + T[j, 0])
+        ty = 0.5 * (T[i, 1] + T[j, 1])
+        tz = 0.5 * (T[i, 2] + T[j, 2])
+        mx = 0.5 * (P[i, 0] + P[j, 0])
+        my = 0.5 * (P[i, 1] + P[j, 1])
+        mz = 0.5 * (P[i, 2] + P[j, 2])
+        px = P[j, 0]
+        py = P[j, 1]
+        pz = P[j, 2]
+        r0 = 3 * j
+        for q in range(p):
+            if q < nk:
+                c = h * Mk[i, q]
+                ax = c * bx
+                ay = c * by
+                az = c * bz
+            else:
+                c = h * Mt[i, q - nk]
+                ax = c * tx
+                ay = c * ty
+                az = c * tz
+            A[q, 0] += ax
+            A[q, 1] += ay
+            A[q, 2] += az
+            C[q, 0] += ay * mz - az * my
+            C[q, 1] += az * mx - ax * mz
+            C[q, 2] += ax * my - ay * mx
+        for q in range(p):
+            d0 = A[q, 1] * pz - A[q, 2] * py - C[q, 0]
+            d1 = A[q, 2] * px - A[q, 0] * pz - C[q, 1]
+            d2 = A[q, 0] * py - A[q, 1] * px - C[q, 2]
+            J[r0, q] = R[0, 0] * d0 + R[0, 1] * d1 + R[0, 2] * d2
+            J[r0 + 1, q] = R[1, 0] * d0 + R[1, 1] * d1 + R[1, 2] * d2
+            J[r0 + 2, q] = R[2, 0] * d0 + R[2, 1] * d1 + R[2, 2] * d2
     m = np.zeros(3)
     for j in range(n):
         for c3 in range(3):
@@ -842,11 +854,33 @@ def _law_columns(s, knots, values, free_knots):
     n = s.shape[0]
     p = m + (m - 2 if free_knots else 0)
     G = np.zeros((n - 1, p))
-    e = np.zeros(m)
+    I = np.empty(n)
     for j in range(m):
-        e[:] = 0.0
-        e[j] = 1.0
-        G[:, j] = _pwl_step_means(s, knots, e)
+        # the step means of the hat of knot j (as _pwl_step_means of the unit vector, the same
+        # arithmetic): its integral is 0 up to knots[j-1] and constant from knots[j+1]
+        lo = knots[j - 1] if j > 0 else knots[0]
+        hi = knots[j + 1] if j < m - 1 else knots[m - 1]
+        i0 = 0 if j == 0 else 0.5 * (knots[j] - knots[j - 1]) * (0.0 + 1.0)
+        after = i0 + (0.5 * (knots[j + 1] - knots[j]) * (1.0 + 0.0) if j < m - 1 else 0.0)
+        for i in range(n):
+            x = s[i]
+            if x <= lo and j > 0:
+                I[i] = 0.0
+            elif x >= hi and j < m - 1:
+                I[i] = after
+            else:
+                x = min(max(x, knots[0]), knots[m - 1])
+                if j > 0 and x <= knots[j]:
+                    a = j - 1  # the rising half: values 0 -> 1
+                    d = knots[j] - knots[a]
+                    v = 0.0 + (1.0 - 0.0) * (x - knots[a]) / d if d > 0 else 0.0
+                    I[i] = 0.0 + 0.5 * (x - knots[a]) * (0.0 + v)
+                else:
+                    d = knots[j + 1] - knots[j] if j < m - 1 else 0.0
+                    v = 1.0 + (0.0 - 1.0) * (x - knots[j]) / d if d > 0 else 1.0
+                    I[i] = i0 + 0.5 * (x - knots[j]) * (1.0 + v)
+        for i in range(n - 1):
+            G[i, j] = (I[i + 1] - I[i]) / (s[i + 1] - s[i])
     if free_knots:
         for k in range(1, m - 1):
             t0, t1, t2 = knots[k - 1], knots[k], knots[k + 1]
@@ -1213,8 +1247,8 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
     path_k = penalty_path(prep.Ck, kmax=max_segments)
     path_t = penalty_path(prep.Ct, kmax=max_segments)
     # continuity may merge segments, so several path entries can give one law: keep each once
-    ik, laws_k = _distinct_laws(s, fr.kappa, prep.wk, path_k, "kappa")
-    it, laws_t = _distinct_laws(s, fr.tau, prep.wt, path_t, "tau")
+    laws_k = _DistinctLaws(s, fr.kappa, prep.wk, path_k, "kappa")
+    laws_t = _DistinctLaws(s, fr.tau, prep.wt, path_t, "tau")
     n = s.size
     sst = float(np.sum((prep.data - prep.data.mean(axis=0)) ** 2))
     rows: list[list[float]] = []
@@ -1274,9 +1308,9 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
     while not (criterion == "r2" and cur[3] >= target_r2) and len(rows) < max_candidates:
         a0, b0 = state
         tried = [((a0 + d, b0), from_path(a0 + d, b0, cur, "k"))
-                 for d in range(1, lookahead + 1) if a0 + d < len(laws_k)]
+                 for d in range(1, lookahead + 1) if laws_k.has(a0 + d)]
         tried += [((a0, b0 + d), from_path(a0, b0 + d, cur, "t"))
-                  for d in range(1, lookahead + 1) if b0 + d < len(laws_t)]
+                  for d in range(1, lookahead + 1) if laws_t.has(b0 + d)]
         if refine and insertions:
             for which, found in zip("kt", _best_insertions(prep, cur[0], cur[1])):
                 law = cur[0] if which == "k" else cur[1]
@@ -1300,7 +1334,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
     lk, lt, irow = cur[0], cur[1], cur[5]
     rows[irow][5] = 1.0
     candidates = np.array(rows)
-    pa, pb = ik[a], it[b]
+    pa, pb = laws_k.idx[a], laws_t.idx[b]
     rk = (path_k.penalty_lo[pa], path_k.penalty_hi[pa])
     rt = (path_t.penalty_lo[pb], path_t.penalty_hi[pb])
     return {"prep": prep, "lk": lk, "lt": lt, "bounds_k": path_k.bounds[pa], "bounds_t": path_t.bounds[pb],
@@ -1489,15 +1523,43 @@ def _merge_knots(a, b, min_gap):
 
 def _distinct_laws(s, y, w, path, kind):
     """Continuous laws of a penalty path, one per distinct knot set (path indices kept)."""
-    idx, laws, seen = [], [], set()
-    for i, b in enumerate(path.bounds):
-        law = join_segments(s, y, b, weights=w, kind=kind)
-        key = tuple(np.round(law.knots_mm, 9))
-        if key not in seen:
-            seen.add(key)
-            idx.append(i)
-            laws.append(law)
-    return idx, laws
+    laws = _DistinctLaws(s, y, w, path, kind)
+    laws.has(len(path.bounds))
+    return laws.idx, laws.laws
+
+
+class _DistinctLaws:
+    """The continuous laws of a penalty path, one per distinct knot set, made on demand.
+
+    The forward search looks at the first few entries of a path only; each law
+    costs a join and a refit, so they are made in path order as far as asked.
+    ``laws[a]`` is the ``a``-th distinct law, ``idx[a]`` its index in the path.
+    """
+
+    def __init__(self, s, y, w, path, kind):
+        self.s, self.y, self.w, self.path, self.kind = s, y, w, path, kind
+        self.idx: list[int] = []
+        self.laws: list[PiecewiseLinearLaw] = []
+        self._seen: set = set()
+        self._next = 0
+
+    def has(self, a: int) -> bool:
+        """Is there an ``a``-th distinct law (made if needed)?"""
+        while len(self.laws) <= a and self._next < len(self.path.bounds):
+            i = self._next
+            self._next += 1
+            law = join_segments(self.s, self.y, self.path.bounds[i], weights=self.w, kind=self.kind)
+            key = tuple(np.round(law.knots_mm, 9))
+            if key not in self._seen:
+                self._seen.add(key)
+                self.idx.append(i)
+                self.laws.append(law)
+        return a < len(self.laws)
+
+    def __getitem__(self, a: int) -> PiecewiseLinearLaw:
+        if not self.has(a):
+            raise IndexError(a)
+        return self.laws[a]
 
 
 # ---------------------------------------------------------------- the paper's grid search

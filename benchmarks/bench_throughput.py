@@ -1,0 +1,213 @@
+"""Throughput of the default reconstruction on one core, against the cost of decoding.
+
+    .venv/bin/python benchmarks/bench_throughput.py            # everything (a few minutes)
+    .venv/bin/python benchmarks/bench_throughput.py sequence   # 1. only
+    .venv/bin/python benchmarks/bench_throughput.py scaling    # 2. only
+
+1. A 60-frame S3 phantom (three 1080p views, self-crossings), the default
+   method, one core (``cv2.setNumThreads(1)``, single-threaded BLAS and numba):
+   the decode time of the frames (every frame of every view read in order),
+   the whole per-frame cost of the frame loop (reading + 2D + matching +
+   triangulation + fit, as ``reconstruct`` with ``--workers 1`` runs it), and
+   the same with ``frames.step: 3`` (skipped frames grabbed, not decoded to
+   images). Prints the ratio to decoding (target: at most 4x) and frames per
+   second (target: at least 10). Both CPU time of this process (what one core
+   pays, robust to a shared machine) and wall time are printed.
+2. How the cost of one frame grows (synthetic tube views through the IJCV25
+   rig, median of repetitions): with the points per curve (100-1000), the
+   tendril's length in pixels, and the number of views (2-6). Prints each
+   table with the cost per unit (per point, per px, per view) so that a
+   growing column shows where the growth stops being linear.
+
+Numbers on a machine shared with other jobs are upper bounds: compare the
+ratios, which are measured in the same run.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import types  # noqa: E402
+
+import tendrilkit.pipeline as _pipeline  # noqa: E402
+from tendrilkit.camera import Camera  # noqa: E402
+from tendrilkit.phantom import render_tube_views  # noqa: E402
+from tendrilkit.pipeline import _iter_chunk, _warm_up, reconstruct_frame  # noqa: E402
+
+# the pipeline's per-stage timings in CPU seconds of this process (one core), not wall
+# seconds, which a shared machine inflates: a benchmark-only substitution
+_pipeline.time = types.SimpleNamespace(perf_counter=time.process_time)
+
+REPEATS = 5
+
+
+def _clocks():
+    return time.perf_counter(), time.process_time()
+
+
+def _since(t0):
+    w, c = _clocks()
+    return w - t0[0], c - t0[1]
+
+
+def decode_all(videos, frames) -> tuple[float, float]:
+    """Read ``frames`` of every view in order, as the frame loop does (wall s, CPU s)."""
+    from tendrilkit.io import open_views
+
+    t0 = _clocks()
+    sources = open_views(list(videos))
+    try:
+        for f in frames:
+            for s in sources:
+                s.read(f)
+    finally:
+        for s in sources:
+            s.close()
+    return _since(t0)
+
+
+def frame_loop(exp, cameras, frames) -> tuple[float, float, list]:
+    """The frame loop of ``reconstruct --workers 1`` (reading included; no files written)."""
+    t0 = _clocks()
+    results = list(_iter_chunk(frames, [None] * exp.n_views, exp, cameras, True))
+    w, c = _since(t0)
+    return w, c, results
+
+
+def sequence(site: str = "S3", n_frames: int = 60) -> None:
+    from tendrilkit.calibration import calibrate_experiment
+    from tendrilkit.params import load_experiment
+    from tendrilkit.phantom import write_phantom_experiment
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench_throughput_"))
+    print(f"1. {site} phantom, {n_frames} frames: writing the experiment ...", flush=True)
+    exp = load_experiment(write_phantom_experiment(site, tmp, n_frames=n_frames, seed=0))
+    cameras = calibrate_experiment(exp).cameras
+    _warm_up(True)
+    frames = list(range(n_frames))
+    w, h = cv2.VideoCapture(str(exp.videos[0])).get(cv2.CAP_PROP_FRAME_WIDTH), None
+    rows = []
+    for step in (1, 3):
+        sel = frames[::step]
+        dec = [decode_all(exp.videos, sel) for _ in range(3)]
+        loop_w, loop_c, results = frame_loop(exp, cameras, sel)
+        dec_w = float(np.median([d[0] for d in dec]))
+        dec_c = float(np.median([d[1] for d in dec]))
+        # the decode reference reads the selected frames as the loop does (step > 1: the skipped
+        # frames grabbed, io.FrameSource), so the ratio is the cost of everything but reading
+        stages: dict = {}
+        for r in results:
+            for k, v in r.timings.items():
+                stages.setdefault(k, []).append(v)
+        n_ok = sum(r.status == "ok" for r in results)
+        rows.append((step, len(sel), dec_w, dec_c, loop_w, loop_c, n_ok, stages))
+    print(f"   views {len(exp.videos)} x {int(w)} px wide, {exp.points} points, one core "
+          f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
+    for step, n, dec_w, dec_c, loop_w, loop_c, n_ok, stages in rows:
+        per_c, per_w = loop_c / n, loop_w / n
+        print(f"   step {step}: {n} frames ({n_ok} ok); reading the 3 views: {1e3 * dec_c / n:.1f} ms/frame CPU "
+              f"({1e3 * dec_w / n:.1f} wall); whole frame incl. decoding: {1e3 * per_c:.1f} ms/frame CPU "
+              f"({1e3 * per_w:.1f} wall) = {loop_c / dec_c:.2f}x decode CPU ({loop_w / dec_w:.2f}x wall) "
+              f"[target <= 4x]; {1 / per_c:.1f} frames/s per core CPU ({1 / per_w:.1f} wall) [target >= 10]")
+        split = ", ".join(f"{k} {1e3 * np.median(v):.1f}" for k, v in stages.items())
+        print(f"      stages (median CPU ms, reading excluded): {split}")
+
+
+# ------------------------------------------------------------------ scaling
+
+
+def tube(length_scale: float = 1.0) -> np.ndarray:
+    """The curled tube of bench_reconstruct, its size scaled about its base."""
+    s = np.linspace(0, 1, 3000)
+    th = np.clip(s - 0.4, 0, None) * 6 * np.pi
+    X = np.c_[-5 + 50 * s, 6 * np.sin(th), 20 + 6 * (1 - np.cos(th))]
+    return X[0] + length_scale * (X - X[0])
+
+
+def turned_cameras(cams: list[Camera], n_views: int, centre: np.ndarray) -> list[Camera]:
+    """``n_views`` cameras: the rig's, then the reference view turned about the scene's vertical axis."""
+    out = list(cams[:n_views])
+    ref = cams[1]
+    axis = ref.R.T @ np.array([0.0, -1.0, 0.0])          # the reference image's up direction, in the world
+    for k in range(len(out), n_views):
+        ang = np.deg2rad((-1) ** k * 12.0 * (1 + k // 2))
+        Q = cv2.Rodrigues(axis * ang)[0]
+        out.append(Camera(K=ref.K, dist=ref.dist, R=ref.R @ Q, t_mm=ref.R @ (centre - Q @ centre) + ref.t_mm,
+                          width=ref.width, height=ref.height))
+    return out[:n_views]
+
+
+def time_frame(images, cams, exp) -> tuple[float, str, dict]:
+    reconstruct_frame(images, cams, exp, frame=1)   # warm-up
+    totals, stages = [], {}
+    for _ in range(REPEATS):
+        t0 = time.process_time()
+        r = reconstruct_frame(images, cams, exp, frame=1)
+        totals.append(time.process_time() - t0)
+        for k, v in r.timings.items():
+            stages.setdefault(k, []).append(v)
+    return float(np.median(totals)), r.status, {k: float(np.median(v)) for k, v in stages.items()}
+
+
+def _row(label, x, t, status, stages, unit):
+    top = sorted(stages.items(), key=lambda kv: -kv[1])[:3]
+    print(f"   {label:>8} {x:>8.0f}  {1e3 * t:8.1f} ms  {1e6 * t / x:9.2f} us/{unit}  {status:8s} "
+          + ", ".join(f"{k} {1e3 * v:.1f}" for k, v in top))
+
+
+def scaling() -> None:
+    from tendrilkit.calibration import ijcv25_rig
+
+    rig = ijcv25_rig()
+    X = tube()
+    images, cams, exp = render_tube_views(X, width_px=9, margin_px=40, name="bench", fps=30)
+    print("2. cost of one frame (CPU ms, median of", REPEATS, "runs; the three largest stages, CPU ms)")
+    print("   points per curve (synthetic tube, 3 views):")
+    for n in (100, 200, 400, 700, 1000):
+        e = exp.model_copy(update={"points": n})
+        t, st, sg = time_frame(images, cams, e)
+        _row("points", n, t, st, sg, "point")
+    print("   tendril length in the reference view (px), 200 points:")
+    for scale in (0.5, 1.0, 1.5, 2.0, 2.5):
+        Xs = tube(scale)
+        p = rig[1].project(Xs)
+        inside = np.all((p >= 0) & (p < [rig[1].width, rig[1].height]))
+        if not inside:
+            continue
+        L = float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
+        im, cm, e = render_tube_views(Xs, width_px=9, margin_px=40, name="bench", fps=30)
+        t, st, sg = time_frame(im, cm, e)
+        _row("length", L, t, st, sg, "px")
+    print("   number of views (the rig, then the reference view turned about the vertical), 200 points:")
+    centre = X.mean(axis=0)
+    for nv in (2, 3, 4, 5, 6):
+        cm = turned_cameras(rig, nv, centre)
+        im, cm, e = render_tube_views(X, width_px=9, margin_px=40, name="bench", fps=30, cameras=cm)
+        t, st, sg = time_frame(im, cm, e)
+        _row("views", nv, t, st, sg, "view")
+
+
+def main(argv: list[str]) -> None:
+    cv2.setNumThreads(1)
+    what = argv[0] if argv else "all"
+    if what in ("all", "sequence"):
+        sequence()
+    if what in ("all", "scaling"):
+        scaling()
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
