@@ -22,6 +22,7 @@ from pydantic import (
     ConfigDict,
     Field,
     ValidationError,
+    ValidationInfo,
     field_validator,
     model_validator,
 )
@@ -63,6 +64,14 @@ class CameraIntrinsics(_Strict):
     cy: float
     dist: list[float] = Field(default_factory=lambda: [0.0] * 5)
 
+    @field_validator("fx", "fy", mode="before")
+    @classmethod
+    def _placeholder(cls, v):
+        if v == 0:
+            raise ValueError("a placeholder: calibrate this camera with `python -m tendrilkit intrinsics BOARD_VIDEO "
+                             "--board ... --view N --write EXPERIMENT.yaml` (expected the focal length in px, > 0)")
+        return v
+
     @field_validator("dist")
     @classmethod
     def _dist(cls, v: list[float]) -> list[float]:
@@ -89,12 +98,17 @@ class Marker(_Strict):
 
 
 class ViewMarks(_Strict):
-    """What a user marks on the first frame of one view (pixels)."""
+    """What a user marks on the first frame of one view (pixels).
+
+    ``roi`` and ``base_point`` are required, except when the file is loaded
+    with ``marks_optional=True`` (the ``marks`` and ``check`` commands, which
+    suggest them); ``keep_out`` is optional (none: no keep-out box).
+    """
 
     view: int = Field(ge=1)
-    roi: tuple[int, int, int, int]
+    roi: tuple[int, int, int, int] | None = None
     keep_out: tuple[int, int, int, int] | None = None
-    base_point: tuple[float, float]
+    base_point: tuple[float, float] | None = None
 
     @field_validator("roi", "keep_out")
     @classmethod
@@ -312,7 +326,7 @@ class Experiment(_Strict):
         return v
 
     @model_validator(mode="after")
-    def _counts(self) -> "Experiment":
+    def _counts(self, info: ValidationInfo) -> "Experiment":
         n = len(self.videos)
         if n < 2:
             raise ValueError(f"videos: expected at least 2 views, got {n}")
@@ -326,6 +340,12 @@ class Experiment(_Strict):
             raise ValueError(f"reference_view: expected 1..{n}, got {self.reference_view}")
         if self.extrinsics is not None and len(self.extrinsics.files) != n:
             raise ValueError(f"extrinsics.files: expected one file per video ({n}), got {len(self.extrinsics.files)}")
+        if not (info.context or {}).get("marks_optional"):
+            for i, m in enumerate(self.views):
+                for key in ("roi", "base_point"):
+                    if getattr(m, key) is None:
+                        raise ValueError(f"views[{i}].{key}: required key is missing (`python -m tendrilkit marks "
+                                         f"EXPERIMENT.yaml` suggests the marks of every view)")
         return self
 
     @property
@@ -403,20 +423,50 @@ def _format_error(err: dict, data: Any) -> str:
     shown = f"{value!r}" if found else "nothing"
     if len(shown) > 80:
         shown = shown[:77] + "..."
-    if kind == "value_error" and msg.startswith(tuple(f"{k}:" for k in ("videos", "cameras", "views", "reference_view", "extrinsics.files"))):
+    if kind == "value_error" and (msg.startswith(tuple(f"{k}:" for k in ("videos", "cameras", "views", "reference_view", "extrinsics.files")))
+                                  or msg.startswith("views[")):
         return msg
     return f"{key}: {msg.lower() if msg[:1].isupper() and not msg[:2].isupper() else msg} (got {shown})"
 
 
-def parse_experiment(data: Any, *, source: Path | None = None) -> Experiment:
-    """Validate an already-parsed experiment mapping; paths resolve against ``source``'s folder."""
+def _lenient(data: dict) -> dict:
+    """``marks_optional``: missing ``views`` entries and placeholder intrinsics (``fx: 0``) stand in."""
+    data = dict(data)
+    videos = data.get("videos")
+    n = len(videos) if isinstance(videos, list) else 0
+    if "views" not in data or data["views"] is None:
+        data["views"] = [{"view": i + 1} for i in range(n)]
+    cams = data.get("cameras")
+    if isinstance(cams, list):
+        fixed = []
+        for c in cams:
+            if isinstance(c, dict):
+                c = dict(c)
+                for k in ("fx", "fy"):
+                    if c.get(k) in (0, None):
+                        c[k] = 1.0  # a placeholder of `init`; marks and suggestions never use intrinsics
+            fixed.append(c)
+        data["cameras"] = fixed
+    return data
+
+
+def parse_experiment(data: Any, *, source: Path | None = None, marks_optional: bool = False) -> Experiment:
+    """Validate an already-parsed experiment mapping; paths resolve against ``source``'s folder.
+
+    ``marks_optional``: the ``views:`` marks (``roi``, ``base_point``, and the
+    whole section) may be missing and the intrinsics may be ``init``'s
+    placeholders (``fx: 0``); for the ``marks`` command, which suggests them.
+    ``reconstruct`` and the others load strictly.
+    """
     where = f"{source}: " if source is not None else ""
     if data is None:
         raise ExperimentError(f"{where}the experiment file is empty")
     if not isinstance(data, dict):
         raise ExperimentError(f"{where}expected a mapping of keys (name:, videos:, ...) at the top level, got {type(data).__name__}")
+    if marks_optional:
+        data = _lenient(data)
     try:
-        exp = Experiment.model_validate(data)
+        exp = Experiment.model_validate(data, context={"marks_optional": marks_optional})
     except ValidationError as e:
         errors = e.errors()
         first = _format_error(errors[0], data)
@@ -438,7 +488,7 @@ def parse_experiment(data: Any, *, source: Path | None = None) -> Experiment:
     return exp.model_copy(update=update)
 
 
-def load_experiment(path: str | Path, *, check_files: bool = True) -> Experiment:
+def load_experiment(path: str | Path, *, check_files: bool = True, marks_optional: bool = False) -> Experiment:
     """Read and validate an experiment YAML file.
 
     Parameters
@@ -447,6 +497,8 @@ def load_experiment(path: str | Path, *, check_files: bool = True) -> Experiment
         The experiment file; relative paths inside it are relative to it.
     check_files : bool, keyword-only
         Also check that every video and extrinsics file exists.
+    marks_optional : bool, keyword-only
+        See :func:`parse_experiment` (the ``marks`` command).
 
     Raises
     ------
@@ -469,7 +521,7 @@ def load_experiment(path: str | Path, *, check_files: bool = True) -> Experiment
         line = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
         problem = getattr(e, "problem", None) or str(e).splitlines()[0]
         raise ExperimentError(f"{path}: YAML syntax error at {line}{problem}") from None
-    exp = parse_experiment(data, source=path.resolve())
+    exp = parse_experiment(data, source=path.resolve(), marks_optional=marks_optional)
     if check_files:
         for i, v in enumerate(exp.videos):
             if not v.exists():
