@@ -239,6 +239,8 @@ def board_poses(board: Board, camera: Camera, n: int, *, seed: int = 0, cells: s
         half_x = 0.5 * frac + 0.05
         half_y = 0.5 * frac * (h_mm / w_mm) * (W / H) + 0.05
         lo_x, hi_x = half_x, 1 - half_x
+        if cells == "centre-right":  # the board's left edge stays right of the image's left third
+            lo_x = min(max(lo_x, 0.36 + half_x), hi_x)
         lo_y, hi_y = min(half_y, 0.5), max(1 - half_y, 0.5)
         tx = lo_x + (hi_x - lo_x) * (i / 2) + rng.uniform(-0.03, 0.03)
         ty = lo_y + (hi_y - lo_y) * (j / 2) + rng.uniform(-0.03, 0.03)

@@ -34,7 +34,7 @@ import numpy as np
 
 from tendrilkit.boards import Board, detect_board, parse_board
 
-__all__ = ["BoardDetection", "IntrinsicsResult", "select_views", "calibrate_views", "coverage", "verdict",
+__all__ = ["BoardDetection", "IntrinsicsResult", "select_views", "calibrate_views", "coverage", "verdict", "calibrate_source",
            "detect_in_frames", "run_intrinsics"]
 
 #: Fewest good views for a calibration.
@@ -276,6 +276,41 @@ def _sample_frames(src, n_samples: int):
             continue
 
 
+def calibrate_source(source: str | Path, board: Board, *, max_frames: int = 200,
+                     max_views: int = 40) -> tuple[IntrinsicsResult | None, dict, list[str], tuple[int, int]]:
+    """Detect, select, calibrate and judge one board video.
+
+    Returns
+    -------
+    result : IntrinsicsResult or None
+        None when fewer than 4 frames show the board.
+    coverage : dict
+        :func:`coverage` of the views used (of every detection when no result).
+    problems : list of str
+        :func:`verdict` ([] = ok).
+    image_size : (width, height)
+    """
+    from tendrilkit.io import FrameSource
+
+    with FrameSource(source) as src:
+        size = (src.width, src.height)
+        dets, n_seen = detect_in_frames(_sample_frames(src, max_frames), board)
+    chosen = select_views(dets, size, max_views=max_views)
+    result = None
+    if len(chosen) >= 4:
+        r = calibrate_views(chosen, board, size)
+        result = IntrinsicsResult(**{**r.__dict__, "n_detected": len(dets), "n_sampled": n_seen})
+        kept = set(result.frames.tolist())
+        cov = coverage([d for d in chosen if d.frame in kept], size)
+        problems = verdict(result, cov, len(result.frames))
+    else:
+        cov = coverage(dets, size)
+        problems = verdict(None, cov, len(dets))
+        problems.insert(0, f"board {board.text}: found in {len(dets)} of {n_seen} frames looked at "
+                           "(is the --board right? squares and inner corners are counted as in its help)")
+    return result, cov, problems, size
+
+
 def run_intrinsics(source: str | Path, board_text: str, *, view: int = 1, write: str | Path | None = None,
                    max_frames: int = 200, max_views: int = 40) -> tuple[int, str]:
     """``python -m tendrilkit intrinsics``: calibrate one camera from a board video.
@@ -309,7 +344,7 @@ def run_intrinsics(source: str | Path, board_text: str, *, view: int = 1, write:
         Unreadable source, malformed board, a ``--write`` file that cannot be edited.
     """
     from tendrilkit.exceptions import ExperimentError
-    from tendrilkit.io import FrameSource, read_text, write_text
+    from tendrilkit.io import read_text, write_text
     from tendrilkit.templates import camera_entry, set_camera_entry
 
     try:
@@ -318,20 +353,8 @@ def run_intrinsics(source: str | Path, board_text: str, *, view: int = 1, write:
         raise ExperimentError(str(e)) from None
     if view < 1:
         raise ExperimentError(f"--view: expected a view number 1, 2, ..., got {view}")
-    with FrameSource(source) as src:
-        size = (src.width, src.height)
-        dets, n_seen = detect_in_frames(_sample_frames(src, max_frames), board)
-    chosen = select_views(dets, size, max_views=max_views)
-    result = None
-    if len(chosen) >= 4:
-        r = calibrate_views(chosen, board, size)
-        result = IntrinsicsResult(**{**r.__dict__, "n_detected": len(dets), "n_sampled": n_seen})
-    used = [d for d in chosen if result is not None and d.frame in set(result.frames.tolist())] if result else chosen
-    cov = coverage(used if result is not None else dets, size)
-    problems = verdict(result, cov, len(result.frames) if result is not None else len(dets))
+    result, cov, problems, size = calibrate_source(source, board, max_frames=max_frames, max_views=max_views)
     lines = [f"{source}: {size[0]}x{size[1]}"] + summary_lines(result, cov, board)
-    if result is None:
-        lines.append(f"board {board.text}: found in {len(dets)} of {n_seen} frames looked at")
     if problems:
         lines += [f"NOT OK: {p}" for p in problems]
         if result is not None:
@@ -343,7 +366,7 @@ def run_intrinsics(source: str | Path, board_text: str, *, view: int = 1, write:
     if write is not None:
         path = Path(write)
         old = read_text(path) if path.exists() else None
-        note = (f"view {view}: {size[0]}x{size[1]}, board {board.text}, {len(result.frames)} frames, "
+        note = (f"{size[0]}x{size[1]}, board {board.text}, {len(result.frames)} frames, "
                 f"RMS {result.rms_px:.3f} px")
         write_text(set_camera_entry(old, view, result.K, result.dist, note=note, where=str(path)), path)
         lines.append(f"wrote the view {view} entry into {path}")

@@ -50,7 +50,7 @@ def _block(lines: list[str], key: str) -> tuple[int, int] | None:
     if start is None:
         return None
     end = start + 1
-    while end < len(lines) and not (lines[end].strip() and not lines[end][0].isspace()):
+    while end < len(lines) and not (lines[end].strip() and not lines[end][0].isspace() and lines[end][0] != "-"):
         end += 1
     # trailing blank / comment-only lines at column 0 belong to what follows
     while end - 1 > start and (not lines[end - 1].strip()):
