@@ -575,3 +575,25 @@ def views_yaml_snippet(exp: Experiment) -> str:
         parts.append(f"base_point: {[round(float(c), 1) for c in m.base_point]}")
         lines.append("  - {" + ", ".join(parts) + "}")
     return "\n".join(lines)
+
+
+def load_intrinsics_file(path: str | Path) -> list[CameraIntrinsics]:
+    """The ``cameras:`` entries of a YAML file (an intrinsics file of
+    ``python -m tendrilkit intrinsics --write``, or an experiment file)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ExperimentError(f"{path}: intrinsics file not found")
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as e:
+        raise ExperimentError(f"{path}: cannot read the intrinsics file ({e.__class__.__name__})") from None
+    cams = data.get("cameras") if isinstance(data, dict) else None
+    if not isinstance(cams, list) or not cams:
+        raise ExperimentError(f"{path}: expected a cameras: list (written by `python -m tendrilkit intrinsics --write`)")
+    out = []
+    for i, c in enumerate(cams):
+        try:
+            out.append(CameraIntrinsics.model_validate(c))
+        except ValidationError as e:
+            raise ExperimentError(f"{path}: {_format_error(e.errors()[0], {'cameras': cams}).replace('(top level)', f'cameras[{i}]')}") from None
+    return out
