@@ -21,7 +21,9 @@ selected frames (the first processed frame first):
 6. ``roi``: the swept region's box grown by ``margin_px`` (40 px, or 8 % of
    the image's smaller side if more); ``base_point``: the centre of the
    place where the first frame's tendril touches a thick structure, the
-   one around which least moved; ``keep_out``: a box around that place,
+   one around which least moved (the visible emergence: where the tendril
+   starts behind the stem, e.g. on a node's far side, is not seen);
+   ``keep_out``: a box around that place,
    grown until, outside it, the tendril stays 2 px away from every thick
    structure in every sampled frame.
 
@@ -168,6 +170,7 @@ def suggest_view_marks(frames_bgr: list[np.ndarray], *, channel: str = "blue", m
         if score is None or s < score:
             best, score = k, s
     ys, xs = np.nonzero(lab == best)
+    # the visible emergence; the true base may lie a little further, hidden by the stem
     base = [float(np.round(xs.mean(), 1)), float(np.round(ys.mean(), 1))]
     bx0, by0, bx1, by1 = xs.min() - 2, ys.min() - 2, xs.max() + 2, ys.max() + 2
     ring = _disk(2)

@@ -416,7 +416,8 @@ def _format_error(err: dict, data: Any) -> str:
         hint = _SHAPES.get(str(parent[-1]) if parent else "", "a different number of items")
         return f"{_loc(parent)}: expected {hint} (got {pvalue!r})"
     if kind == "missing":
-        return f"{key}: required key is missing"
+        hint = " (`python -m tendrilkit marks EXPERIMENT.yaml` suggests the marks of every view)" if key == "views" else ""
+        return f"{key}: required key is missing{hint}"
     msg = err["msg"]
     if msg.startswith("Value error, "):
         msg = msg[len("Value error, "):]

@@ -62,7 +62,10 @@ def test_marks_suggested_for_missing_and_careless_marks_reconstruct_as_well(scen
                         .replace(f"keep_out: {list(v3.keep_out)}, ", ""))
     # a file with missing marks is refused by reconstruct with one line naming the key and the fix
     assert cli.main(["reconstruct", str(missing), "--out", str(tmp_path / "r0")]) == 2
-    assert "views[0].roi: required key is missing" in capsys.readouterr().err
+    assert "views: required key is missing (`python -m tendrilkit marks" in capsys.readouterr().err
+    no_roi = _variant(scene, tmp_path, "no_roi", lambda s: s.replace(f"roi: {list(v1.roi)}, ", ""))
+    assert cli.main(["reconstruct", str(no_roi), "--out", str(tmp_path / "r0")]) == 2
+    assert "views[0].roi: required key is missing (`python -m tendrilkit marks" in capsys.readouterr().err
     rows = {}
     for name, path in (("hand-made", scene), ("missing", missing), ("careless", careless)):
         if name != "hand-made":
@@ -70,8 +73,9 @@ def test_marks_suggested_for_missing_and_careless_marks_reconstruct_as_well(scen
             out = capsys.readouterr().out
             assert code == 1
             fixed = path.read_text()
-            fixed = fixed[:fixed.index("views:")] + out[out.index("views:"):] + "\npoints: 200\n" \
-                if "views:" in fixed else fixed.replace("points: 200", out[out.index("views:"):] + "\npoints: 200")
+            block = out[out.index("\nviews:") + 1:]
+            fixed = fixed[:fixed.index("\nviews:") + 1] + block + "\npoints: 200\n" \
+                if "\nviews:" in fixed else fixed.replace("points: 200", block + "\npoints: 200")
             if name == "careless":
                 assert "view 1: roi suggested" in out and "view 2: base_point suggested" in out
                 assert "view 3: keep_out suggested" in out
