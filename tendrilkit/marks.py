@@ -45,7 +45,8 @@ import numpy as np
 from tendrilkit.exceptions import TendrilLostError
 from tendrilkit.segmentation import grey_image, segment_view
 
-__all__ = ["ViewSuggestion", "suggest_view_marks", "assess_marks", "run_marks", "run_init"]
+__all__ = ["ViewSuggestion", "ViewReview", "suggest_view_marks", "assess_marks", "review_marks", "review_block",
+           "run_marks", "run_init"]
 
 #: Frames sampled per view.
 N_SAMPLES = 8
@@ -310,33 +311,41 @@ def suggest_for_videos(videos: list[Path], *, start: int = 0, stop: int | None =
     return out
 
 
-def run_marks(experiment_path: str | Path, out_dir: str | Path | None = None) -> tuple[int, str]:
-    """``python -m tendrilkit marks``: pictures of the marks and the ``views:`` block to paste.
+@dataclass(frozen=True, eq=False)
+class ViewReview:
+    """One view's marks after review: ``image`` (first processed frame, BGR), ``user`` and
+    ``final`` marks (dicts of ``roi``, ``keep_out``, ``base_point``), ``suggestion``
+    (:class:`ViewSuggestion` or None), ``changed`` (what was suggested and why) and
+    ``line`` (the report's line)."""
 
-    Returns ``(exit_code, report)``: 0 when every view's marks hold as they
-    are, 1 when some are missing or doubtful (the block then holds the
-    suggestions for those; the pictures show them, the user's own dashed).
+    view: int
+    image: np.ndarray | None
+    user: dict
+    final: dict
+    suggestion: ViewSuggestion | None
+    changed: list
+    line: str
+
+
+def review_marks(exp) -> list[ViewReview]:
+    """Every view's marks checked against the suggestion (the ``marks`` command without files).
+
+    ``exp``: an experiment loaded with ``marks_optional=True``. The final
+    marks keep the user's where they hold and take the suggestion where they
+    are missing or doubtful; when the mix does not pick the tendril out on
+    the first frame, the view takes the whole suggestion.
     """
-    from tendrilkit.io import check_writable_dir, save_figure
-    from tendrilkit.params import load_experiment
-    from tendrilkit.plotting import plot_marks
-    from tendrilkit.templates import views_block
-
-    exp = load_experiment(experiment_path, marks_optional=True)
-    out = check_writable_dir(Path(out_dir) if out_dir is not None else Path(exp.source).parent / "marks")
     seg = exp.segmentation.model_dump()
     res = suggest_for_videos(list(exp.videos), start=exp.frames.start, stop=exp.frames.stop, step=exp.frames.step,
                              channel=exp.segmentation.channel, segmentation=seg)
-    lines, final, notes = [], [], []
-    any_change = False
+    out = []
     for v, (img, sug, _info) in enumerate(res):
         mk = exp.views[v]
         user = {"roi": list(mk.roi) if mk.roi else None, "keep_out": list(mk.keep_out) if mk.keep_out else None,
                 "base_point": list(mk.base_point) if mk.base_point else None}
         if sug is None or img is None:
-            lines.append(f"view {v + 1}: cannot read two frames to compare; marks left as they are")
-            final.append({"view": v + 1, **user})
-            notes.append("")
+            out.append(ViewReview(v + 1, img, user, dict(user), None, [],
+                                  f"view {v + 1}: cannot read two frames to compare; marks left as they are"))
             continue
         issues = assess_marks(user, sug, img, channel=exp.segmentation.channel, segmentation=seg)
         new = dict(user)
@@ -347,26 +356,68 @@ def run_marks(experiment_path: str | Path, out_dir: str | Path | None = None) ->
                 if val is not None:
                     new[key] = val
                     changed.append(f"{key} suggested ({why})")
+        if changed and all(new[k] is not None for k in ("roi", "base_point")):
+            ok, why = _try_marks(img, new["roi"], new["keep_out"], new["base_point"], sug.tendril0, sug.thick0,
+                                 exp.segmentation.channel, seg)
+            if not ok:  # your marks and the suggestion do not fit together: take the whole suggestion
+                new = {"roi": sug.roi, "keep_out": sug.keep_out, "base_point": sug.base_point}
+                changed = [f"all marks suggested (yours mixed with the suggestion: {why})"] + changed
+        parts = []
         if sug.problem:
-            lines.append(f"view {v + 1}: {sug.problem}")
+            parts.append(sug.problem)
         if changed:
-            any_change = True
-            lines.append(f"view {v + 1}: " + "; ".join(changed))
+            parts.append("; ".join(changed))
         elif issues:
-            any_change = True
-            lines.append(f"view {v + 1}: " + "; ".join(f"{k}: {w}" for k, w in issues.items()) + " (no suggestion)")
+            parts.append("; ".join(f"{k}: {w}" for k, w in issues.items()) + " (no suggestion)")
+        line = f"view {v + 1}: " + ("; ".join(parts) if parts else "marks OK")
+        out.append(ViewReview(v + 1, img, user, new, sug, changed if changed or not issues else ["doubtful"], line))
+    return out
+
+
+def review_block(reviews: list[ViewReview]) -> str:
+    """The ``views:`` block of reviewed marks, suggestions commented."""
+    from tendrilkit.templates import views_block
+
+    notes = []
+    for r in reviews:
+        if r.changed and r.changed[0].startswith("all"):
+            notes.append("suggested: roi, keep_out, base_point")
+        elif r.changed and r.changed != ["doubtful"]:
+            notes.append("suggested: " + ", ".join(c.split(" ")[0] for c in r.changed))
         else:
-            lines.append(f"view {v + 1}: marks OK")
-        final.append({"view": v + 1, **new})
-        notes.append("suggested: " + ", ".join(c.split(" ")[0] for c in changed) if changed else "")
-        fig = plot_marks(img, roi=new["roi"], keep_out=new["keep_out"], base_point_xy=new["base_point"],
-                         previous=user if changed else None, swept_mask=sug.swept,
-                         title=f"{exp.name}, view {v + 1}, frame {exp.frames.start}")
-        paths = save_figure(fig, out / f"view{v + 1}", formats=("png",))
+            notes.append("")
+    return views_block([{"view": r.view, **r.final} for r in reviews], notes=notes)
+
+
+def run_marks(experiment_path: str | Path, out_dir: str | Path | None = None) -> tuple[int, str]:
+    """``python -m tendrilkit marks``: pictures of the marks and the ``views:`` block to paste.
+
+    Returns ``(exit_code, report)``: 0 when every view's marks hold as they
+    are, 1 when some are missing or doubtful (the block then holds the
+    suggestions for those; the pictures show them, the user's own dashed).
+    """
+    from tendrilkit.io import check_writable_dir, save_figure
+    from tendrilkit.params import load_experiment
+    from tendrilkit.plotting import plot_marks
+
+    exp = load_experiment(experiment_path, marks_optional=True)
+    out = check_writable_dir(Path(out_dir) if out_dir is not None else Path(exp.source).parent / "marks")
+    reviews = review_marks(exp)
+    lines = []
+    for r in reviews:
+        lines.append(r.line)
+        if r.image is None:
+            continue
+        fig = plot_marks(r.image, roi=r.final["roi"], keep_out=r.final["keep_out"], base_point_xy=r.final["base_point"],
+                         previous=r.user if r.changed else None,
+                         swept_mask=r.suggestion.swept if r.suggestion is not None else None,
+                         title=f"{exp.name}, view {r.view}, frame {exp.frames.start}")
+        paths = save_figure(fig, out / f"view{r.view}", formats=("png",))
         lines.append(f"  picture: {paths[0]}")
+    any_change = any(r.changed for r in reviews)
     lines.append("paste into the experiment file (replacing its views:):" if any_change else
                  "the views: block as it stands:")
-    lines.append(views_block(final, notes=notes))
+    lines.append(review_block(reviews))
     return (1 if any_change else 0), "\n".join(lines)
 
 

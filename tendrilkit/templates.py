@@ -206,22 +206,22 @@ def experiment_template(out_path: str | Path, videos: list[str | Path], infos: l
     L.append("# Keys: ../shared/EXPERIMENT_FORMAT.md and tendrilkit/params.py; every other option has a default.")
     L.append("# Next: fill the cameras (intrinsics), check the marks (`python -m tendrilkit marks THIS_FILE`),")
     L.append("# then `python -m tendrilkit check THIS_FILE` and `python -m tendrilkit reconstruct THIS_FILE --out results/`.")
-    L.append(f"name: {name}                    # used for output folder names")
-    L.append("# stimulation_site: S3          # optional: S1..S4 (base -> tip), used by the reports")
-    L.append("videos:                         # one per view, in view order (paths relative to this file)")
+    L.append(f"{f'name: {name}':<32}# used for output folder names")
+    L.append(f"{'# stimulation_site: S3':<32}# optional: S1..S4 (base -> tip), used by the reports")
+    L.append(f"{'videos:':<32}# one per view, in view order (paths relative to this file)")
     for r, inf in zip(rel, infos):
         L.append(f"  - {r}    # {inf['width']}x{inf['height']}, {inf['frames']} frames"
                  + (f", {inf['fps']:g} fps in the file" if inf.get("fps") else ""))
     if fps is None:
-        L.append("fps: 1.0                        # TODO frames per second of the recording (image folders carry none)")
+        L.append(f"{'fps: 1.0':<32}# TODO frames per second of the recording (image folders carry none)")
     else:
         note = "" if len(fps_set) <= 1 else f"  (the videos disagree: {sorted(fps_set)})"
-        L.append(f"fps: {fps:g}                         # frames per second as stored in the video{note}; "
+        L.append(f"{f'fps: {fps:g}':<32}# frames per second as stored in the video{note}; "
                  "for a time-lapse put the capture rate (e.g. 0.2 = one frame every 5 s)")
-    L.append(f"reference_view: {min(2, len(videos))}               # 1-based: the view the others are matched to "
+    L.append(f"{f'reference_view: {min(2, len(videos))}':<32}# 1-based: the view the others are matched to "
              "(the middle camera)")
-    L.append("frames: {start: 0, stop: null, step: 1}   # 0-based, stop exclusive (null: to the end)")
-    L.append("cameras:                        # intrinsics per view, pixels; dist = OpenCV k1, k2, p1, p2, k3")
+    L.append("frames: {start: 0, stop: null, step: 1}  # 0-based, stop exclusive (null: to the end)")
+    L.append(f"{'cameras:':<32}# intrinsics per view, pixels; dist = OpenCV k1, k2, p1, p2, k3")
     for v, c in enumerate(cameras):
         if c is None:
             L.append(f"  - {{view: {v + 1}, fx: 0, fy: 0, cx: 0, cy: 0, dist: [0, 0, 0, 0, 0]}}   # PLACEHOLDER: run "
@@ -241,5 +241,5 @@ def experiment_template(out_path: str | Path, videos: list[str | Path], infos: l
         L.append("views:")
         for v in range(len(videos)):
             L.append(f"  - {{view: {v + 1}}}   # TODO: run `python -m tendrilkit marks THIS_FILE`")
-    L.append("points: 200                     # points per reconstructed curve")
+    L.append(f"{'points: 200':<32}# points per reconstructed curve")
     return "\n".join(L) + "\n"

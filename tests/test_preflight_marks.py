@@ -78,15 +78,27 @@ def test_marks_suggested_for_missing_and_careless_marks_reconstruct_as_well(scen
                 if "\nviews:" in fixed else fixed.replace("points: 200", block + "\npoints: 200")
             if name == "careless":
                 assert "view 1: roi suggested" in out and "view 2: base_point suggested" in out
-                assert "view 3: keep_out suggested" in out
+                assert "keep_out suggested" in out.split("view 3:")[1]
             path.write_text(fixed)
         assert run_reconstruct(path, tmp_path / f"r_{name}", workers=1, progress=False, fit=False) == 0
-        acc = accuracy_against_truth(read_csv(tmp_path / f"r_{name}" / "curves.csv"), truth)
-        rows[name] = (float(acc.mean_mm.mean()), float(acc.max_mm.max()))
-    print("accuracy (mean mm, max mm):", rows)
+        curves = read_csv(tmp_path / f"r_{name}" / "curves.csv")
+        acc = accuracy_against_truth(curves, truth)
+        # beyond the base end (the first 5 of 200 points): the base itself is where the marks
+        # differ by design (below)
+        body = accuracy_against_truth(curves[curves.point >= 5], truth)
+        rows[name] = {"mean_mm": float(acc.mean_mm.mean()), "max_mm": float(acc.max_mm.max()),
+                      "max_beyond_base_mm": float(body.max_mm.max()), "base_mm": float(acc.base_mm.max()),
+                      "tip_mm": float(acc.tip_mm.mean())}
+    print("accuracy vs ground truth:", rows)
+    hand = rows["hand-made"]
     for name in ("missing", "careless"):
-        assert rows[name][0] <= rows["hand-made"][0] * 1.25 + 0.02, rows
-        assert rows[name][1] <= rows["hand-made"][1] * 1.5 + 0.1, rows
+        r = rows[name]
+        assert r["mean_mm"] <= 1.25 * hand["mean_mm"] + 0.02, rows
+        assert r["max_beyond_base_mm"] <= 1.5 * hand["max_beyond_base_mm"] + 0.1, rows
+        assert r["tip_mm"] <= 1.5 * hand["tip_mm"] + 0.1, rows
+        # the phantom's hand-made base point is the projection of the true base, which lies
+        # hidden on the node (1.5 mm in); the suggestion marks the visible emergence
+        assert r["base_mm"] <= 2.0, rows
 
 
 def test_check_clean_phantom_all_ok(scene, capsys):
