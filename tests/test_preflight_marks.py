@@ -35,8 +35,8 @@ def _variant(scene: Path, tmp_path: Path, name: str, edit) -> Path:
 
 
 def _views(text: str) -> list[dict]:
-    block = text[text.index("views:"):]
-    return yaml.safe_load(block.split("\n\n")[0])["views"]
+    block = text[text.index("\nviews:") + 1:]
+    return yaml.safe_load(block)["views"]
 
 
 def test_marks_on_the_hand_made_file_says_ok(scene, tmp_path, capsys):
