@@ -93,10 +93,9 @@ def _intrinsics(exp, sizes) -> list:
 
 def check_lines(exp, *, n_trial: int = 2) -> list[tuple[bool, str]]:
     """Run every check of an experiment (loaded with ``marks_optional=True``); ``(ok, line)`` pairs."""
-    from tendrilkit.calibration import _pose_candidates, calibrate, detect_markers, marker_object_corners
+    from tendrilkit.calibration import _pose_candidates, calibrate, detect_markers
     from tendrilkit.camera import Camera
-    from tendrilkit.exceptions import ExperimentError, FrameError, FrameReadError
-    from tendrilkit.segmentation import segment_view
+    from tendrilkit.exceptions import ExperimentError, FrameReadError
 
     lines, srcs = _videos(exp)
     if any(s is None for s in srcs):
