@@ -81,6 +81,42 @@ _ACCEPT_HELP = ("use the calibration even if marker corners reproject beyond cal
                 "(same as max_corner_rms_px: null)")
 
 
+def _cmd_intrinsics(args: argparse.Namespace) -> int:
+    from tendrilkit.intrinsics import run_intrinsics
+
+    code, report = run_intrinsics(Path(args.source), args.board, view=args.view, write=args.write,
+                                  max_frames=args.max_frames)
+    print(report)
+    return code
+
+
+def _cmd_marks(args: argparse.Namespace) -> int:
+    from tendrilkit.marks import run_marks
+
+    code, report = run_marks(Path(args.experiment), Path(args.out) if args.out else None)
+    print(report)
+    return code
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    from tendrilkit.preflight import run_check
+
+    code, report = run_check(Path(args.experiment))
+    print(report)
+    return code
+
+
+def _cmd_init(args: argparse.Namespace) -> int:
+    from tendrilkit.marks import run_init
+
+    code, report = run_init([Path(v) for v in args.videos], Path(args.out), marker_id=args.marker_id,
+                            marker_mm=args.marker_mm, dictionary=args.dictionary,
+                            intrinsics=[Path(p) for p in args.intrinsics] if args.intrinsics else None,
+                            force=args.force)
+    print(report)
+    return code
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="tendrilkit", description="3D shape of tendrils from three calibrated views (Fan et al., IJCV 2025).")
     sub = p.add_subparsers(dest="command", required=True)
@@ -118,6 +154,33 @@ def build_parser() -> argparse.ArgumentParser:
     ba.add_argument("--workers", type=int, default=None)
     ba.add_argument("--notebooks", default=None, help="notebook collection to run (default: notebooks/)")
     ba.set_defaults(func=_cmd_batch)
+    it = sub.add_parser("intrinsics", help="calibrate one camera (K, distortion) from a video of a board")
+    it.add_argument("source", help="video or folder of numbered images of the board")
+    it.add_argument("--board", required=True,
+                    help="charuco:SQUARES_X,SQUARES_Y,SQUARE_MM,MARKER_MM,DICT or checkerboard:COLS,ROWS,SQUARE_MM (inner corners)")
+    it.add_argument("--view", type=int, default=1, help="view number of the cameras: entry (default 1)")
+    it.add_argument("--write", default=None, help="fill the entry into this experiment file (or a new intrinsics file)")
+    it.add_argument("--max-frames", type=int, default=200, help="frames looked at, spread over the video")
+    it.set_defaults(func=_cmd_intrinsics)
+
+    mk = sub.add_parser("marks", help="draw the marks on the first frame of every view and suggest missing or doubtful ones")
+    mk.add_argument("experiment")
+    mk.add_argument("--out", default=None, help="folder of the pictures (default: marks/ beside the experiment file)")
+    mk.set_defaults(func=_cmd_marks)
+
+    ck = sub.add_parser("check", help="preflight: videos, marker, poses, marks and a trial reconstruction, in seconds")
+    ck.add_argument("experiment")
+    ck.set_defaults(func=_cmd_check)
+
+    ini = sub.add_parser("init", help="a template experiment file from the videos, marks suggested")
+    ini.add_argument("videos", nargs="+", help="one video (or image folder) per view, in view order")
+    ini.add_argument("--out", required=True, help="the experiment file to write")
+    ini.add_argument("--marker-id", type=int, default=815)
+    ini.add_argument("--marker-mm", type=float, default=24.0, help="side of the world marker's black square, mm")
+    ini.add_argument("--dictionary", default="DICT_ARUCO_ORIGINAL")
+    ini.add_argument("--intrinsics", nargs="+", default=None, help="files written by `intrinsics --write`, one per view")
+    ini.add_argument("--force", action="store_true", help="overwrite an existing file")
+    ini.set_defaults(func=_cmd_init)
     return p
 
 

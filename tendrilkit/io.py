@@ -147,6 +147,44 @@ def open_views(paths: list[Path]) -> list[FrameSource]:
     return sources
 
 
+def write_video(frames, path: str | Path, *, fps: float = 10.0) -> int:
+    """Write BGR uint8 frames as a video (``.mp4``: mp4v, ``.avi``: MJPG) or, for a
+    path without a suffix, a folder of numbered PNG images (``000000.png``, ...).
+
+    Returns the number of frames written. The file appears only when complete.
+    """
+    path = Path(path)
+    n = 0
+    if not path.suffix:
+        path.mkdir(parents=True, exist_ok=True)
+        for n, img in enumerate(frames, start=1):
+            with atomic_path(path / f"{n - 1:06d}.png") as tmp:
+                if not cv2.imwrite(str(tmp.with_suffix(".png")), img):
+                    raise ExperimentError(f"{path}: cannot write frame {n - 1}")
+                tmp.with_suffix(".png").replace(tmp)
+        return n
+    fourcc = {".mp4": "mp4v", ".mov": "mp4v", ".avi": "MJPG"}.get(path.suffix.lower())
+    if fourcc is None:
+        raise ExperimentError(f"{path}: expected a .mp4, .mov or .avi file, or a folder (no suffix)")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.partial{path.suffix}")
+    writer = None
+    try:
+        for img in frames:
+            if writer is None:
+                writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*fourcc), float(fps), (img.shape[1], img.shape[0]))
+                if not writer.isOpened():
+                    raise ExperimentError(f"{path}: OpenCV cannot write {fourcc} video here")
+            writer.write(img)
+            n += 1
+    finally:
+        if writer is not None:
+            writer.release()
+    if n:
+        tmp.replace(path)
+    return n
+
+
 # ---------------------------------------------------------------- atomic writes
 def current_umask() -> int:
     """The process's umask (read without changing it where /proc allows)."""
@@ -220,6 +258,15 @@ def write_json(obj, path: str | Path) -> None:
 def write_text(text: str, path: str | Path) -> None:
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
+
+
+def read_text(path: str | Path) -> str:
+    """A text file (UTF-8); a missing or unreadable file is an :class:`ExperimentError`."""
+    path = Path(path)
+    try:
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise ExperimentError(f"{path}: cannot read the file ({e.__class__.__name__})") from None
 
 
 def read_csv(path: str | Path, *, required: tuple[str, ...] = ()) -> pd.DataFrame:

@@ -24,6 +24,7 @@ from pydantic import (
     ConfigDict,
     Field,
     ValidationError,
+    ValidationInfo,
     field_validator,
     model_validator,
 )
@@ -81,6 +82,14 @@ class CameraIntrinsics(_Strict):
     dist: list[Annotated[float, Field(ge=-L.MAX_DIST_COEFF, le=L.MAX_DIST_COEFF)]] = Field(
         default_factory=lambda: [0.0] * 5, max_length=14)
 
+    @field_validator("fx", "fy", mode="before")
+    @classmethod
+    def _placeholder(cls, v):
+        if v == 0:
+            raise ValueError("a placeholder: calibrate this camera with `python -m tendrilkit intrinsics BOARD_VIDEO "
+                             "--board ... --view N --write EXPERIMENT.yaml` (expected the focal length in px, > 0)")
+        return v
+
     @field_validator("dist")
     @classmethod
     def _dist(cls, v: list[float]) -> list[float]:
@@ -116,12 +125,17 @@ class Marker(_Strict):
 
 
 class ViewMarks(_Strict):
-    """What a user marks on the first frame of one view (pixels)."""
+    """What a user marks on the first frame of one view (pixels).
+
+    ``roi`` and ``base_point`` are required, except when the file is loaded
+    with ``marks_optional=True`` (the ``marks`` and ``check`` commands, which
+    suggest them); ``keep_out`` is optional (none: no keep-out box).
+    """
 
     view: int = Field(ge=1, le=100)
-    roi: tuple[PixelInt, PixelInt, PixelInt, PixelInt]
+    roi: tuple[PixelInt, PixelInt, PixelInt, PixelInt] | None = None
     keep_out: tuple[PixelInt, PixelInt, PixelInt, PixelInt] | None = None
-    base_point: tuple[Pixel, Pixel]
+    base_point: tuple[Pixel, Pixel] | None = None
 
     @field_validator("roi", "keep_out")
     @classmethod
@@ -367,7 +381,7 @@ class Experiment(_Strict):
         return v
 
     @model_validator(mode="after")
-    def _counts(self) -> "Experiment":
+    def _counts(self, info: ValidationInfo) -> "Experiment":
         n = len(self.videos)
         if n < 2:
             raise ValueError(f"videos: expected at least 2 views, got {n}")
@@ -381,6 +395,12 @@ class Experiment(_Strict):
             raise ValueError(f"reference_view: expected 1..{n}, got {self.reference_view}")
         if self.extrinsics is not None and len(self.extrinsics.files) != n:
             raise ValueError(f"extrinsics.files: expected one file per video ({n}), got {len(self.extrinsics.files)}")
+        if not (info.context or {}).get("marks_optional"):
+            for i, m in enumerate(self.views):
+                for key in ("roi", "base_point"):
+                    if getattr(m, key) is None:
+                        raise ValueError(f"views[{i}].{key}: required key is missing (`python -m tendrilkit marks "
+                                         f"EXPERIMENT.yaml` suggests the marks of every view)")
         return self
 
     @property
@@ -452,25 +472,56 @@ def _format_error(err: dict, data: Any) -> str:
         hint = _SHAPES.get(str(parent[-1]) if parent else "", "a different number of items")
         return f"{_loc(parent)}: expected {hint} (got {short_repr(pvalue)})"
     if kind == "missing":
-        return f"{key}: required key is missing"
+        hint = " (`python -m tendrilkit marks EXPERIMENT.yaml` suggests the marks of every view)" if key == "views" else ""
+        return f"{key}: required key is missing{hint}"
     msg = err["msg"]
     if msg.startswith("Value error, "):
         msg = msg[len("Value error, "):]
     shown = short_repr(value) if found else "nothing"
-    if kind == "value_error" and msg.startswith(tuple(f"{k}:" for k in ("videos", "cameras", "views", "reference_view", "extrinsics.files", "marker.id"))):
+    if kind == "value_error" and (msg.startswith(tuple(f"{k}:" for k in ("videos", "cameras", "views", "reference_view", "extrinsics.files", "marker.id")))
+                                  or msg.startswith("views[")):
         return msg
     return f"{key}: {msg.lower() if msg[:1].isupper() and not msg[:2].isupper() else msg} (got {shown})"
 
 
-def parse_experiment(data: Any, *, source: Path | None = None) -> Experiment:
-    """Validate an already-parsed experiment mapping; paths resolve against ``source``'s folder."""
+def _lenient(data: dict) -> dict:
+    """``marks_optional``: missing ``views`` entries and placeholder intrinsics (``fx: 0``) stand in."""
+    data = dict(data)
+    videos = data.get("videos")
+    n = len(videos) if isinstance(videos, list) else 0
+    if "views" not in data or data["views"] is None:
+        data["views"] = [{"view": i + 1} for i in range(n)]
+    cams = data.get("cameras")
+    if isinstance(cams, list):
+        fixed = []
+        for c in cams:
+            if isinstance(c, dict):
+                c = dict(c)
+                for k in ("fx", "fy"):
+                    if c.get(k) in (0, None):
+                        c[k] = 1.0  # a placeholder of `init`; marks and suggestions never use intrinsics
+            fixed.append(c)
+        data["cameras"] = fixed
+    return data
+
+
+def parse_experiment(data: Any, *, source: Path | None = None, marks_optional: bool = False) -> Experiment:
+    """Validate an already-parsed experiment mapping; paths resolve against ``source``'s folder.
+
+    ``marks_optional``: the ``views:`` marks (``roi``, ``base_point``, and the
+    whole section) may be missing and the intrinsics may be ``init``'s
+    placeholders (``fx: 0``); for the ``marks`` command, which suggests them.
+    ``reconstruct`` and the others load strictly.
+    """
     where = f"{source}: " if source is not None else ""
     if data is None:
         raise ExperimentError(f"{where}the experiment file is empty")
     if not isinstance(data, dict):
         raise ExperimentError(f"{where}expected a mapping of keys (name:, videos:, ...) at the top level, got {type(data).__name__}")
+    if marks_optional:
+        data = _lenient(data)
     try:
-        exp = Experiment.model_validate(data)
+        exp = Experiment.model_validate(data, context={"marks_optional": marks_optional})
     except ValidationError as e:
         errors = e.errors()
         first = _format_error(errors[0], data)
@@ -492,7 +543,7 @@ def parse_experiment(data: Any, *, source: Path | None = None) -> Experiment:
     return exp.model_copy(update=update)
 
 
-def load_experiment(path: str | Path, *, check_files: bool = True) -> Experiment:
+def load_experiment(path: str | Path, *, check_files: bool = True, marks_optional: bool = False) -> Experiment:
     """Read and validate an experiment YAML file.
 
     Parameters
@@ -501,6 +552,8 @@ def load_experiment(path: str | Path, *, check_files: bool = True) -> Experiment
         The experiment file; relative paths inside it are relative to it.
     check_files : bool, keyword-only
         Also check that every video and extrinsics file exists.
+    marks_optional : bool, keyword-only
+        See :func:`parse_experiment` (the ``marks`` command).
 
     Raises
     ------
@@ -516,7 +569,7 @@ def load_experiment(path: str | Path, *, check_files: bool = True) -> Experiment
         raise ExperimentError(f"{path}: expected an experiment YAML file, got a special file")
     text = read_experiment_text(path)
     data = parse_yaml(text, source=path)
-    exp = parse_experiment(data, source=path.resolve())
+    exp = parse_experiment(data, source=path.resolve(), marks_optional=marks_optional)
     if check_files:
         for i, v in enumerate(exp.videos):
             if not v.exists():
@@ -628,3 +681,25 @@ def views_yaml_snippet(exp: Experiment) -> str:
         parts.append(f"base_point: {[round(float(c), 1) for c in m.base_point]}")
         lines.append("  - {" + ", ".join(parts) + "}")
     return "\n".join(lines)
+
+
+def load_intrinsics_file(path: str | Path) -> list[CameraIntrinsics]:
+    """The ``cameras:`` entries of a YAML file (an intrinsics file of
+    ``python -m tendrilkit intrinsics --write``, or an experiment file)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ExperimentError(f"{path}: intrinsics file not found")
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as e:
+        raise ExperimentError(f"{path}: cannot read the intrinsics file ({e.__class__.__name__})") from None
+    cams = data.get("cameras") if isinstance(data, dict) else None
+    if not isinstance(cams, list) or not cams:
+        raise ExperimentError(f"{path}: expected a cameras: list (written by `python -m tendrilkit intrinsics --write`)")
+    out = []
+    for i, c in enumerate(cams):
+        try:
+            out.append(CameraIntrinsics.model_validate(c))
+        except ValidationError as e:
+            raise ExperimentError(f"{path}: {_format_error(e.errors()[0], {'cameras': cams}).replace('(top level)', f'cameras[{i}]')}") from None
+    return out

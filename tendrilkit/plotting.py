@@ -421,6 +421,44 @@ def plot_view_overlay(image_bgr: np.ndarray, *, roi: Sequence[float], keep_out: 
     return fig
 
 
+@_styled
+def plot_marks(image_bgr: np.ndarray, *, roi: Sequence[float] | None, keep_out: Sequence[float] | None,
+               base_point_xy: Sequence[float] | None, previous: dict | None = None,
+               swept_mask: np.ndarray | None = None, title: str | None = None) -> Figure:
+    """The marks of one view (``python -m tendrilkit marks``) on its first processed frame.
+
+    Parameters
+    ----------
+    image_bgr : (h, w, 3) uint8 array
+    roi, keep_out, base_point_xy
+        The marks to show (as in :func:`plot_view_overlay`); None: missing.
+    previous : dict, optional
+        The user's marks (``roi``, ``keep_out``, ``base_point``) where
+        suggestions replace them: drawn dashed (grey) for comparison.
+    swept_mask : (h, w) bool array, optional
+        The region the tendril swept over the sampled frames (magenta outline).
+    """
+    h, w = np.asarray(image_bgr).shape[:2]
+    fig = plot_view_overlay(image_bgr, roi=roi if roi is not None else [0, 0, w, h], keep_out=keep_out,
+                            base_point_xy=base_point_xy if base_point_xy is not None else [np.nan, np.nan],
+                            title=title)
+    ax = fig.axes[0]
+    if swept_mask is not None and np.any(swept_mask):
+        ax.contour(np.asarray(swept_mask, float), levels=[0.5], colors="magenta", linewidths=0.6)
+        ax.plot([], [], color="magenta", lw=0.6, label="swept by the tendril")
+    if previous:
+        for key, colour in (("roi", "lime"), ("keep_out", "red")):
+            b = previous.get(key)
+            if b is not None:
+                ax.add_patch(Rectangle(tuple(b[:2]), b[2], b[3], fill=False, ec=colour, ls="--", lw=0.8, alpha=0.7))
+        bp = previous.get("base_point")
+        if bp is not None:
+            ax.plot([bp[0]], [bp[1]], "x", color="grey", ms=8, label="your base point")
+        ax.plot([], [], color="grey", ls="--", label="your marks (dashed)")
+    ax.legend(loc="upper right", frameon=True, fontsize=7)
+    return fig
+
+
 # ------------------------------------------------------------------ plotly (interactive, HTML)
 def _go():
     import plotly.graph_objects as go
