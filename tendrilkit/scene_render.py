@@ -65,6 +65,23 @@ def _object_layers(ph: ScenePhantom, view: int) -> tuple[list, list]:
     return behind, front
 
 
+def _smooth_field(rng: np.random.Generator, shape: tuple[int, int], cell_px: int) -> np.ndarray:
+    """Zero-mean, unit-scale random field (H, W) float32 varying over about ``cell_px`` pixels."""
+    H, W = shape
+    low = rng.standard_normal((H // cell_px + 3, W // cell_px + 3)).astype(np.float32)
+    big = cv2.resize(low, ((W // cell_px + 3) * cell_px, (H // cell_px + 3) * cell_px), interpolation=cv2.INTER_CUBIC)
+    return big[cell_px:cell_px + H, cell_px:cell_px + W]
+
+
+def _texture(albedo: np.ndarray, rng: np.random.Generator) -> None:
+    """Paper and leaf texture in place: slow +-1.5 % shading of the board, +-6 % mottling of green parts."""
+    H, W = albedo.shape[:2]
+    slow = _smooth_field(rng, (H, W), 240)
+    fine = _smooth_field(rng, (H, W), 16)
+    green = np.clip((albedo[..., 1] - albedo[..., 2] - 20.0) / 30.0, 0.0, 1.0)
+    albedo *= (1.0 + 0.015 * slow + 0.004 * fine + 0.06 * green * fine)[..., None]
+
+
 def _static(ph: ScenePhantom, view: int) -> dict:
     per = _STATIC.setdefault(ph, {})
     if view not in per:
@@ -74,6 +91,7 @@ def _static(ph: ScenePhantom, view: int) -> dict:
             res = P._tube_cover(cam, bt["pts"], bt["radius"])
             if res is not None:
                 P._blend(albedo, res[0], res[1], P._STEM)
+        _texture(albedo, np.random.default_rng([ph.seed, 1125, view]))
         behind, front = _object_layers(ph, view)
         for box, cover, colour in behind:
             P._blend(albedo, box, cover, colour)

@@ -306,8 +306,12 @@ def _place_board_shoot(ph: dict, rng, alongside: bool) -> dict:
         v = int(rng.integers(3))
         cam = cams[v]
         if alongside:
-            sel = (s >= rng.uniform(0.15, 0.35) * L) & (s <= rng.uniform(0.6, 0.9) * L)
+            # along the proximal part (before any curl), smoothed: a shoot does not follow a coil
+            s0 = rng.uniform(0.08, 0.2) * L
+            sel = (s >= s0) & (s <= s0 + rng.uniform(0.25, 0.45) * L)
             xy = cam.project(curves[-1, sel][::8])
+            u = np.linspace(-1, 1, len(xy))
+            xy = np.stack([np.polyval(np.polyfit(u, xy[:, k], 2), u) for k in (0, 1)], axis=1)
             t = np.gradient(xy, axis=0)
             n = np.stack([-t[:, 1], t[:, 0]], axis=1) / np.linalg.norm(t, axis=1, keepdims=True)
             off = float(rng.uniform(14.0, 26.0)) * (1 if rng.uniform() < 0.5 else -1)
@@ -332,9 +336,10 @@ def _place_board_shoot(ph: dict, rng, alongside: bool) -> dict:
             xy_t = cam.project(curves[-1, ::4])
             d2, _ = cKDTree(xy_t).query(cam.project(pts))
             med = float(np.median(d2))
-            if not 8.0 <= med <= 35.0:
+            if not 8.0 <= med <= 35.0 or np.mean((d2 >= 8.0) & (d2 <= 35.0)) < 0.6:
                 continue
             info["median_distance_px"] = med
+            info["length_mm"] = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
         return info
     raise _Retry(("alongside" if alongside else "over_stem") + ": no room for a side shoot")
 
