@@ -20,9 +20,11 @@ the final measurement: run them, never look at single scenes or tune on them.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import tempfile
 import time
+import warnings
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -52,7 +54,10 @@ def one_scene(seed: int, scene: str, n_frames: int, out: str) -> tuple[int, pd.D
     except PhantomError as e:
         return seed, None, f"not generated: {e}", time.perf_counter() - w0, time.process_time() - c0
     try:
-        run_reconstruct(exp, folder / "result", workers=1, progress=False)
+        with open(folder / "reconstruct.log", "w") as log, contextlib.redirect_stdout(log), \
+                warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            run_reconstruct(exp, folder / "result", workers=1, progress=False)
         scores = score_result(folder / "result", folder / "scene", scene=f"{scene}-{seed}")
     except ExperimentError as e:  # the whole run failed (e.g. calibration): every frame failed
         from tendrilkit.phantom import read_ground_truth

@@ -64,7 +64,7 @@ GROUPS = {
     "time": ("sway", "leave_view"),
 }
 #: Probability of each boolean factor in a ``random`` scene.
-P_FACTOR = 0.3
+P_FACTOR = 0.2
 
 PRESETS = (("random", "clean") + SHAPES + tuple(s for s in SAMPLINGS if s != "timelapse")
            + tuple(x for x in LOOKS if x != "default") + BOOLEAN_FACTORS + tuple(GROUPS))

@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from tendrilkit import phantom as P
-from tendrilkit.scenes import DEFAULT_SCENE_FRAMES, ScenePhantom, make_scene, scene_meta
+from tendrilkit.scenes import DEFAULT_SCENE_FRAMES, SCENE_VERSION, ScenePhantom, make_scene, scene_meta
 
 _STATIC: "weakref.WeakKeyDictionary[ScenePhantom, dict]" = weakref.WeakKeyDictionary()
 
@@ -173,7 +173,7 @@ def scene_params_yaml(ph: ScenePhantom) -> str:
     world = ph.scene.markers[0]
     lines = [
         f"# Random phantom scene '{ph.scene_name}', seed {ph.seed}: a synthetic tendril with exact ground truth,",
-        f"# made by tendrilkit.scenes (generator version {P.GENERATOR_VERSION}, {ph.n_frames} frames).",
+        f"# made by tendrilkit.scenes (scene version {SCENE_VERSION}, {ph.n_frames} frames).",
         f"#   python -m tendrilkit phantom --scene {ph.scene_name} --seed {ph.seed} --frames {ph.n_frames} --out <folder>",
         "# Factors: " + ", ".join(scene_meta(ph)["active_factors"]),
         "# The marks (roi, keep_out, base_point) are what a user marked on frame 0.",
@@ -231,7 +231,7 @@ def write_scene_experiment(out_dir: str | Path, *, seed: int, scene: str = "rand
 
     n = DEFAULT_SCENE_FRAMES if n_frames is None else int(n_frames)
     out = check_writable_dir(out_dir)
-    stamp = {"generator_version": P.GENERATOR_VERSION, "scene": scene, "seed": int(seed), "n_frames": n}
+    stamp = {"scene_version": SCENE_VERSION, "scene": scene, "seed": int(seed), "n_frames": n}
     stamp_path = out / ".phantom_stamp.json"
     if stamp_path.is_file() and all((out / f).is_file() for f in P._OUTPUTS):
         try:

@@ -70,7 +70,7 @@ def score_frames(curves: pd.DataFrame, frames: pd.DataFrame, truth: pd.DataFrame
     t["flagged_wrong"] = (t.status == "doubtful") & (t.mean_mm > WRONG_MM)
     t["factors"] = ";".join(factors)
     t["scene"] = scene
-    t["message"] = t["message"].fillna("").astype(str)
+    t["message"] = ["" if pd.isna(m) else str(m) for m in t["message"]]
     return t[SCORE_COLUMNS]
 
 
