@@ -165,6 +165,22 @@ def _coil_axis(curve: np.ndarray, s: np.ndarray, s0: float, s1: float) -> tuple[
     return axis / np.linalg.norm(axis), c
 
 
+def _face_camera(design: P.Design, cam: Camera, coil_s: list) -> tuple[P.Design, float]:
+    """``design`` turned about its base so its coil's axis (at the full response) points at ``cam``."""
+    for _ in range(3):  # the coil's centre moves with the rotation: refine
+        s, probe, _, _ = P._centrelines(design, np.array([design.stable_s]))
+        axis, centre = _coil_axis(probe[0], s, *coil_s)
+        u = cam.center_world - centre
+        u /= np.linalg.norm(u)
+        if np.dot(axis, u) < 0:
+            axis = -axis
+        design = dataclasses.replace(design, frame0=design.frame0 @ _rotation_between(axis, u).T)
+    s, probe, _, _ = P._centrelines(design, np.array([design.stable_s]))
+    axis, centre = _coil_axis(probe[0], s, *coil_s)
+    u = cam.center_world - centre
+    return design, math.degrees(math.acos(min(1.0, abs(np.dot(axis, u / np.linalg.norm(u))))))
+
+
 # ================================================================= timing
 def _times(factors: dict, n: int, design: P.Design, rng: np.random.Generator) -> tuple[float, np.ndarray]:
     """``fps`` of the experiment file and the design time (s) each frame shows."""
@@ -173,6 +189,8 @@ def _times(factors: dict, n: int, design: P.Design, rng: np.random.Generator) ->
         t0 = float(rng.uniform(on + 0.3 * (st - on) if not factors["tip_leaf"] else st, 880.0))
         return 30.0, t0 + np.arange(n) / 30.0
     if factors["sampling"] == "sparse":
+        if factors["tip_leaf"] and n >= 3:  # the last two frames after the curl is done: the tip can rest
+            return 1.0 / 15.0, np.r_[np.linspace(0.6 * on, st, n - 1), min(st + 90.0, 900.0)]
         return 1.0 / 15.0, np.linspace(0.6 * on, min(st + 60.0, 900.0), n)
     lo = on + 0.3 * (st - on) if not factors["tip_leaf"] else st  # resting on a leaf: the curl is done
     hi = max(lo, 900.0 - 15.0 * (n - 1))
@@ -401,7 +419,7 @@ def _place_tip_leaf(ph: dict, rng) -> dict:
             rel = c[near] - centre
             ins = ((rel @ e1) / a) ** 2 + ((rel @ e2) / b) ** 2 <= 1.0
             gap = -(rel @ nrm) - radius[near]
-            if np.any(ins & (gap < 0.3)):
+            if np.any(ins & (gap < 0.5)):  # within 0.5 mm (2-3 px): touching in the images
                 touching.append(f)
         if len(touching) < need:
             continue
@@ -784,22 +802,15 @@ def _attempt(seed: int, scene_name: str, n: int, factors: dict, cams: list, atte
     fps = float(f"{fps:.7g}")
     time_s = np.arange(n) / fps
     if factors["shape"] == "coil_endon":
-        v = int(rng.integers(3))
-        for _ in range(3):  # the coil's centre moves with the rotation: refine
-            s, probe, _, _ = P._centrelines(design, np.array([design.stable_s]))
-            axis, centre = _coil_axis(probe[0], s, *realised["shape"]["coil_s_mm"])
-            u = cams[v].center_world - centre
-            u /= np.linalg.norm(u)
-            if np.dot(axis, u) < 0:
-                axis = -axis
-            R = _rotation_between(axis, u)
-            design = dataclasses.replace(design, frame0=design.frame0 @ R.T)
-        s, probe, _, _ = P._centrelines(design, np.array([design.stable_s]))
-        axis, centre = _coil_axis(probe[0], s, *realised["shape"]["coil_s_mm"])
-        u = cams[v].center_world - centre
-        ang = math.degrees(math.acos(min(1.0, abs(np.dot(axis, u / np.linalg.norm(u))))))
-        if ang > 12.0:
-            raise _Retry(f"coil_endon: axis {ang:.0f} deg from camera {v + 1}")
+        v0 = int(rng.integers(3))
+        for v in (v0, (v0 + 1) % 3, (v0 + 2) % 3):  # the first camera the coil can face without the board
+            cand, ang = _face_camera(design, cams[v], realised["shape"]["coil_s_mm"])
+            _, probe, _, _ = P._centrelines(cand, np.r_[t_design[[0, -1]], cand.stable_s])
+            if ang <= 12.0 and probe[..., 2].min() >= 3.0:  # the tube (radius <= 1 mm) 2 mm off the board
+                break
+        else:
+            raise _Retry("coil_endon: no camera the coil can face")
+        design = cand
         realised["shape"].update({"axis_view": v + 1, "axis_to_camera_deg": ang})
     s, curves, kappa, tau = P._centrelines(design, t_design)
     radius, look = _radius(factors, s, rng)
