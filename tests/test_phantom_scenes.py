@@ -159,12 +159,12 @@ def test_todays_method_on_easy_scenes(tmp_path):
     run_reconstruct(exp, tmp_path / "out", workers=1, progress=False, fit=False)
     t = score_result(tmp_path / "out", tmp_path / "scene")
     assert (t.status == "ok").all()
-    assert t.mean_mm.max() < EASY_MEAN_MM and t.max_mm.max() < EASY_MAX_MM
+    # measured 2026-11-29: mean 0.11 / 0.10 mm, max 1.11 / 0.58 mm, base 0.20 mm, tip 0.28 / 0.10 mm
+    assert t.mean_mm.max() < 0.2 and t.max_mm.max() < 1.5
+    assert t.base_mm.max() < 0.5 and t.tip_mm.max() < 0.5
 
 
-EASY_SEED = 2
-EASY_MEAN_MM = 1.0
-EASY_MAX_MM = 5.0
+EASY_SEED = 2  # a clean scene (an S3-family loop), 2 frames
 
 
 def test_unknown_scene_is_a_phantom_error():
