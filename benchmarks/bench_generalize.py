@@ -75,7 +75,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seeds", default="0:10", help="START:STOP (stop exclusive)")
     p.add_argument("--frames", type=int, default=6)
     p.add_argument("--workers", type=int, default=2)
-    p.add_argument("--scene", default="random", help="random or a preset of tendrilkit.scene_factors.PRESETS")
+    p.add_argument("--scene", default="random",
+                   help="random, a preset of tendrilkit.scene_factors.PRESETS, several separated by commas, "
+                        "or 'alone' (every single-factor preset)")
     p.add_argument("--out", default=None, help="keep scenes, results and tables here")
     a = p.parse_args(argv)
     start, stop = (int(x) for x in a.seeds.split(":"))
@@ -85,18 +87,27 @@ def main(argv: list[str] | None = None) -> int:
 
     t0 = time.perf_counter()
     tables, errors, cpu = [], [], 0.0
-    seeds = list(range(start, stop))
+    from tendrilkit.scene_factors import GROUPS, PRESETS
+
+    if a.scene == "alone":
+        scenes = [s for s in PRESETS if s not in ("random", *GROUPS)]
+    else:
+        scenes = a.scene.split(",")
+    bad = [s for s in scenes if s not in PRESETS]
+    if bad:
+        p.error(f"--scene: unknown {', '.join(bad)}; expected random, alone or {', '.join(PRESETS)}")
+    jobs = [(scene, s) for scene in scenes for s in range(start, stop)]
     with ProcessPoolExecutor(max_workers=a.workers) as pool:
-        futs = [pool.submit(one_scene, s, a.scene, a.frames, str(out)) for s in seeds]
-        for f in futs:
+        futs = [pool.submit(one_scene, s, scene, a.frames, str(out)) for scene, s in jobs]
+        for (scene, _), f in zip(jobs, futs):
             seed, scores, err, wall, c = f.result()
             cpu += c
             if scores is None:
                 errors.append((seed, err))
-                print(f"seed {seed}: {err}", flush=True)
+                print(f"{scene} seed {seed}: {err}", flush=True)
                 continue
             tables.append(scores)
-            print(f"seed {seed}: {int(scores.within.sum())}/{len(scores)} within, "
+            print(f"{scene} seed {seed}: {int(scores.within.sum())}/{len(scores)} within, "
                   f"{int((scores.status == 'failed').sum())} failed, {int(scores.silent.sum())} silent "
                   f"({wall:.0f} s)", flush=True)
     wall = time.perf_counter() - t0
@@ -106,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
     summary.to_csv(out / "summary.csv", index=False, float_format="%.2f")
     pd.set_option("display.width", 200)
     print()
-    print(f"scenes {start}:{stop} ({a.scene}, {a.frames} frames each): {len(tables)} scored, "
+    print(f"seeds {start}:{stop} x {len(scenes)} scene kind(s) ({a.scene}), {a.frames} frames each: {len(tables)} scored, "
           f"{len(errors)} not generated; wall {wall:.0f} s, cpu {cpu:.0f} s, {a.workers} workers; tables in {out}")
     cols = {"within_mean_pct": "mean<=0.5%", "within_max_pct": "max<=2%", "within_ends_pct": "ends<=2%",
             "within_pct": "all3%", "failed_pct": "failed%", "silent": "silent", "silent_pct": "silent%",
