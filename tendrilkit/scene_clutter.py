@@ -1,0 +1,416 @@
+"""Clutter and marks of the random phantom scenes: objects near the tendril, markers, careless marks.
+
+Placed by :func:`tendrilkit.scenes.make_scene` after the tendril and the
+site phantom's scene: leaves and side shoots on the board under or along the
+tendril, a leaf the tip rests on, a second tendril and a leaf in space (in
+front of or behind the tendril in each view), markers as people tape them,
+and marks as a hurried user draws them. Every object in space keeps a
+surface gap from the tendril's tube in every frame
+(:func:`tube_clearance_mm`); a placement that fails raises :class:`_Retry`
+and the generator draws another design.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from tendrilkit import phantom as P
+from tendrilkit.camera import Camera
+
+
+class _Retry(Exception):
+    """This attempt cannot realise a factor; the generator draws another design."""
+
+
+def tube_clearance_mm(curves: np.ndarray, radius: np.ndarray, pts: np.ndarray, pts_radius: np.ndarray) -> float:
+    """Smallest surface gap (mm) between a tube along ``pts`` and the tendril's tube in any frame.
+
+    Parameters
+    ----------
+    curves : (n_frames, n, 3) float array
+        Tendril centrelines, mm.
+    radius : (n,) float array
+        Tendril radius per sample, mm.
+    pts : (m, 3) float array
+        The object's centreline (or surface samples with ``pts_radius`` 0), mm.
+    pts_radius : (m,) float array
+    """
+    tree = cKDTree(pts)
+    gap = np.inf
+    for c in curves:
+        d, i = tree.query(c)
+        gap = min(gap, float(np.min(d - radius - pts_radius[i])))
+    return gap
+
+
+# ================================================================ objects
+def _dense(poly: np.ndarray, step: float = 0.5) -> np.ndarray:
+    seg = np.linalg.norm(np.diff(poly, axis=0), axis=1)
+    s = np.r_[0.0, np.cumsum(seg)]
+    t = np.arange(0.0, s[-1] + 1e-9, step)
+    return np.stack([np.interp(t, s, poly[:, k]) for k in range(poly.shape[1])], axis=1)
+
+
+def _clear_of_markers(scene: P.Scene, xy: np.ndarray, pad: float) -> bool:
+    """Board points ``xy`` (k, 2) keep ``pad`` mm from every marker's paper square."""
+    qs = P._quiet_scale()
+    for m in scene.markers:
+        loc = P._local(xy, m.centre_mm, m.angle_deg)
+        half = 0.5 * m.length_mm * qs + pad
+        if np.any((np.abs(loc[:, 0]) <= half) & (np.abs(loc[:, 1]) <= half)):
+            return False
+    return True
+
+
+def _board_point_under(cam: Camera, X: np.ndarray) -> np.ndarray:
+    """Board point (2,) mm seen at the same pixel as world point ``X`` (3,)."""
+    return P._pixel_to_board(cam, cam.project(X[None]))[0]
+
+
+def _place_over_leaf(ph: dict, rng) -> dict:
+    cams, curves, s = ph["cams"], ph["curves"], ph["s"]
+    L = s[-1]
+    for _ in range(15):
+        X = curves[-1, int(np.searchsorted(s, rng.uniform(0.3, 0.8) * L))]
+        v = int(rng.integers(3))
+        centre = _board_point_under(cams[v], X)
+        a, b = float(rng.uniform(18.0, 30.0)), float(rng.uniform(9.0, 15.0))
+        ang = float(rng.uniform(0, 180))
+        d = np.array([math.cos(math.radians(ang)), math.sin(math.radians(ang))])
+        outline = P._ellipse_poly(centre, ang, a + 3, b + 3)[:, :2]
+        if not _clear_of_markers(ph["scene"], np.vstack([outline, centre[None]]), 3.0):
+            continue
+        leaf = {"centre": centre, "angle_deg": ang, "a_mm": a, "b_mm": b,
+                "petiole": np.stack([centre + d * (a + 14.0), centre + d * 0.7 * a])}
+        return {"leaf": leaf, "view": v + 1, "centre_mm": centre.tolist()}
+    raise _Retry("over_leaf: no room for a leaf under the tendril")
+
+
+def _place_board_shoot(ph: dict, rng, alongside: bool) -> dict:
+    cams, curves, s, radius = ph["cams"], ph["curves"], ph["s"], ph["radius"]
+    L = s[-1]
+    r = float(rng.uniform(1.2, 1.6))
+    for _ in range(20):
+        v = int(rng.integers(3))
+        cam = cams[v]
+        if alongside:
+            # along the proximal part (before any curl), smoothed: a shoot does not follow a coil
+            s0 = rng.uniform(0.08, 0.2) * L
+            sel = (s >= s0) & (s <= s0 + rng.uniform(0.25, 0.45) * L)
+            xy = cam.project(curves[-1, sel][::8])
+            u = np.linspace(-1, 1, len(xy))
+            xy = np.stack([np.polyval(np.polyfit(u, xy[:, k], 2), u) for k in (0, 1)], axis=1)
+            t = np.gradient(xy, axis=0)
+            n = np.stack([-t[:, 1], t[:, 0]], axis=1) / np.linalg.norm(t, axis=1, keepdims=True)
+            off = float(rng.uniform(14.0, 26.0)) * (1 if rng.uniform() < 0.5 else -1)
+            board = P._pixel_to_board(cam, xy + off * n)
+        else:
+            X = curves[-1, int(np.searchsorted(s, rng.uniform(0.3, 0.8) * L))]
+            c = _board_point_under(cam, X)
+            k = int(np.searchsorted(s, s[np.argmin(np.linalg.norm(curves[-1] - X, axis=1))]))
+            tan = curves[-1, min(k + 4, len(s) - 1), :2] - curves[-1, max(k - 4, 0), :2]
+            ang = math.atan2(tan[1], tan[0]) + math.pi / 2 + rng.uniform(-0.5, 0.5)
+            d = np.array([math.cos(ang), math.sin(ang)])
+            half = float(rng.uniform(30.0, 50.0))
+            board = np.stack([c - half * d, c + half * d])
+        pts = _dense(np.hstack([board, np.full((len(board), 1), r)]))
+        rad = np.full(len(pts), r)
+        if not _clear_of_markers(ph["scene"], pts[:, :2], 2.0):
+            continue
+        if tube_clearance_mm(curves, radius, pts, rad) < 0.5:
+            continue
+        info = {"pts": pts, "radius": rad, "view": v + 1}
+        if alongside:
+            xy_t = cam.project(curves[-1, ::4])
+            d2, _ = cKDTree(xy_t).query(cam.project(pts))
+            med = float(np.median(d2))
+            if not 8.0 <= med <= 35.0 or np.mean((d2 >= 8.0) & (d2 <= 35.0)) < 0.6:
+                continue
+            info["median_distance_px"] = med
+            info["length_mm"] = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+        return info
+    raise _Retry(("alongside" if alongside else "over_stem") + ": no room for a side shoot")
+
+
+def _plate(centre: np.ndarray, angle_deg: float, a: float, b: float) -> np.ndarray:
+    poly = P._ellipse_poly(centre[:2], angle_deg, a, b, n=64)
+    poly[:, 2] = centre[2]
+    return poly
+
+
+def _inside_plate(xy: np.ndarray, centre: np.ndarray, angle_deg: float, a: float, b: float) -> np.ndarray:
+    loc = P._local(xy, centre[:2], angle_deg)
+    return (loc[:, 0] / a) ** 2 + (loc[:, 1] / b) ** 2 <= 1.0
+
+
+def _plate3d(centre: np.ndarray, normal: np.ndarray, a: float, b: float, spin: float, n: int = 64
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An ellipse (n, 3) in the plane through ``centre`` with ``normal``; and its in-plane axes."""
+    e1 = np.cross(normal, [0.0, 0.0, 1.0] if abs(normal[2]) < 0.9 else [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(normal, e1)
+    e1, e2 = math.cos(spin) * e1 + math.sin(spin) * e2, -math.sin(spin) * e1 + math.cos(spin) * e2
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return centre + a * np.cos(th)[:, None] * e1 + b * np.sin(th)[:, None] * e2, e1, e2
+
+
+def _place_tip_leaf(ph: dict, rng) -> dict:
+    """A leaf (plate) beyond and below the tip, placed so the tip rests on it in several frames."""
+    curves, radius, s = ph["curves"], ph["radius"], ph["s"]
+    n, L = len(curves), float(s[-1])
+    need = min(2, n)
+    for _ in range(12):
+        a, b = float(rng.uniform(10.0, 16.0)), float(rng.uniform(6.0, 9.0))
+        T = curves[-1, -1] - curves[-1, -5]
+        T /= np.linalg.norm(T)
+        nrm = T + rng.uniform(0.3, 1.0) * np.array([0.0, 0.0, -1.0])
+        nrm /= np.linalg.norm(nrm)
+        tip = curves[:, -1].mean(axis=0)
+        _, e1, e2 = _plate3d(tip, nrm, a, b, 0.0)
+        off = rng.uniform(-0.3, 0.3, size=2) * [a, b]
+        # the plane's offset along the normal: the most advanced tendril surface over its footprint
+        h = -np.inf
+        for c in curves:
+            rel = c - tip
+            ins = ((rel @ e1 - off[0]) / a) ** 2 + ((rel @ e2 - off[1]) / b) ** 2 <= 1.0
+            if ins.any():
+                h = max(h, float(np.max(rel[ins] @ nrm + radius[ins])))
+        if not np.isfinite(h):
+            continue
+        centre = tip + off[0] * e1 + off[1] * e2 + (h + 0.02) * nrm
+        poly, _, _ = _plate3d(centre, nrm, a, b, 0.0)
+        if poly[:, 2].min() < 0.5:
+            continue
+        near = s >= L - 8.0
+        touching = []
+        for f, c in enumerate(curves):
+            rel = c[near] - centre
+            ins = ((rel @ e1) / a) ** 2 + ((rel @ e2) / b) ** 2 <= 1.0
+            gap = -(rel @ nrm) - radius[near]
+            if np.any(ins & (gap < 0.5)):  # within 0.5 mm (2-3 px): touching in the images
+                touching.append(f)
+        if len(touching) < need:
+            continue
+        return {"plate": poly, "touching_frames": touching, "centre_mm": centre.tolist(), "normal": nrm.tolist()}
+    raise _Retry("tip_leaf: the tip rests on no leaf for several frames")
+
+
+def _hidden_by_plate(cam: Camera, plate: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    poly = P._project_safe(cam, plate)
+    if not np.all(np.isfinite(poly)):
+        return np.zeros(len(pts), bool)
+    xy = P._project_safe(cam, pts)
+    contour = poly.astype(np.float32).reshape(-1, 1, 2)
+    return np.array([np.isfinite(p).all() and _point_in(contour, p) for p in xy])
+
+
+def _point_in(contour: np.ndarray, p: np.ndarray) -> bool:
+    import cv2
+
+    return cv2.pointPolygonTest(contour, (float(p[0]), float(p[1])), False) >= 0
+
+
+def _place_occluding_leaf(ph: dict, rng) -> dict:
+    cams, curves, s, radius = ph["cams"], ph["curves"], ph["s"], ph["radius"]
+    L, n = s[-1], len(curves)
+    for _ in range(15):
+        v = int(rng.integers(3))
+        cam = cams[v]
+        f = n // 2
+        X = curves[f, int(np.searchsorted(s, rng.uniform(0.45, 0.9) * L))]
+        w = cam.center_world - X
+        w /= np.linalg.norm(w)
+        dz = float(rng.uniform(10.0, 20.0))
+        c = X + dz / w[2] * w
+        a, b = float(rng.uniform(7.0, 11.0)), float(rng.uniform(4.0, 6.5))
+        ang = float(rng.uniform(0, 180))
+        plate = _plate(c, ang, a, b)
+        ok = True
+        for k in range(n):
+            ins = _inside_plate(curves[k, :, :2], c, ang, a, b)
+            if ins.any() and np.max(curves[k, ins, 2] + radius[ins]) > c[2] - 1.0:
+                ok = False
+        if not ok:
+            continue
+        hid = np.array([[_hidden_by_plate(cams[u], plate, curves[k, ::8]).mean() for u in range(3)] for k in range(n)])
+        others = [u for u in range(3) if u != v]
+        if hid[:, others].max() > 0.1 or hid[:, v].max() < 0.03:
+            continue
+        return {"plate": plate, "view": v + 1, "centre_mm": c.tolist(), "hidden_fraction": hid[:, v].tolist()}
+    raise _Retry("occluding_leaf: no leaf position hides the tendril in one view only")
+
+
+def _place_second_tendril(ph: dict, rng) -> dict:
+    cams, curves, s, radius = ph["cams"], ph["curves"], ph["s"], ph["radius"]
+    L, n = s[-1], len(curves)
+    r2 = float(rng.uniform(0.5, 0.75))
+    for _ in range(20):
+        v = int(rng.integers(3))
+        cam = cams[v]
+        f = n - 1
+        k = int(np.searchsorted(s, rng.uniform(0.3, 0.85) * L))
+        X = curves[f, k]
+        w = cam.center_world - X
+        w /= np.linalg.norm(w)
+        front = bool(rng.uniform() < 0.5)
+        d = float(rng.uniform(6.0, 14.0))
+        if not front:
+            d = -min(d, (X[2] - r2 - 3.0) / w[2])
+            if d > -3.0:
+                front, d = True, -d if d < 0 else 6.0
+        q = X + d * w
+        tan = curves[f, min(k + 4, len(s) - 1)] - curves[f, max(k - 4, 0)]
+        tan -= np.dot(tan, w) * w
+        tan /= np.linalg.norm(tan)
+        across = np.cross(w, tan)
+        ang = rng.uniform(-0.7, 0.7)  # 50-130 degrees to the tendril in that view
+        u = math.cos(ang) * across + math.sin(ang) * tan
+        nrm = np.cross(w, u)
+        t = np.arange(-float(rng.uniform(25, 45)), float(rng.uniform(30, 55)), 0.5)
+        kap = float(rng.uniform(-0.008, 0.008))
+        pts = q[None] + t[:, None] * u[None] + 0.5 * kap * (t ** 2)[:, None] * nrm[None]
+        rad = r2 * (1.0 - 0.3 * (t - t[0]) / (t[-1] - t[0]))
+        if np.min(pts[:, 2] - rad) < 1.0:
+            continue
+        if tube_clearance_mm(curves, radius, pts, rad) < 1.0:
+            continue
+        return {"pts": pts, "radius": rad, "view": v + 1, "in_front": front, "depth_offset_mm": abs(d),
+                "crossing_mm": X.tolist()}
+    raise _Retry("second_tendril: no path crosses the tendril in a view without touching it")
+
+
+def _front_hidden(cams: list, curves: np.ndarray, radius: np.ndarray, tubes: list, plates: list) -> np.ndarray:
+    """Fraction (n_frames, n_views) of centreline samples hidden by objects in front or outside the image."""
+    out = np.zeros((len(curves), len(cams)))
+    for f in range(len(curves)):
+        pts = curves[f, ::4]
+        for v, cam in enumerate(cams):
+            hid = ~cam.in_image(np.nan_to_num(P._project_safe(cam, pts), nan=-1e9))
+            for p in plates:
+                if p.get("front_views") and v in p["front_views"]:
+                    hid |= _hidden_by_plate(cam, p["poly"], pts)
+            xy = cam.project(pts)
+            depth = cam.world_to_cam(pts)[:, 2]
+            for tb in tubes:
+                if v not in tb["front_views"]:
+                    continue
+                txy = cam.project(tb["pts"])
+                tr = tb["radius"] / cam.world_to_cam(tb["pts"])[:, 2] * cam.K[0, 0]
+                d, i = cKDTree(txy).query(xy)
+                hid |= (d < tr[i]) & (cam.world_to_cam(tb["pts"][i])[:, 2] < depth)
+            out[f, v] = float(hid.mean())
+    return out
+
+
+def _front_views(cams: list, curves: np.ndarray, pts: np.ndarray) -> list[int]:
+    """Views in which an object along ``pts`` is in front of the tendril where they overlap."""
+    out = []
+    for v, cam in enumerate(cams):
+        xy_o = cam.project(pts)
+        z_o = cam.world_to_cam(pts)[:, 2]
+        votes = 0
+        for c in curves:
+            d, i = cKDTree(cam.project(c[::2])).query(xy_o)
+            near = d < 15.0
+            if near.any():
+                votes += int(np.sum(z_o[near] < cam.world_to_cam(c[::2][i[near]])[:, 2]))
+                votes -= int(np.sum(z_o[near] >= cam.world_to_cam(c[::2][i[near]])[:, 2]))
+        if votes > 0:
+            out.append(v)
+    return out
+
+
+# ================================================================ markers
+def _redo_markers(scene: P.Scene, cams: list, curves: np.ndarray, rng) -> tuple[P.Scene, dict]:
+    """Two to five markers: the world marker 16-24 mm, some small, one partly outside a view."""
+    qs = P._quiet_scale()
+    world = P.MarkerSpec(P.WORLD_MARKER_ID, np.zeros(2), float(rng.choice([16.0, 20.0, 24.0])), 0.0)
+    others = list(scene.markers[1:])
+    keep = int(rng.integers(0, min(3, len(others)) + 1))
+    kept = []
+    for m in others[:keep]:
+        if rng.uniform() < 0.5:  # small in the image
+            m = P.MarkerSpec(m.id, m.centre_mm, float(m.length_mm * rng.uniform(0.4, 0.6)), m.angle_deg)
+        kept.append(m)
+    markers = [world] + kept
+    info = {"world_length_mm": world.length_mm, "n_markers": None, "small": [m.id for m in kept if m.length_mm < 16],
+            "partly_outside": None}
+    # one marker across an image edge of one view, clear of the tendril and the other markers
+    for _ in range(40):
+        v = int(rng.integers(3))
+        cam = cams[v]
+        edge = int(rng.integers(4))
+        t = rng.uniform(0.15, 0.85)
+        xy = np.array([[t * cam.width, 0.0], [cam.width - 1.0, t * cam.height], [t * cam.width, cam.height - 1.0],
+                       [0.0, t * cam.height]])[edge]
+        c = P._pixel_to_board(cam, xy[None])[0]
+        mk = P.MarkerSpec(int(rng.integers(0, 1024)), c, float(rng.uniform(20.0, 32.0)), float(rng.uniform(-25, 25)))
+        if mk.id in {m.id for m in markers}:
+            continue
+        r = 0.5 * mk.length_mm * qs * math.sqrt(2)
+        if any(np.linalg.norm(c - o.centre_mm) < r + 0.5 * o.length_mm * qs * math.sqrt(2) + 3 for o in markers):
+            continue
+        poly = P._square_poly(mk, qs)
+        if any(np.linalg.norm(c - lf["centre"]) < max(lf["a_mm"], lf["b_mm"]) + r for lf in scene.leaves):
+            continue
+        far = True
+        for u, cu in enumerate(cams):
+            pxy = P._project_safe(cu, poly)
+            if not np.any(np.isfinite(pxy)):
+                continue
+            txy = cu.project(curves[:, ::8].reshape(-1, 3))
+            d, _ = cKDTree(txy).query(np.nan_to_num(pxy, nan=-1e6))
+            far &= bool(np.min(d) > 40.0)
+        if not far:
+            continue
+        markers.append(mk)
+        info["partly_outside"] = {"id": mk.id, "view": v + 1}
+        break
+    info["n_markers"] = len(markers)
+    return dataclasses.replace(scene, markers=markers), info
+
+
+# ================================================================== marks
+def _careless(views: list, cams: list, scene: P.Scene, rng) -> tuple[list, dict]:
+    """Marks as a hurried user draws them: generous ROI, sloppy keep-out box, base point off."""
+    out, info = [], []
+    for m, cam in zip(views, cams):
+        x, y, w, h = m["roi"]
+        g = rng.uniform(20.0, 160.0, size=4).astype(int)
+        x0, y0 = max(0, x - g[0]), max(0, y - g[1])
+        x1, y1 = min(cam.width - 1, x + w + g[2]), min(cam.height - 1, y + h + g[3])
+        # take in part of the nearest marker (its border) when one is close
+        best = None
+        for mk in scene.markers:
+            pxy = P._project_safe(cam, mk.corners_mm(P._quiet_scale()))
+            if not np.all(np.isfinite(pxy)):
+                continue
+            cx, cy = pxy.mean(axis=0)
+            d = max(x0 - cx, cx - x1, 0) + max(y0 - cy, cy - y1, 0)
+            if best is None or d < best[0]:
+                best = (d, pxy)
+        took_marker = False
+        if best is not None and best[0] < 250 and rng.uniform() < 0.7:
+            lo, hi = best[1].min(axis=0), best[1].max(axis=0)
+            x0, y0 = int(min(x0, max(0, lo[0] + 0.6 * (hi[0] - lo[0])))), int(min(y0, max(0, lo[1] + 0.6 * (hi[1] - lo[1]))))
+            x1, y1 = int(max(x1, min(cam.width - 1, hi[0] - 0.6 * (hi[0] - lo[0])))), int(max(y1, min(cam.height - 1, hi[1] - 0.6 * (hi[1] - lo[1]))))
+            took_marker = True
+        kx, ky, kw, kh = m["keep_out"]
+        sx, sy = rng.uniform(0.7, 1.6, size=2)
+        dx, dy = rng.integers(-6, 7, size=2)
+        nw, nh = max(3, int(round(kw * sx))), max(3, int(round(kh * sy)))
+        nx = int(kx + (kw - nw) // 2 + dx)
+        ny = int(ky + (kh - nh) // 2 + dy)
+        ang = rng.uniform(0, 2 * np.pi)
+        off = rng.uniform(2.0, 5.0)
+        bp = [int(round(m["base_point"][0] + off * math.cos(ang))), int(round(m["base_point"][1] + off * math.sin(ang)))]
+        out.append({"view": m["view"], "roi": [int(x0), int(y0), int(x1 - x0 + 1), int(y1 - y0 + 1)],
+                    "keep_out": [max(0, nx), max(0, ny), nw, nh], "base_point": bp})
+        info.append({"view": m["view"], "roi_growth_px": [int(v) for v in g], "roi_takes_marker": took_marker,
+                     "keep_out_scale": [float(sx), float(sy)], "keep_out_offset_px": [int(dx), int(dy)],
+                     "base_point_offset_px": float(off)})
+    return out, {"views": info}
