@@ -134,6 +134,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     tmp_path = Path(tmp)
     try:
         yield tmp_path
+        os.chmod(tmp_path, 0o644)  # readable by the group and others, as a plain open() would make it
         os.replace(tmp_path, path)
     finally:
         if tmp_path.exists():
@@ -245,7 +246,7 @@ _FIGURE_METADATA = {
 }
 
 
-def save_figure(fig, stem: str | Path, *, formats: tuple[str, ...] | None = None, dpi: float = 150.0) -> list[Path]:
+def save_figure(fig, stem: str | Path, *, formats: tuple[str, ...] | None = None, dpi: float = 300.0) -> list[Path]:
     """Save a figure of :mod:`tendrilkit.plotting` as ``stem.<format>``, byte-stable, atomically.
 
     Parameters
