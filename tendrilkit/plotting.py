@@ -49,7 +49,12 @@ def _backend_unset() -> bool:
 if _backend_unset():
     matplotlib.use("Agg")
 
-import matplotlib.pyplot as _plt  # noqa: E402,F401  (resolves the backend; IPython display hooks)
+import matplotlib.pyplot as _plt  # noqa: E402,F401  (IPython display hooks)
+
+try:  # load the backend now: the inline backend registers IPython's display of figures when it is imported
+    _plt.switch_backend(matplotlib.rcParams["backend"])
+except Exception:  # pragma: no cover - a broken backend setting: matplotlib will say so when drawing
+    pass
 from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402

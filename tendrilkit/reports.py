@@ -302,3 +302,40 @@ def write_batch_index(reports_dir: str | Path, rows: Sequence[Mapping[str, str]]
     out = reports_dir / "index.html"
     write_text(_page("tendrilkit reports", "\n".join(body)), out)
     return out
+
+
+# ------------------------------------------------------------------ what report figures need from the videos
+def reprojection_panels(exp, results, frames: Sequence[int]) -> list[list[dict]]:
+    """Per frame and view: the image, the ordered skeleton, the reconstruction and PWC curve projected.
+
+    The input of :func:`tendrilkit.plotting.plot_reprojection_overlays`. A
+    view whose skeleton cannot be extracted keeps its image and projections
+    (``skeleton_xy`` None).
+    """
+    from tendrilkit.exceptions import FrameError
+    from tendrilkit.io import read_frames
+    from tendrilkit.skeleton import process_view
+
+    opts = {**exp.segmentation.model_dump(), **exp.skeleton.model_dump(), **exp.ordering.model_dump()}
+    rows = []
+    for f in frames:
+        f = int(f)
+        images = read_frames(exp, f)
+        curves = {}
+        for key, table in (("reprojected_xy", results.curves), ("pwc_xy", results.pwc_curves)):
+            if table is not None:
+                P = table[table["frame"] == f].sort_values("point")[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
+                curves[key] = P if len(P) else None
+        row = []
+        for img, marks, cam in zip(images, exp.views, results.cameras):
+            try:
+                skel = process_view(img, roi=marks.roi, keep_out=marks.keep_out, base_point_xy=marks.base_point,
+                                    frame=f, view=marks.view, **opts).points_xy
+            except FrameError:
+                skel = None
+            panel = {"image": img, "roi": marks.roi, "skeleton_xy": skel, "label": f"frame {f}, view {marks.view}"}
+            for key, P in curves.items():
+                panel[key] = cam.project(P) if P is not None else None
+            row.append(panel)
+        rows.append(row)
+    return rows
