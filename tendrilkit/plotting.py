@@ -436,7 +436,7 @@ def plot_response_fit(fit, *, true_onset_s: float | None = None, true_stable_s: 
             ax.axvline(v / 60, color=col, ls=":", lw=1.2, label=f"{name} {v / 60:.1f} min")
     ax.set_xlabel("time after stimulus (min)")
     ax.set_ylabel("shape change (mm)")
-    ax.legend(loc="center right", fontsize=6)
+    ax.legend(loc="best", fontsize=6)
     return fig
 
 

@@ -17,8 +17,9 @@ Two shape-change signals of the ok frames, both with rigid motion removed
 - :math:`D_0(t)`: distance to the *first* frame's shape (grows from 0);
 - :math:`D_1(t)`: distance to the *last* frame's shape (falls to 0).
 
-Both are de-biased in quadrature by their noise floor (the level between
-neighbouring frames at the start, resp. the end: :math:`\sqrt{D^2 - b^2}`).
+Both are de-biased in quadrature by the noise floor :math:`b` (the level of
+:math:`D_0` over the ``floor_frames`` frames after the reference, before
+anything moves): :math:`\sqrt{D^2 - b^2}`.
 Near its two ends a transition is linear in how far it has gone (a small
 change of shape moves every point in proportion), while in the middle a
 distance between shapes need not be (a curl passes through shapes farther
@@ -44,7 +45,9 @@ Accuracy (tests/test_response.py): on the phantoms' true centrelines with
 0.3 mm noise per point (60 frames of 15 s, S2-S4, seeds 0-3) the onset is
 within 0.35 min of the truth and stabilisation within 1.25 min (S3: 0.5-1.2
 min early, because its curl keeps a slow wobble of a few per cent that the
-smooth step does not have; S2, S4 within 0.45 min).
+smooth step does not have; S2, S4 within 0.6 min). With 20 frames (45 s
+apart) the small change of S4 (3-4.5 mm) is located less well: errors up to
+1.5 min at the onset and 1.2 min at stabilisation.
 
 Whether the tendril responded is decided as in
 :func:`tendrilkit.sequence.response_times` (amplitude at least
@@ -99,8 +102,8 @@ class ResponseFit:
     rms_mm: float
 
 
-def _debias(y: np.ndarray, floor_idx: slice) -> np.ndarray:
-    b = float(np.median(y[floor_idx])) if y[floor_idx].size else 0.0
+def _debias(y: np.ndarray, b: float) -> np.ndarray:
+    """:math:`\\operatorname{sign}(y^2 - b^2)\\sqrt{|y^2 - b^2|}` (0 stays 0: the reference frame)."""
     q = y * y - b * b
     return np.where(y == 0, 0.0, np.sign(q) * np.sqrt(np.abs(q)))
 
@@ -152,7 +155,7 @@ def fit_response_times(curves: pd.DataFrame, *, frames: pd.DataFrame | None = No
     window : float
         Fraction of each signal's maximum that ends its fitted part.
     floor_frames : int
-        Frames next to the reference used for the noise floor (de-biasing).
+        Frames after the first used for the noise floor (de-biasing); they must precede the onset.
     **threshold_kwargs
         Passed to :func:`tendrilkit.sequence.response_times`, which decides
         whether the tendril responded (``min_amplitude_mm``, ``noise_k``).
@@ -181,8 +184,12 @@ def fit_response_times(curves: pd.DataFrame, *, frames: pd.DataFrame | None = No
         warnings.simplefilter("ignore")
         last = shape_change(curves, frames=frames, reference_frame=int(first["frame"].iloc[-1]))
     k = max(1, int(floor_frames))
-    d0 = _debias(first["shape_mm"].to_numpy(float), slice(1, 1 + k))
-    d1 = _debias(last["shape_mm"].to_numpy(float), slice(n - 1 - k, n - 1))
+    # the noise floor of a distance between two shapes, measured where nothing moves yet (the first frames
+    # after the reference); the frames before the last may still be moving, so the same floor serves both
+    raw0 = first["shape_mm"].to_numpy(float)
+    floor = float(np.median(raw0[1:1 + k]))
+    d0 = _debias(raw0, floor)
+    d1 = _debias(last["shape_mm"].to_numpy(float), floor)
     if not thr.responded:
         return ResponseFit(thr, t, d0, d1, empty, empty, nan)
     tt = np.linspace(t[0], t[-1], int(grid) + 1)
