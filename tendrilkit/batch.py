@@ -150,10 +150,10 @@ def execute_notebook(src: Path, dst: Path, parameters: dict, *, cwd: Path, stati
 
 
 def _relative(value, cwd: Path):
-    """A path parameter (or a list of them) relative to ``cwd``; other values as they are."""
+    """A path parameter (or a list of them) inside the repository, relative to ``cwd``; other values as they are."""
     if isinstance(value, list):
         return [_relative(v, cwd) for v in value]
-    if isinstance(value, str) and os.path.isabs(value):
+    if isinstance(value, str) and os.path.isabs(value) and Path(value).resolve().is_relative_to(ROOT):
         return os.path.relpath(value, Path(cwd).resolve())
     return value
 

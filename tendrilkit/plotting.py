@@ -201,14 +201,13 @@ def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | No
 
 
 def _draw_split(axes, split: pd.DataFrame, y: str, *, labels: bool = True) -> None:
-    names = {"s_norm": "position (0 base, 1 tip)", "s_mm": "arc length (mm)", "point": "point index"}
-    for ax, kind, name, col in zip(axes, ("kappa", "tau"), ("curvature", "torsion"),
-                                   (OKABE_ITO["blue"], OKABE_ITO["vermillion"])):
+    names = {"s_norm": "(0 base, 1 tip)", "s_mm": "(mm)", "point": "(point)"}
+    for ax, kind, name, col in zip(axes, ("kappa", "tau"), ("κ", "τ"), (OKABE_ITO["blue"], OKABE_ITO["vermillion"])):
         d = split[split["kind"] == kind]
         x, xlabel = _minutes(d)
         ax.scatter(x, d[y], s=3, color=col, linewidths=0)
         if labels:
-            ax.set_ylabel(f"{name} split\\n{names.get(y, y)}")
+            ax.set_ylabel(f"{name} split points {names.get(y, y)}")
         if y == "s_norm":
             ax.set_ylim(0, 1)
     axes[-1].set_xlabel(xlabel if len(split) else "time after stimulus (min)")
@@ -507,7 +506,7 @@ def plot_site_comparison(table: pd.DataFrame, regions: pd.DataFrame | None = Non
     _check(table, ("experiment", "site", "responded", "onset_s", "stable_s", "amplitude_mm", "tip_path_mm"), "table")
     t = table.reset_index(drop=True)
     dup = t["site"].duplicated(keep=False) | (t["site"].astype(str) == "")
-    labels = [f"{s}\\n{e}" if d else str(s) for s, e, d in zip(t["site"], t["experiment"], dup)]
+    labels = [f"{s}\n{e}" if d else str(s) for s, e, d in zip(t["site"], t["experiment"], dup)]
     x = np.arange(len(t))
     fig = Figure(figsize=_size(width, 60), layout="constrained")
     a1, a2, a3 = fig.subplots(1, 3, width_ratios=(1.6, 1.0, 0.8))
@@ -544,7 +543,7 @@ def plot_site_comparison(table: pd.DataFrame, regions: pd.DataFrame | None = Non
     a2.plot(x, st, "s", color=OKABE_ITO["vermillion"], label="stable")
     for v, col in zip(reference_min, (OKABE_ITO["blue"], OKABE_ITO["vermillion"])):
         a2.axhline(v, color=col, ls=":", lw=0.9)
-        a2.text(len(t) - 0.5, v, f" paper {v:g} min", color=col, va="bottom", ha="right", fontsize=6)
+        a2.text(-0.55, v, f"paper {v:g} min", color=col, va="bottom", ha="left", fontsize=6)
     for xi, r in zip(x, resp):
         if not r:
             a2.text(xi, 0.5, "no\nresponse", ha="center", va="bottom", fontsize=6, color="#555555")

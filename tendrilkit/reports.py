@@ -143,8 +143,11 @@ def write_tables_readme(folder: str | Path) -> Path:
 
 # ------------------------------------------------------------------ notebook pages
 def _relative_paths(text: str, page_dir: Path) -> str:
-    """Absolute paths of this repository (and of the page's folders) written relative to the page."""
-    for base in sorted({ROOT, page_dir.resolve().parent, page_dir.resolve()}, key=lambda p: -len(str(p))):
+    """Absolute paths of this repository (and of the page's folder, the reports and their parent) relative to the page."""
+    here = page_dir.resolve()
+    for base in sorted({ROOT, here, here.parent, here.parent.parent}, key=lambda p: -len(str(p))):
+        if len(base.parts) < 3:  # never rewrite "/" or a top-level folder such as /tmp
+            continue
         rel = os.path.relpath(base, page_dir.resolve())
         text = text.replace(str(base) + os.sep, "" if rel == "." else rel + "/").replace(str(base), rel)
     return text
