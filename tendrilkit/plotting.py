@@ -278,7 +278,7 @@ def plot_kt_maps(maps, *, title: str | None = None, percentile: float = 99.0, li
     return fig
 
 
-def _draw_tip(fig, spec, P: np.ndarray, *, label_axes: bool = True):
+def _draw_tip(fig, spec, P: np.ndarray, *, label_axes: bool = False):
     ax3 = fig.add_subplot(spec, projection="3d")
     ax3.plot(P[:, 0], P[:, 1], P[:, 2], color="black", lw=0.9)
     if len(P):
@@ -294,6 +294,8 @@ def _draw_tip(fig, spec, P: np.ndarray, *, label_axes: bool = True):
         ax3.set_xlabel("x (mm)", labelpad=-6)
         ax3.set_ylabel("y (mm)", labelpad=-6)
         ax3.set_zlabel("z (mm)", labelpad=-6)
+    else:  # the labels of a small 3D panel collide with its neighbours: one line under it instead
+        ax3.text2D(0.5, -0.02, "x, y, z (mm)", transform=ax3.transAxes, ha="center", va="top", fontsize=6.5)
     ax3.tick_params(pad=-2)
     return ax3
 
@@ -307,7 +309,8 @@ def plot_tip_trajectory(traj: pd.DataFrame, *, title: str | None = None, width: 
     _check(traj, ("x_mm", "y_mm", "z_mm"), "traj")
     P = traj[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
     fig = Figure(figsize=_size(width, 55), layout="constrained")
-    gs = fig.add_gridspec(1, 4)
+    fig.get_layout_engine().set(wspace=0.06)
+    gs = fig.add_gridspec(1, 4, width_ratios=(1.35, 1.0, 1.0, 1.0))
     ax3 = _draw_tip(fig, gs[0, 0], P)
     axes = [ax3]
     for k, (name, (i, j)) in enumerate((("XY", (0, 1)), ("YZ", (1, 2)), ("XZ", (0, 2)))):
