@@ -207,7 +207,7 @@ def _draw_split(axes, split: pd.DataFrame, y: str, *, labels: bool = True) -> No
         x, xlabel = _minutes(d)
         ax.scatter(x, d[y], s=3, color=col, linewidths=0)
         if labels:
-            ax.set_ylabel(f"{name} split points {names.get(y, y)}")
+            ax.set_ylabel(f"{name} split points\n{names.get(y, y)}")
         if y == "s_norm":
             ax.set_ylim(0, 1)
     axes[-1].set_xlabel(xlabel if len(split) else "time after stimulus (min)")

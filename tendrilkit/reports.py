@@ -8,8 +8,8 @@ What :func:`notebook_html` makes of an executed notebook (``reports/<name>/NN_*.
   inputs; the notebooks keep them for nbval);
 - no absolute paths: the repository's and the reports' folders are written
   relative to the page;
-- offline: the CDN scripts of nbconvert's template (require.js, MathJax) are
-  removed and plotly.js is loaded from one shared copy beside the reports
+- offline: the CDN scripts of nbconvert's template (require.js, MathJax,
+  the mermaid loader) are removed and plotly.js is loaded from one shared copy beside the reports
   (``reports/_static/plotly.min.js``, :func:`write_plotly_js`), only on pages
   with an interactive figure;
 - the page's title is the notebook's first heading.
@@ -35,6 +35,7 @@ STATIC = "_static"
 PLOTLY_JS = "plotly.min.js"
 NBVAL_MARKER = re.compile(r"^[ \t]*# ?NBVAL_[A-Z_]+[ \t]*\n?", re.MULTILINE)
 _CDN_SCRIPT = re.compile(r"<script[^>]*\bsrc=\"https?://[^\"]*\"[^>]*>\s*</script>\s*", re.IGNORECASE)
+_MERMAID = re.compile(r"<script type=\"module\">(?:(?!</script>).)*?mermaid(?:(?!</script>).)*</script>\s*", re.DOTALL)
 _MATHJAX_CONFIG = re.compile(r"<!-- (Load mathjax|MathJax configuration) -->\s*|<script type=\"text/x-mathjax-config\">.*?</script>\s*",
                              re.DOTALL)
 
@@ -175,8 +176,9 @@ def clean_notebook(nb, page_dir: Path):
             continue
         if cell.cell_type == "code":
             cell.source = NBVAL_MARKER.sub("", cell.source)
-            if "injected-parameters" in tags:
-                cell.source = cell.source.replace("# Parameters\n", "# Parameters of this run\n")
+            if "injected-parameters" in tags:  # paths inside the repository are relative to notebooks/ already
+                cell.source = _relative_paths(cell.source.replace("# Parameters\n", "# Parameters of this run\n"),
+                                              page_dir)
             for out in cell.get("outputs", []):
                 if "text" in out:
                     out["text"] = _relative_paths(out["text"], page_dir)
@@ -199,6 +201,7 @@ def notebook_html(nb, page_dir: Path, static_dir: Path) -> str:
     body, _ = exporter.from_notebook_node(nb, resources={"metadata": {"name": nb.metadata["title"]}})
     body = _CDN_SCRIPT.sub("", body)
     body = _MATHJAX_CONFIG.sub("", body)
+    body = _MERMAID.sub("", body)  # nbconvert's loader of mermaid diagrams (from a CDN); the notebooks have none
     if "Plotly.newPlot" in body:
         rel = os.path.relpath(Path(static_dir).resolve() / PLOTLY_JS, page_dir.resolve())
         body = body.replace("</head>", f'<script src="{html.escape(rel)}"></script>\n</head>', 1)

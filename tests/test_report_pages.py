@@ -55,6 +55,7 @@ def page(tmp_path_factory):
 def test_page_is_offline_clean_and_shows_its_figures(page):
     text = page.read_text()
     assert not re.search(r"<script[^>]+src=\"https?://", text), "a script from the internet"
+    assert "cdnjs" not in text and "cdn.plot.ly" not in text and "import(\"http" not in text
     assert "NBVAL_CHECK_OUTPUT" not in text
     assert str(page.parents[2]) not in text and "/tmp/" not in text  # no absolute paths (printed or injected)
     assert "Parameters of this run" in text  # papermill's cell, relative paths
