@@ -84,8 +84,22 @@ def demo() -> int:
     return _run([PY, "-m", "tendrilkit", "batch", *params, "--reports", "reports"])
 
 
+def _ensure_chromium() -> None:
+    """Debian's chromium for the browser check of the report pages: installed when root with apt-get, else skipped."""
+    if shutil.which("chromium") or shutil.which("chromium-browser"):
+        return
+    if shutil.which("apt-get") and os.geteuid() == 0:
+        _say("installing Debian's chromium (the report pages are checked in a headless browser)")
+        env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+        if subprocess.call(["apt-get", "install", "-y", "-qq", "chromium"], env=env, stdout=subprocess.DEVNULL) != 0:
+            _say("chromium could not be installed; the browser check will be skipped")
+    else:
+        _say("no chromium (and not root with apt-get): the browser check of the report pages will be skipped")
+
+
 def test() -> int:
     setup()
+    _ensure_chromium()
     env = dict(os.environ, TENDRILKIT_PROGRESS="0", MPLBACKEND="Agg")
     return _run([PY, "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests", "notebooks", "--nbval-lax",
                  "-n", "2", "--dist", "loadfile"], env=env)

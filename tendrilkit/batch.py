@@ -121,34 +121,59 @@ def provenance(exp_dict: dict, experiment_path: Path) -> dict:
     }
 
 
-def execute_notebook(src: Path, dst: Path, parameters: dict, *, cwd: Path) -> None:
-    """Run one notebook with papermill into ``dst`` (atomically) and write ``dst`` as HTML beside it."""
+def execute_notebook(src: Path, dst: Path, parameters: dict, *, cwd: Path, static_dir: Path | None = None) -> None:
+    """Run one notebook with papermill into ``dst`` (atomically) and write ``dst`` as HTML beside it.
+
+    Path parameters are passed relative to ``cwd`` (what a reader would type);
+    the kernel draws figures inline (``MPLBACKEND`` of this process is not
+    passed on), so the notebook and its page show them.
+    """
     import papermill as pm
 
     from tendrilkit.io import atomic_path
 
     dst.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(dst) as tmp:
-        tmp_nb = tmp.with_suffix(".ipynb")
-        try:
-            pm.execute_notebook(str(src), str(tmp_nb), parameters=parameters, kernel_name="python3",
-                                cwd=str(cwd), progress_bar=False, log_output=False)
-        finally:
-            if tmp_nb.exists():
-                os.replace(tmp_nb, tmp)
-    write_html(dst)
+    parameters = {k: _relative(v, cwd) for k, v in parameters.items()}
+    saved = os.environ.get("MPLBACKEND")
+    os.environ["MPLBACKEND"] = "module://matplotlib_inline.backend_inline"
+    try:
+        with atomic_path(dst) as tmp:
+            tmp_nb = tmp.with_suffix(".ipynb")
+            try:
+                pm.execute_notebook(str(src), str(tmp_nb), parameters=parameters, kernel_name="python3",
+                                    cwd=str(cwd), progress_bar=False, log_output=False)
+            finally:
+                if tmp_nb.exists():
+                    os.replace(tmp_nb, tmp)
+    finally:
+        if saved is None:
+            os.environ.pop("MPLBACKEND", None)
+        else:
+            os.environ["MPLBACKEND"] = saved
+    write_html(dst, static_dir=static_dir)
 
 
-def write_html(notebook: Path) -> Path:
-    """The executed notebook as a standalone HTML page (inputs shown, no prompts)."""
+def _relative(value, cwd: Path):
+    """A path parameter (or a list of them) inside the repository, relative to ``cwd``; other values as they are."""
+    if isinstance(value, list):
+        return [_relative(v, cwd) for v in value]
+    if isinstance(value, str) and os.path.isabs(value) and Path(value).resolve().is_relative_to(ROOT):
+        return os.path.relpath(value, Path(cwd).resolve())
+    return value
+
+
+def write_html(notebook: Path, *, static_dir: Path | None = None) -> Path:
+    """The executed notebook as a standalone, offline HTML page (see :mod:`tendrilkit.reports`)."""
     import nbformat
-    from nbconvert import HTMLExporter
 
     from tendrilkit.io import write_text
+    from tendrilkit.reports import notebook_html, write_plotly_js
 
+    static_dir = Path(static_dir) if static_dir is not None else notebook.parent.parent / "_static"
     nb = nbformat.read(str(notebook), as_version=4)
-    exporter = HTMLExporter(exclude_input_prompt=True, exclude_output_prompt=True)
-    body, _ = exporter.from_notebook_node(nb)
+    body = notebook_html(nb, notebook.parent, static_dir)
+    if "Plotly.newPlot" in body:
+        write_plotly_js(static_dir)
     out = notebook.with_suffix(".html")
     write_text(body, out)
     return out
@@ -184,8 +209,9 @@ def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentO
         run_reconstruct(path, out / "results", workers=1, progress=False)
         params = {"experiment_path": str(path), "results_dir": str(out / "results"), "figures_dir": str(out / "figures")}
         for nb in experiment_notebooks():
-            execute_notebook(nb, out / nb.name, params, cwd=notebooks_dir())
+            execute_notebook(nb, out / nb.name, params, cwd=notebooks_dir(), static_dir=out.parent / "_static")
         write_json(provenance(exp_dict, path), out / "provenance.json")
+        _finish_pages(out, exp.name)
         write_text(fp + "\n", stamp)
         ok, failed = _frame_counts(out / "results")
         msg = f"{failed} frame(s) failed" if failed else ""
@@ -198,6 +224,15 @@ def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentO
         first = str(e).strip().splitlines()[0] if str(e).strip() else ""
         return ExperimentOutcome(name, str(path), "failed", time.perf_counter() - t0,
                                  message=f"{e.__class__.__name__}: {first}{where}"[:300])
+
+
+def _finish_pages(out: Path, title: str) -> None:
+    """The README of ``tables/`` and ``index.html`` of one report folder."""
+    from tendrilkit.reports import write_experiment_index, write_tables_readme
+
+    if (out / "tables").is_dir():
+        write_tables_readme(out / "tables")
+    write_experiment_index(out, title=title)
 
 
 def _stderr_to(path: Path) -> None:
@@ -243,7 +278,9 @@ def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path) -> Expe
 def _compare_in_worker(src: str, out: str, params: dict) -> None:
     Path(out).mkdir(parents=True, exist_ok=True)
     _stderr_to(Path(out) / "batch.log")
-    execute_notebook(Path(src), Path(out) / Path(src).name, params, cwd=Path(src).parent)
+    execute_notebook(Path(src), Path(out) / Path(src).name, params, cwd=Path(src).parent,
+                     static_dir=Path(out).parent / "_static")
+    _finish_pages(Path(out), "Comparison of the stimulation sites")
 
 
 def format_summary(outcomes: list[ExperimentOutcome]) -> str:
@@ -325,5 +362,10 @@ def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False
     comp = run_comparison(outcomes, Path(reports_dir))
     if comp is not None:
         outcomes.append(comp)
+    from tendrilkit.reports import write_batch_index
+
+    write_batch_index(reports_dir, [{"name": o.name, "status": o.status, "message": o.message,
+                                     "frames": f"{o.frames_ok} / {o.frames_failed}" if o.name != "comparison" else ""}
+                                    for o in outcomes])
     print(format_summary(outcomes))
     return 0 if all(o.status in ("done", "skipped") for o in outcomes) else 1

@@ -457,7 +457,7 @@ _FIGURE_METADATA = {
 }
 
 
-def save_figure(fig, stem: str | Path, *, formats: tuple[str, ...] | None = None, dpi: float = 150.0) -> list[Path]:
+def save_figure(fig, stem: str | Path, *, formats: tuple[str, ...] | None = None, dpi: float = 300.0) -> list[Path]:
     """Save a figure of :mod:`tendrilkit.plotting` as ``stem.<format>``, byte-stable, atomically.
 
     Parameters

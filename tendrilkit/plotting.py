@@ -14,8 +14,15 @@ that IPython registers its display of figures.
 
 Determinism: every figure is built under :data:`STYLE` (fixed fonts, sizes,
 colours, ``svg.hashsalt``); no timestamps or random ids. Colours follow the
-paper: first frame black, last red; tip path black with its XY, YZ, XZ
-projections orange, green, blue; skeleton black, reprojection cyan.
+paper: first frame blue and solid (circle), last vermillion and dashed (square),
+the others along cividis; tip path black with its XY, YZ, XZ projections
+orange, green, sky blue (Okabe-Ito, colour-blind safe); skeleton black,
+reprojection sky blue, piece-wise clothoid orange dashed.
+
+Journal sizes: widths :data:`SINGLE_MM` (85 mm) or :data:`DOUBLE_MM`
+(180 mm), text 6.5-8 pt at that size, panel letters (a, b, ...), no baked-in
+titles unless ``title=`` is given; :func:`tendrilkit.io.save_figure` writes
+300 dpi PNG with vector PDF and SVG. Time axes are in minutes.
 """
 
 from __future__ import annotations
@@ -42,7 +49,12 @@ def _backend_unset() -> bool:
 if _backend_unset():
     matplotlib.use("Agg")
 
-import matplotlib.pyplot as _plt  # noqa: E402,F401  (resolves the backend; IPython display hooks)
+import matplotlib.pyplot as _plt  # noqa: E402,F401  (IPython display hooks)
+
+try:  # load the backend now: the inline backend registers IPython's display of figures when it is imported
+    _plt.switch_backend(matplotlib.rcParams["backend"])
+except Exception:  # pragma: no cover - a broken backend setting: matplotlib will say so when drawing
+    pass
 from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402
@@ -50,27 +62,42 @@ from matplotlib.patches import Rectangle  # noqa: E402
 #: rcParams every figure is built under (and io.save_figure saves under).
 STYLE: dict = {
     "font.family": "DejaVu Sans",
-    "font.size": 9.0,
-    "axes.titlesize": 10.0,
-    "axes.labelsize": 9.0,
+    "font.size": 7.0,
+    "axes.titlesize": 8.0,
+    "axes.labelsize": 7.0,
+    "xtick.labelsize": 6.5,
+    "ytick.labelsize": 6.5,
+    "axes.linewidth": 0.6,
+    "xtick.major.width": 0.6,
+    "ytick.major.width": 0.6,
     "axes.grid": True,
     "grid.alpha": 0.3,
-    "legend.fontsize": 8.0,
+    "grid.linewidth": 0.4,
+    "legend.fontsize": 6.5,
     "legend.frameon": False,
-    "lines.linewidth": 1.2,
+    "lines.linewidth": 1.0,
+    "lines.markersize": 3.0,
     "image.cmap": "viridis",
-    "figure.dpi": 100.0,
-    "savefig.dpi": 150.0,
+    "figure.dpi": 150.0,
+    "savefig.dpi": 300.0,
     "savefig.bbox": None,
     "svg.hashsalt": "tendrilkit",
     "svg.fonttype": "path",
     "pdf.fonttype": 42,
     "path.simplify": True,
-    "axes.prop_cycle": matplotlib.cycler(color=["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
-                                                "#8c564b", "#e377c2", "#7f7f7f"]),
+    "axes.prop_cycle": matplotlib.cycler(color=["#0072B2", "#E69F00", "#009E73", "#D55E00", "#CC79A7",
+                                                "#56B4E9", "#F0E442", "#000000"]),
 }
-FIRST_COLOR, LAST_COLOR = "black", "red"
-PROJECTION_COLORS = {"XY": "orange", "YZ": "green", "XZ": "blue"}
+#: Journal column widths (mm): single and double column.
+SINGLE_MM, DOUBLE_MM = 85.0, 180.0
+MM = 1.0 / 25.4
+#: Okabe-Ito colours (colour-blind safe). First and last frame differ by colour, line style and marker.
+OKABE_ITO = {"blue": "#0072B2", "orange": "#E69F00", "green": "#009E73", "vermillion": "#D55E00",
+             "purple": "#CC79A7", "sky": "#56B4E9", "yellow": "#F0E442", "black": "#000000"}
+FIRST_COLOR, LAST_COLOR = OKABE_ITO["blue"], OKABE_ITO["vermillion"]
+FIRST_STYLE = dict(color=FIRST_COLOR, ls="-", marker="o")
+LAST_STYLE = dict(color=LAST_COLOR, ls="--", marker="s")
+PROJECTION_COLORS = {"XY": OKABE_ITO["orange"], "YZ": OKABE_ITO["green"], "XZ": OKABE_ITO["sky"]}
 FRAME_SHADES = ("white", "#dcecf7", "#e6e6e6")   # the paper's bar plots: white, light blue, grey
 
 
@@ -115,180 +142,268 @@ def _pick_frames(all_frames: np.ndarray, frames: Sequence[int] | None, max_frame
     return fr[idx].tolist()
 
 
-def _frame_colors(n: int, cmap: str = "viridis") -> list:
-    """First black, last red, the others along ``cmap``."""
+def _frame_colors(n: int, cmap: str = "cividis") -> list:
+    """First blue, last vermillion, the others along ``cmap``."""
     if n == 1:
         return [FIRST_COLOR]
     cm = matplotlib.colormaps[cmap]
-    cols = [cm(0.15 + 0.7 * i / max(n - 2, 1)) for i in range(n)]
+    cols = [cm(0.25 + 0.6 * i / max(n - 2, 1)) for i in range(n)]
     cols[0], cols[-1] = FIRST_COLOR, LAST_COLOR
     return cols
 
 
+def _size(width: str | float = "double", height_mm: float = 60.0) -> tuple[float, float]:
+    """Figure size (inches) for a journal column: ``"single"`` (85 mm), ``"double"`` (180 mm) or mm."""
+    w = {"single": SINGLE_MM, "double": DOUBLE_MM}.get(width, width) if isinstance(width, str) else float(width)
+    if isinstance(w, str):
+        raise ValueError(f"width must be 'single', 'double' or a number of mm, got {width!r}")
+    return w * MM, float(height_mm) * MM
+
+
+def _letters(axes, *, start: int = 0) -> None:
+    """Panel letters a, b, c ... in bold at the top left of each axes."""
+    for k, ax in enumerate(axes):
+        letter = "abcdefghijklmnopqrstuvwxyz"[(start + k) % 26]
+        if hasattr(ax, "text2D"):  # 3D axes
+            ax.text2D(0.0, 1.0, letter, transform=ax.transAxes, fontsize=9, fontweight="bold", ha="left", va="top")
+        else:
+            ax.text(-0.02, 1.02, letter, transform=ax.transAxes, fontsize=9, fontweight="bold", ha="right", va="bottom")
+
+
+def _minutes(df: pd.DataFrame) -> tuple[np.ndarray, str]:
+    if "time_s" in df.columns and df["time_s"].notna().all():
+        return df["time_s"].to_numpy(float) / 60.0, "time after stimulus (min)"
+    return df["frame"].to_numpy(float), "frame"
+
+
 # ------------------------------------------------------------------ sequence figures
 @_styled
-def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | None = None) -> Figure:
-    """Breakpoints of the curvature (top) and torsion (bottom) laws over frames (paper Figure 7).
+def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | None = None, ax_pair=None,
+                      width: str | float = "single") -> Figure:
+    """Breakpoints of the curvature (top) and torsion (bottom) laws over time (paper Figure 7).
 
     Parameters
     ----------
     split : DataFrame
-        :func:`tendrilkit.sequence.split_points` (``frame, kind, s_mm, s_norm``, optional ``point``).
+        :func:`tendrilkit.sequence.split_points` (``frame, kind, s_mm, s_norm``, optional ``time_s``, ``point``).
+        The time axis is in minutes when ``time_s`` is present, else frames.
     y : {"s_norm", "s_mm", "point"}
         Position along the tendril shown on the vertical axis.
     """
     _check(split, ("frame", "kind", y), "split")
-    fig = Figure(figsize=(6.4, 5.0), layout="constrained")
+    fig = Figure(figsize=_size(width, 70), layout="constrained")
     axes = fig.subplots(2, 1, sharex=True)
-    labels = {"s_norm": "normalised length (0 base, 1 tip)", "s_mm": "arc length (mm)", "point": "point index"}
-    for ax, kind, name in zip(axes, ("kappa", "tau"), ("curvature", "torsion")):
-        d = split[split["kind"] == kind]
-        ax.scatter(d["frame"], d[y], s=4, color="#1f77b4" if kind == "kappa" else "#d62728", linewidths=0)
-        ax.set_ylabel(labels.get(y, y))
-        ax.set_title(f"{name} split points")
-        if y == "s_norm":
-            ax.set_ylim(0, 1)
-    axes[-1].set_xlabel("frame")
+    _draw_split(axes, split, y)
+    _letters(axes)
     if title:
         fig.suptitle(title)
     return fig
 
 
+def _draw_split(axes, split: pd.DataFrame, y: str, *, labels: bool = True) -> None:
+    names = {"s_norm": "(0 base, 1 tip)", "s_mm": "(mm)", "point": "(point)"}
+    for ax, kind, name, col in zip(axes, ("kappa", "tau"), ("κ", "τ"), (OKABE_ITO["blue"], OKABE_ITO["vermillion"])):
+        d = split[split["kind"] == kind]
+        x, xlabel = _minutes(d)
+        ax.scatter(x, d[y], s=3, color=col, linewidths=0)
+        if labels:
+            ax.set_ylabel(f"{name} split points\n{names.get(y, y)}")
+        if y == "s_norm":
+            ax.set_ylim(0, 1)
+    axes[-1].set_xlabel(xlabel if len(split) else "time after stimulus (min)")
+
+
+def _map_limits(maps_list, percentile: float) -> tuple[float, float]:
+    K = np.concatenate([np.abs(np.asarray(m.kappa) * m.kappa_scale).ravel() for m in maps_list])
+    T = np.concatenate([np.abs(np.asarray(m.tau) * m.tau_scale).ravel() for m in maps_list])
+    K, T = K[np.isfinite(K)], T[np.isfinite(T)]
+    kv = float(np.percentile(K, percentile)) if K.size else 1.0
+    tv = float(np.percentile(T, percentile)) if T.size else 1.0
+    return (kv if kv > 0 else 1.0), (tv if tv > 0 else 1.0)
+
+
+def _draw_maps(axes, maps, kv: float, tv: float, *, undefined_fraction: float, fig, colorbars: bool, labels: bool):
+    s = np.asarray(maps.s_norm)
+    K = np.asarray(maps.kappa) * maps.kappa_scale
+    T = np.asarray(maps.tau) * maps.tau_scale
+    t = np.asarray(maps.time_s, dtype=float)
+    x, xlabel = (t / 60.0, "time after stimulus (min)") if t.size and np.all(np.isfinite(t)) else \
+        (np.asarray(maps.frame, float), "frame")
+    T = np.where(np.abs(K) < undefined_fraction * kv, np.nan, T)  # torsion undefined where the curve is straight
+    signed_k = np.nanmin(K) < 0 if np.isfinite(K).any() else False
+    meshes = []
+    for ax, M, name, v, signed in ((axes[0], K, "curvature κ (1/mm)", kv, signed_k),
+                                   (axes[1], T, "torsion τ (1/mm)", tv, True)):
+        ax.set_facecolor("#d9d9d9")  # masked (undefined or excluded) cells show grey
+        if M.shape[1] == 0:
+            continue
+        kw = dict(cmap="RdBu_r", vmin=-v, vmax=v) if signed else dict(cmap="viridis", vmin=0, vmax=v)
+        mesh = ax.pcolormesh(x, s, np.ma.masked_invalid(M), shading="nearest", rasterized=True, **kw)
+        ax.grid(False)
+        meshes.append(mesh)
+        if colorbars:
+            cb = fig.colorbar(mesh, ax=ax, extend="both" if signed else "max", pad=0.01)
+            cb.set_label(name)
+        if labels:
+            ax.set_ylabel("position (0 base, 1 tip)")
+    axes[-1].set_xlabel(xlabel)
+    return meshes
+
+
 @_styled
-def plot_kt_maps(maps, *, title: str | None = None) -> Figure:
-    """Normalised curvature and torsion along the normalised length over time (paper Figure 8).
+def plot_kt_maps(maps, *, title: str | None = None, percentile: float = 99.0, limits: tuple | None = None,
+                 undefined_fraction: float = 0.05, width: str | float = "single") -> Figure:
+    """Curvature and torsion along the normalised length over time (paper Figure 8).
 
     Parameters
     ----------
     maps : :class:`tendrilkit.sequence.KTMaps`
-        NaN columns (excluded frames) are drawn blank.
+        Drawn in 1/mm (``kappa * kappa_scale``); NaN columns (excluded frames) grey.
+    percentile : float
+        Colour limits at this percentile of the absolute values (robust to
+        one-frame spikes); values beyond saturate (``extend`` arrows).
+    limits : (float, float), optional
+        Colour limits (κ, τ) in 1/mm, e.g. shared across sites.
+    undefined_fraction : float
+        Torsion is masked (grey) where |κ| is below this fraction of the κ limit:
+        a nearly straight stretch has no defined torsion.
     """
-    s, K, T = np.asarray(maps.s_norm), np.asarray(maps.kappa), np.asarray(maps.tau)
-    t = np.asarray(maps.time_s, dtype=float)
-    if t.size and np.all(np.isfinite(t)):
-        x, xlabel = t / 60.0, "time (min)"
-    else:
-        x, xlabel = np.asarray(maps.frame, dtype=float), "frame"
-    fig = Figure(figsize=(7.0, 5.0), layout="constrained")
+    kv, tv = limits if limits is not None else _map_limits([maps], percentile)
+    fig = Figure(figsize=_size(width, 75), layout="constrained")
     axes = fig.subplots(2, 1, sharex=True)
-    kmin = np.nanmin(K) if np.isfinite(K).any() else 0.0
-    for ax, M, name, scale in ((axes[0], K, "curvature", maps.kappa_scale), (axes[1], T, "torsion", maps.tau_scale)):
-        signed = name == "torsion" or kmin < 0
-        kw = dict(cmap="RdBu_r", norm=TwoSlopeNorm(0.0, -1.0, 1.0)) if signed else dict(cmap="viridis", vmin=0, vmax=1)
-        if M.shape[1] == 0:
-            ax.set_title(f"{name}: no frames")
-            continue
-        mesh = ax.pcolormesh(x, s, np.ma.masked_invalid(M), shading="nearest", rasterized=False, **kw)
-        ax.grid(False)
-        cb = fig.colorbar(mesh, ax=ax)
-        cb.set_label(f"normalised {name}")
-        ax.set_ylabel("normalised length")
-        ax.set_title(f"{name} / {scale:.4g} mm$^{{-1}}$ ({maps.source})")
-    axes[-1].set_xlabel(xlabel)
+    _draw_maps(axes, maps, kv, tv, undefined_fraction=undefined_fraction, fig=fig, colorbars=True, labels=True)
+    _letters(axes)
     if title:
         fig.suptitle(title)
     return fig
 
 
+def _draw_tip(fig, spec, P: np.ndarray, *, label_axes: bool = False):
+    ax3 = fig.add_subplot(spec, projection="3d")
+    ax3.plot(P[:, 0], P[:, 1], P[:, 2], color="black", lw=0.9)
+    if len(P):
+        lo = P.min(axis=0)
+        for name, (x, y, z) in {"XY": (P[:, 0], P[:, 1], np.full(len(P), lo[2])),
+                                "YZ": (np.full(len(P), lo[0]), P[:, 1], P[:, 2]),
+                                "XZ": (P[:, 0], np.full(len(P), lo[1]), P[:, 2])}.items():
+            ax3.plot(x, y, z, color=PROJECTION_COLORS[name], lw=0.7, label=f"{name} projection")
+        ax3.scatter(*P[0], color=FIRST_COLOR, marker="o", s=10, label="first")
+        ax3.scatter(*P[-1], color=LAST_COLOR, marker="s", s=10, label="last")
+        _equal_3d(ax3, P)
+    if label_axes:
+        ax3.set_xlabel("x (mm)", labelpad=-6)
+        ax3.set_ylabel("y (mm)", labelpad=-6)
+        ax3.set_zlabel("z (mm)", labelpad=-6)
+    else:  # the labels of a small 3D panel collide with its neighbours: one line under it instead
+        ax3.text2D(0.5, -0.02, "x, y, z (mm)", transform=ax3.transAxes, ha="center", va="top", fontsize=6.5)
+    ax3.tick_params(pad=-2)
+    return ax3
+
+
 @_styled
-def plot_tip_trajectory(traj: pd.DataFrame, *, title: str | None = None) -> Figure:
-    """The tip's 3D path (black) and its XY, YZ, XZ projections (orange, green, blue; paper Figure 9)."""
+def plot_tip_trajectory(traj: pd.DataFrame, *, title: str | None = None, width: str | float = "double") -> Figure:
+    """The tip's 3D path (black) with its XY, YZ, XZ projections (paper Figure 9).
+
+    First position: blue circle; last: vermillion square.
+    """
     _check(traj, ("x_mm", "y_mm", "z_mm"), "traj")
     P = traj[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
-    fig = Figure(figsize=(8.0, 7.0), layout="constrained")
-    ax3 = fig.add_subplot(2, 2, 1, projection="3d")
-    ax3.plot(P[:, 0], P[:, 1], P[:, 2], color="black")
-    if len(P):
-        ax3.scatter(*P[0], color=FIRST_COLOR, marker="o", s=12)
-        ax3.scatter(*P[-1], color=LAST_COLOR, marker="o", s=12)
-        _equal_3d(ax3, P)
-    ax3.set_xlabel("x (mm)")
-    ax3.set_ylabel("y (mm)")
-    ax3.set_zlabel("z (mm)")
-    ax3.set_title("tip path")
+    fig = Figure(figsize=_size(width, 55), layout="constrained")
+    fig.get_layout_engine().set(wspace=0.06)
+    gs = fig.add_gridspec(1, 4, width_ratios=(1.35, 1.0, 1.0, 1.0))
+    ax3 = _draw_tip(fig, gs[0, 0], P)
+    axes = [ax3]
     for k, (name, (i, j)) in enumerate((("XY", (0, 1)), ("YZ", (1, 2)), ("XZ", (0, 2)))):
-        ax = fig.add_subplot(2, 2, k + 2)
+        ax = fig.add_subplot(gs[0, k + 1])
         ax.plot(P[:, i], P[:, j], color=PROJECTION_COLORS[name])
         if len(P):
-            ax.plot(P[0, i], P[0, j], "o", color=FIRST_COLOR, ms=3)
-            ax.plot(P[-1, i], P[-1, j], "o", color=LAST_COLOR, ms=3)
+            ax.plot(P[0, i], P[0, j], "o", color=FIRST_COLOR, ms=3, label="first")
+            ax.plot(P[-1, i], P[-1, j], "s", color=LAST_COLOR, ms=3, label="last")
         ax.set_xlabel(f"{'xyz'[i]} (mm)")
         ax.set_ylabel(f"{'xyz'[j]} (mm)")
         ax.set_aspect("equal", adjustable="datalim")
-        ax.set_title(f"{name} projection")
+        axes.append(ax)
+    axes[1].legend(loc="best")
+    _letters(axes)
     if title:
         fig.suptitle(title)
     return fig
 
 
-@_styled
-def plot_shape_evolution(curves: pd.DataFrame, *, frames: Sequence[int] | None = None, max_frames: int = 12,
-                         title: str | None = None) -> Figure:
-    """Centrelines of a few frames in 3D: first black, last red, between along viridis (Figure 8 top)."""
-    _check(curves, ("frame", "point", "x_mm", "y_mm", "z_mm"), "curves")
-    show = _pick_frames(curves["frame"].to_numpy(), frames, max_frames)
-    fig = Figure(figsize=(6.0, 6.0), layout="constrained")
-    ax = fig.add_subplot(projection="3d")
+def _draw_evolution(ax, curves: pd.DataFrame, show: list[int]) -> None:
     allP = []
     for f, col in zip(show, _frame_colors(len(show))):
         P = curves[curves["frame"] == f].sort_values("point")[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
         allP.append(P)
-        lw = 2.0 if col in (FIRST_COLOR, LAST_COLOR) else 0.9
-        ax.plot(P[:, 0], P[:, 1], P[:, 2], color=col, lw=lw, label=f"frame {f}" if col in (FIRST_COLOR, LAST_COLOR) else None)
+        end = f == show[0] or f == show[-1]
+        t = curves.loc[curves["frame"] == f, "time_s"].iloc[0] / 60.0 if "time_s" in curves.columns else np.nan
+        lab = (f"{t:.1f} min" if np.isfinite(t) else f"frame {f}") if end else None
+        ax.plot(P[:, 0], P[:, 1], P[:, 2], color=col, lw=1.6 if end else 0.6, ls="--" if f == show[-1] and len(show) > 1 else "-",
+                label=lab)
     if allP:
         _equal_3d(ax, np.vstack(allP))
+    ax.tick_params(pad=-2)
+
+
+@_styled
+def plot_shape_evolution(curves: pd.DataFrame, *, frames: Sequence[int] | None = None, max_frames: int = 12,
+                         title: str | None = None, width: str | float = "single") -> Figure:
+    """Centrelines of a few frames in 3D (Figure 8 top): first blue solid, last vermillion dashed, between cividis."""
+    _check(curves, ("frame", "point", "x_mm", "y_mm", "z_mm"), "curves")
+    show = _pick_frames(curves["frame"].to_numpy(), frames, max_frames)
+    fig = Figure(figsize=_size(width, 75), layout="constrained")
+    ax = fig.add_subplot(projection="3d")
+    _draw_evolution(ax, curves, show)
+    if show:
         ax.legend(loc="upper left")
-    ax.set_xlabel("x (mm, gravity)")
-    ax.set_ylabel("y (mm)")
-    ax.set_zlabel("z (mm)")
-    ax.set_title(title or "shape evolution")
+    ax.set_xlabel("x (mm, gravity)", labelpad=-4)
+    ax.set_ylabel("y (mm)", labelpad=-4)
+    ax.set_zlabel("z (mm)", labelpad=-4)
+    if title:
+        ax.set_title(title)
     return fig
 
 
 @_styled
 def plot_shape_change(change: pd.DataFrame, response=None, *, measure: str | None = None,
-                      title: str | None = None) -> Figure:
-    """Shape change over time with the response onset and stabilisation marked.
+                      title: str | None = None, width: str | float = "single") -> Figure:
+    """Shape change over time (minutes) with the response onset and stabilisation marked.
 
     Parameters
     ----------
     change : DataFrame
         :func:`tendrilkit.sequence.shape_change`.
     response : :class:`tendrilkit.sequence.ResponseTimes`, optional
-        Adds the baseline and plateau (dotted), onset (dashed) and
-        stabilisation (dotted) lines. Its times are drawn on the table's time
-        axis: pass the same ``stimulus_s`` (0 by default).
+        Adds the onset (dashed) and stabilisation (dotted) lines (its times
+        on the table's time axis: the same ``stimulus_s``).
     measure : str, optional
         Column drawn in black; default the response's measure, else ``shape_mm``.
-        The motion (``mean_mm``) and the tip displacement are drawn in grey.
     """
     measure = measure or (response.measure if response is not None else "shape_mm")
     _check(change, ("frame", measure), "change")
-    x, xlabel = _time_axis(change)
-    scale = 60.0 if xlabel.startswith("time") else None
-    names = {"shape_mm": "shape change (rigid motion removed)", "mean_mm": "motion (mean distance)",
-             "tip_displacement_mm": "tip displacement"}
-    fig = Figure(figsize=(7.0, 3.6), layout="constrained")
+    x, xlabel = _minutes(change)
+    minutes = xlabel.startswith("time")
+    names = {"shape_mm": "shape change", "mean_mm": "motion (mean distance)", "tip_displacement_mm": "tip displacement"}
+    fig = Figure(figsize=_size(width, 55), layout="constrained")
     ax = fig.add_subplot()
     for col, color in (("mean_mm", "#9a9a9a"), ("tip_displacement_mm", "#c8c8c8")):
         if col in change.columns and col != measure:
-            ax.plot(x, change[col], color=color, lw=0.8, label=names[col])
-    ax.plot(x, change[measure], ".-", color="black", ms=3, lw=0.9, label=names.get(measure, measure))
+            ax.plot(x, change[col], color=color, lw=0.7, label=names[col])
+    ax.plot(x, change[measure], ".-", color="black", ms=2, lw=0.8, label=names.get(measure, measure))
     if response is not None:
-        for level in (response.baseline_mm, response.plateau_mm):
-            if np.isfinite(level):
-                ax.axhline(level, color="#1f77b4", lw=0.6, ls=":")
-        if response.responded and scale is not None:
+        if response.responded and minutes:
             if np.isfinite(response.onset_s):
-                ax.axvline(response.onset_s / scale, color="#ff7f0e", ls="--",
+                ax.axvline(response.onset_s / 60, color=OKABE_ITO["orange"], ls="--",
                            label=f"onset {response.onset_s / 60:.1f} min")
             if np.isfinite(response.stable_s):
-                ax.axvline(response.stable_s / scale, color="#2ca02c", ls=":",
+                ax.axvline(response.stable_s / 60, color=OKABE_ITO["green"], ls=":",
                            label=f"stable {response.stable_s / 60:.1f} min")
         elif not response.responded:
-            ax.text(0.98, 0.05, "no response", transform=ax.transAxes, color="#d62728", ha="right")
+            ax.text(0.97, 0.5, "no response", transform=ax.transAxes, color=OKABE_ITO["vermillion"], ha="right",
+                    va="center")
     ax.set_xlabel(xlabel)
     ax.set_ylabel("distance to the first frame (mm)")
+    ax.set_ylim(bottom=min(0.0, float(np.nanmin(change[measure])) if len(change) else 0.0))
     ax.legend(loc="upper left")
     if title:
         ax.set_title(title)
@@ -296,8 +411,43 @@ def plot_shape_change(change: pd.DataFrame, response=None, *, measure: str | Non
 
 
 @_styled
-def plot_reprojection_bars(table: pd.DataFrame, *, title: str | None = None) -> Figure:
+def plot_response_fit(fit, *, true_onset_s: float | None = None, true_stable_s: float | None = None,
+                      width: str | float = "single") -> Figure:
+    """The response-time model (:func:`tendrilkit.response.fit_response_times`) over its two signals.
+
+    Shape change from the first frame (black) and to the last frame (grey),
+    the smooth steps fitted at each end (orange), the measured onset and
+    stabilisation (dashed) and, on a phantom, the true ones (dotted).
+    """
+    t = np.asarray(fit.time_s, float) / 60.0
+    fig = Figure(figsize=_size(width, 60), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot(t, fit.from_first_mm, ".-", color="black", ms=2, lw=0.7, label="change from the first frame")
+    ax.plot(t, fit.to_last_mm, ".-", color="#8c8c8c", ms=2, lw=0.7, label="distance to the last frame")
+    if np.isfinite(fit.model_first_mm).any():
+        ax.plot(t, fit.model_first_mm, color=OKABE_ITO["orange"], lw=1.4, label="smooth step fitted")
+        ax.plot(t, fit.model_last_mm, color=OKABE_ITO["orange"], lw=1.4)
+    rt = fit.times
+    if rt.responded:
+        ax.axvline(rt.onset_s / 60, color=OKABE_ITO["blue"], ls="--", label=f"onset {rt.onset_s / 60:.1f} min")
+        ax.axvline(rt.stable_s / 60, color=OKABE_ITO["vermillion"], ls="--", label=f"stable {rt.stable_s / 60:.1f} min")
+    else:
+        ax.text(0.97, 0.5, "no response", transform=ax.transAxes, color=OKABE_ITO["vermillion"], ha="right", va="center")
+    for v, col, name in ((true_onset_s, OKABE_ITO["blue"], "true onset"), (true_stable_s, OKABE_ITO["vermillion"], "true stable")):
+        if v is not None and np.isfinite(v):
+            ax.axvline(v / 60, color=col, ls=":", lw=1.2, label=f"{name} {v / 60:.1f} min")
+    ax.set_xlabel("time after stimulus (min)")
+    ax.set_ylabel("shape change (mm)")
+    ax.legend(loc="best", fontsize=6)
+    return fig
+
+
+@_styled
+def plot_reprojection_bars(table: pd.DataFrame, *, title: str | None = None, width: str | float = "double",
+                           ylabel: str = "error (px)") -> Figure:
     """Bar plot of a Table 1/2 (mean error with its standard deviation), frames shaded (paper Figures 5-6).
+
+    Error bars are clipped at 0 (an error is never negative).
 
     Parameters
     ----------
@@ -310,66 +460,313 @@ def plot_reprojection_bars(table: pd.DataFrame, *, title: str | None = None) -> 
     t = table.sort_values(["frame", "view"], kind="stable").reset_index(drop=True)
     frames = list(dict.fromkeys(t["frame"].tolist()))
     views = sorted(t["view"].unique().tolist())
-    fig = Figure(figsize=(9.0, 3.4), layout="constrained")
+    fig = Figure(figsize=_size(width, 55), layout="constrained")
     axes = fig.subplots(1, 3, sharey=True)
-    width = 0.8 / max(len(views), 1)
-    cm = matplotlib.colormaps["tab10"]
+    width_ = 0.8 / max(len(views), 1)
+    palette = [OKABE_ITO[k] for k in ("blue", "orange", "green", "purple", "sky")]
     for ax, sec in zip(axes, sections):
         for k, f in enumerate(frames):
             ax.axvspan(k - 0.5, k + 0.5, color=FRAME_SHADES[k % len(FRAME_SHADES)], zorder=0, lw=0)
         for vi, v in enumerate(views):
             d = t[t["view"] == v].set_index("frame").reindex(frames)
-            pos = np.arange(len(frames)) - 0.4 + width * (vi + 0.5)
+            pos = np.arange(len(frames)) - 0.4 + width_ * (vi + 0.5)
+            mean = d[f"mean_{sec}_px"].to_numpy(float)
             std = d.get(f"std_{sec}_px")
-            ax.bar(pos, d[f"mean_{sec}_px"], width=width * 0.9, color=cm(vi),
-                   yerr=None if std is None else std.to_numpy(float), capsize=2,
-                   error_kw={"lw": 0.8}, label=f"view {v}", zorder=2)
+            yerr = None if std is None else np.vstack([np.minimum(std.to_numpy(float), mean), std.to_numpy(float)])
+            ax.bar(pos, mean, width=width_ * 0.9, color=palette[vi % len(palette)], yerr=yerr, capsize=1.5,
+                   error_kw={"lw": 0.6}, label=f"view {v}", zorder=2)
         ax.set_xticks(range(len(frames)), [f"frame {f}" for f in frames])
         ax.set_xlim(-0.5, len(frames) - 0.5)
-        ax.set_title({"base": "base section", "tip": "tip section", "entire": "entire"}[sec])
+        ax.set_ylim(bottom=0)
+        ax.set_title({"base": "base quarter", "tip": "tip quarter", "entire": "entire tendril"}[sec])
         ax.grid(axis="x", visible=False)
-    axes[0].set_ylabel("error (px)")
+    axes[0].set_ylabel(ylabel)
     axes[-1].legend(loc="upper left")
+    _letters(axes)
     if title:
         fig.suptitle(title)
     return fig
 
 
 @_styled
-def plot_site_comparison(table: pd.DataFrame, *, title: str | None = None) -> Figure:
-    """The cross-site table (:func:`tendrilkit.sequence.compare_sites`) as three panels.
+def plot_site_comparison(table: pd.DataFrame, regions: pd.DataFrame | None = None, *, title: str | None = None,
+                         reference_min: tuple[float, float] = (3.0, 12.0), width: str | float = "double") -> Figure:
+    """The sites side by side: where each responded, when, and how far the tip went.
 
-    Amplitude of the shape change (hatched: no response), onset and
-    stabilisation times, and tip path length, one bar per experiment,
-    labelled ``site`` (and name when a site has several).
+    Parameters
+    ----------
+    table : DataFrame
+        :func:`tendrilkit.sequence.compare_sites` (``experiment, site,
+        responded, onset_s, stable_s, amplitude_mm, tip_path_mm``).
+    regions : DataFrame, optional
+        ``experiment, site, region, deformation_mm`` (the
+        :func:`tendrilkit.sequence.region_response` of each experiment): panel
+        a shows every quarter's deformation per experiment, the stimulated
+        quarter outlined. Without it, panel a shows the amplitude.
+    reference_min : (float, float)
+        The paper's response and stabilisation times (min), drawn as lines.
     """
     _check(table, ("experiment", "site", "responded", "onset_s", "stable_s", "amplitude_mm", "tip_path_mm"), "table")
     t = table.reset_index(drop=True)
     dup = t["site"].duplicated(keep=False) | (t["site"].astype(str) == "")
     labels = [f"{s}\n{e}" if d else str(s) for s, e, d in zip(t["site"], t["experiment"], dup)]
     x = np.arange(len(t))
-    fig = Figure(figsize=(9.0, 3.4), layout="constrained")
-    a1, a2, a3 = fig.subplots(1, 3)
+    fig = Figure(figsize=_size(width, 60), layout="constrained")
+    a1, a2, a3 = fig.subplots(1, 3, width_ratios=(1.6, 1.0, 0.8))
     resp = t["responded"].astype(bool).to_numpy()
-    bars = a1.bar(x, t["amplitude_mm"].astype(float), color=np.where(resp, "#2ca02c", "#bbbbbb"))
-    for b, r in zip(bars, resp):
+    if regions is not None and len(regions):
+        _check(regions, ("experiment", "region", "deformation_mm"), "regions")
+        names = list(dict.fromkeys(regions["region"].tolist()))
+        w = 0.8 / max(len(names), 1)
+        cm = matplotlib.colormaps["cividis"]
+        for ri, rn in enumerate(names):
+            vals, edge = [], []
+            for e, site in zip(t["experiment"], t["site"]):
+                r = regions[(regions["experiment"] == e) & (regions["region"] == rn)]
+                vals.append(float(r["deformation_mm"].iloc[0]) if len(r) else np.nan)
+                edge.append(str(site) == str(rn))
+            bars = a1.bar(x - 0.4 + w * (ri + 0.5), vals, width=w * 0.92, color=cm(0.1 + 0.8 * ri / max(len(names) - 1, 1)),
+                          label=f"quarter {rn}", zorder=2)
+            for b_, st in zip(bars, edge):
+                if st:
+                    b_.set_edgecolor(OKABE_ITO["vermillion"])
+                    b_.set_linewidth(1.4)
+        a1.set_ylabel("deformation first → last frame (mm)")
+        a1.legend(loc="upper left", ncols=2, title="quarter (outlined: stimulated)", title_fontsize=6)
+    else:
+        bars = a1.bar(x, t["amplitude_mm"].astype(float), color=np.where(resp, OKABE_ITO["green"], "#bbbbbb"))
+        for b_, r in zip(bars, resp):
+            if not r:
+                b_.set_hatch("//")
+        a1.set_ylabel("shape change amplitude (mm)")
+    a1.set_ylim(bottom=0)
+    on = t["onset_s"].astype(float).to_numpy() / 60.0
+    st = t["stable_s"].astype(float).to_numpy() / 60.0
+    a2.plot(x, on, "o", color=OKABE_ITO["blue"], label="onset")
+    a2.plot(x, st, "s", color=OKABE_ITO["vermillion"], label="stable")
+    for v, col in zip(reference_min, (OKABE_ITO["blue"], OKABE_ITO["vermillion"])):
+        a2.axhline(v, color=col, ls=":", lw=0.9)
+        a2.text(-0.55, v, f"paper {v:g} min", color=col, va="bottom", ha="left", fontsize=6)
+    for xi, r in zip(x, resp):
         if not r:
-            b.set_hatch("//")
-    a1.set_ylabel("shape change amplitude (mm)")
-    a1.set_title("amplitude (grey: no response)")
-    a2.bar(x - 0.2, t["onset_s"].astype(float) / 60.0, width=0.4, color="#ff7f0e", label="onset")
-    a2.bar(x + 0.2, t["stable_s"].astype(float) / 60.0, width=0.4, color="#1f77b4", label="stable")
+            a2.text(xi, 0.5, "no\nresponse", ha="center", va="bottom", fontsize=6, color="#555555")
+    a2.set_ylim(0, max(15.0, float(np.nanmax(np.r_[st, on, 0.0])) + 1.0))
+    a2.set_xlim(-0.6, len(t) - 0.4)
     a2.set_ylabel("time after stimulus (min)")
-    a2.set_title("response times")
-    a2.legend(loc="upper left")
-    a3.bar(x, t["tip_path_mm"].astype(float), color="black")
+    a2.legend(loc="center left")
+    a3.bar(x, t["tip_path_mm"].astype(float), color="#555555")
     a3.set_ylabel("tip path length (mm)")
-    a3.set_title("tip path")
     for ax in (a1, a2, a3):
         ax.set_xticks(x, labels)
         ax.grid(axis="x", visible=False)
+    _letters((a1, a2, a3))
     if title:
         fig.suptitle(title)
+    return fig
+
+
+# ------------------------------------------------------------------ composites across sites
+@_styled
+def plot_split_points_sites(splits: dict, *, y: str = "s_norm") -> Figure:
+    """Figure 7 across sites: split points of curvature (top row) and torsion (bottom row), one column per site."""
+    n = max(len(splits), 1)
+    fig = Figure(figsize=_size("double", 70), layout="constrained")
+    axes = np.atleast_2d(fig.subplots(2, n, sharex="col", sharey=True, squeeze=False))
+    for k, (name, split) in enumerate(splits.items()):
+        _draw_split(axes[:, k], split, y, labels=(k == 0))
+        axes[0, k].set_title(name)
+    _letters(axes[0])
+    return fig
+
+
+@_styled
+def plot_kt_maps_sites(maps: dict, curves: dict | None = None, *, percentile: float = 99.0,
+                       undefined_fraction: float = 0.05, max_frames: int = 8) -> Figure:
+    """Figure 8 across sites: the morphology (3D centrelines, top row), curvature and torsion maps.
+
+    One column per site; colour limits shared by every site (``percentile``
+    of all absolute values, 1/mm); torsion masked where the curvature is
+    below ``undefined_fraction`` of the limit.
+    """
+    names = list(maps)
+    n = max(len(names), 1)
+    rows = 3 if curves else 2
+    kv, tv = _map_limits([maps[k] for k in names], percentile) if names else (1.0, 1.0)
+    fig = Figure(figsize=_size("double", 45 * rows), layout="constrained")
+    gs = fig.add_gridspec(rows, n)
+    top = []
+    for k, name in enumerate(names):
+        r0 = 0
+        if curves:
+            ax3 = fig.add_subplot(gs[0, k], projection="3d")
+            c = curves[name]
+            _draw_evolution(ax3, c, _pick_frames(c["frame"].to_numpy(), None, max_frames))
+            ax3.set_title(name)
+            if k == 0:
+                ax3.legend(loc="upper left", fontsize=5.5)
+            top.append(ax3)
+            r0 = 1
+        axk = fig.add_subplot(gs[r0, k])
+        axt = fig.add_subplot(gs[r0 + 1, k], sharex=axk)
+        if not curves:
+            axk.set_title(name)
+            top.append(axk)
+        meshes = _draw_maps((axk, axt), maps[name], kv, tv, undefined_fraction=undefined_fraction, fig=fig,
+                            colorbars=False, labels=(k == 0))
+        if k == n - 1 and meshes:
+            fig.colorbar(meshes[0], ax=axk, extend="max", pad=0.01).set_label("κ (1/mm)")
+            if len(meshes) > 1:
+                fig.colorbar(meshes[1], ax=axt, extend="both", pad=0.01).set_label("τ (1/mm)")
+    _letters(top)
+    return fig
+
+
+@_styled
+def plot_tip_trajectory_sites(trajectories: dict) -> Figure:
+    """Figure 9 across sites: each site's tip path in 3D with its projections on the box walls."""
+    n = max(len(trajectories), 1)
+    fig = Figure(figsize=_size("double", 55), layout="constrained")
+    gs = fig.add_gridspec(1, n)
+    axes = []
+    for k, (name, traj) in enumerate(trajectories.items()):
+        ax = _draw_tip(fig, gs[0, k], traj[["x_mm", "y_mm", "z_mm"]].to_numpy(float))
+        ax.set_title(name)
+        axes.append(ax)
+    if axes:
+        axes[0].legend(loc="upper left", fontsize=5.5)
+    _letters(axes)
+    return fig
+
+
+@_styled
+def plot_penalty_fits(fits: dict) -> Figure:
+    """Figure 10: measured curvature and torsion with the laws fitted under different penalties.
+
+    Parameters
+    ----------
+    fits : dict label -> :class:`tendrilkit.pwc.PWCFit`
+        e.g. ``{"ε = 0.001": fit_a, "ε = 0.1": fit_b}`` on the same frame.
+    """
+    fig = Figure(figsize=_size("double", 70), layout="constrained")
+    axes = fig.subplots(2, 1, sharex=True)
+    palette = [OKABE_ITO[k] for k in ("vermillion", "blue", "green", "purple", "orange")]
+    styles = ["-", "--", "-.", ":", "-"]
+    first = next(iter(fits.values()), None)
+    if first is not None:
+        s = np.asarray(first.s_mm)
+        ok = np.asarray(first.frames.tau_defined, bool)
+        axes[0].plot(s, first.frames.kappa, ".", color="0.6", ms=2, label="measured")
+        axes[1].plot(s[ok], np.asarray(first.frames.tau)[ok], ".", color="0.6", ms=2, label="measured")
+    for k, (label, f) in enumerate(fits.items()):
+        s = np.asarray(f.s_mm)
+        for ax, law, y in ((axes[0], f.kappa_law, f.kappa_fit), (axes[1], f.tau_law, f.tau_fit)):
+            ax.plot(s, y, color=palette[k % len(palette)], ls=styles[k % len(styles)], lw=1.1,
+                    label=f"{label}: {law.n_segments} segments")
+    axes[0].set_ylabel("curvature κ (1/mm)")
+    axes[1].set_ylabel("torsion τ (1/mm)")
+    axes[1].set_xlabel("arc length s (mm)")
+    for ax in axes:
+        ax.legend(loc="upper left", ncols=2)
+    _letters(axes)
+    return fig
+
+
+@_styled
+def plot_reprojection_overlays(panels: list, *, crop_margin_px: int = 20) -> Figure:
+    """The paper's reprojection figure: skeleton vs reprojected curve vs PWC, per view and frame.
+
+    Parameters
+    ----------
+    panels : list of rows, each a list of dicts (one per view) with keys
+        ``image`` ((h, w, 3) BGR or (h, w) grey), ``roi`` [x, y, w, h],
+        ``skeleton_xy``, ``reprojected_xy``, ``pwc_xy`` ((n, 2) px or None)
+        and ``label`` (e.g. "frame 0, view 1"). Rows are frames (first,
+        middle, last), columns views. Each panel shows the ROI.
+    """
+    nr = max(len(panels), 1)
+    nc = max((len(r) for r in panels), default=1)
+    fig = Figure(figsize=_size("double", 58 * nr), layout="constrained")
+    axes = np.atleast_2d(fig.subplots(nr, nc, squeeze=False))
+    for i, row in enumerate(panels):
+        for j, p in enumerate(row):
+            ax = axes[i, j]
+            img = np.asarray(p["image"])
+            rgb = img[:, :, ::-1] if img.ndim == 3 else img
+            x, y, w, h = (int(v) for v in p["roi"])
+            x0, y0 = max(x - crop_margin_px, 0), max(y - crop_margin_px, 0)
+            x1, y1 = min(x + w + crop_margin_px, img.shape[1]), min(y + h + crop_margin_px, img.shape[0])
+            ax.imshow(rgb[y0:y1, x0:x1], extent=(x0 - 0.5, x1 - 0.5, y1 - 0.5, y0 - 0.5),
+                      cmap=None if img.ndim == 3 else "gray", interpolation="nearest")
+            for key, col, ls, lab in (("skeleton_xy", "black", "-", "skeleton"),
+                                      ("reprojected_xy", OKABE_ITO["sky"], "-", "reconstruction reprojected"),
+                                      ("pwc_xy", OKABE_ITO["orange"], "--", "PWC reprojected")):
+                c = p.get(key)
+                if c is not None and len(c):
+                    c = np.asarray(c, float)
+                    ax.plot(c[:, 0], c[:, 1], color=col, ls=ls, lw=0.9 if key == "skeleton_xy" else 0.8, label=lab)
+            ax.set_xlim(x0 - 0.5, x1 - 0.5)
+            ax.set_ylim(y1 - 0.5, y0 - 0.5)
+            ax.set_xticks([])
+            ax.set_yticks([])
+            ax.grid(False)
+            ax.set_title(p.get("label", ""), fontsize=7)
+        for j in range(len(row), nc):
+            axes[i, j].set_axis_off()
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="outside lower center", ncols=3)
+    _letters(axes.ravel())
+    return fig
+
+
+@_styled
+def plot_views(panels: list, *, width: str | float = "double") -> Figure:
+    """Several views side by side (one panel each): image, ROI, keep-out box, base point, optional centreline.
+
+    Parameters
+    ----------
+    panels : list of dicts with keys ``image``, ``roi``, ``keep_out``,
+        ``base_point_xy``, optional ``centerline_xy`` ((n, 2) px, drawn base
+        dark to tip bright), ``mask`` (a :class:`~tendrilkit.segmentation.TendrilMask`,
+        magenta) and ``label``.
+    """
+    n = max(len(panels), 1)
+    h0, w0 = np.asarray(panels[0]["image"]).shape[:2] if panels else (1, 1)
+    fig = Figure(figsize=_size(width, DOUBLE_MM / n * h0 / w0 + 12), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(1, n))
+    for ax, p in zip(axes, panels):
+        img = np.asarray(p["image"])
+        rgb = (img[:, :, ::-1] if img.ndim == 3 else np.repeat(img[:, :, None], 3, axis=2)).astype(float) / 255.0
+        m = p.get("mask")
+        if m is not None:
+            mm = np.asarray(m.mask_roi, bool)
+            xo, yo = (int(v) for v in m.roi_offset_xy)
+            sub = rgb[yo:yo + mm.shape[0], xo:xo + mm.shape[1]]
+            sub[mm] = 0.35 * sub[mm] + 0.65 * np.array([1.0, 0.0, 1.0])
+        ax.imshow(rgb, interpolation="nearest")
+        roi = p["roi"]
+        ax.add_patch(Rectangle(tuple(roi[:2]), roi[2], roi[3], fill=False, ec=OKABE_ITO["green"], lw=0.8, label="ROI"))
+        ko = p.get("keep_out")
+        if ko is not None:
+            ax.add_patch(Rectangle(tuple(ko[:2]), ko[2], ko[3], fill=False, ec=OKABE_ITO["vermillion"], lw=0.8,
+                                   hatch="////", label="keep-out"))
+        c = p.get("centerline_xy")
+        if c is not None and len(c):
+            c = np.asarray(c, float)
+            ax.scatter(c[:, 0], c[:, 1], c=np.linspace(0, 1, len(c)), cmap="cividis", s=0.6, linewidths=0,
+                       label="centreline (base dark)")
+        b = p["base_point_xy"]
+        ax.plot([b[0]], [b[1]], "*", color=OKABE_ITO["yellow"], mec="black", mew=0.4, ms=7, label="base point")
+        ax.set_xlim(roi[0] - 40, roi[0] + roi[2] + 40)
+        ax.set_ylim(roi[1] + roi[3] + 40, roi[1] - 40)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        ax.grid(False)
+        ax.set_title(p.get("label", ""))
+    handles, labels = axes[0].get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="outside lower center", ncols=4)
+    _letters(axes)
     return fig
 
 
@@ -508,19 +905,22 @@ def plot_curves_3d_interactive(curves: pd.DataFrame, pwc: pd.DataFrame | None = 
     for f, col in zip(show, cols):
         P = curves[curves["frame"] == f].sort_values("point")[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
         fig.add_trace(go.Scatter3d(x=P[:, 0], y=P[:, 1], z=P[:, 2], mode="lines", name=f"frame {f}",
-                                   line=dict(color=col, width=5 if col in ("#000000", "#ff0000") else 3)))
+                                   line=dict(color=col, width=5 if col in (FIRST_COLOR.lower(), LAST_COLOR.lower()) else 3,
+                                             dash="dash" if col == LAST_COLOR.lower() else "solid")))
         if pwc is not None:
             Q = pwc[pwc["frame"] == f].sort_values("point")[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
             if len(Q):
                 fig.add_trace(go.Scatter3d(x=Q[:, 0], y=Q[:, 1], z=Q[:, 2], mode="lines", name=f"PWC {f}",
-                                           line=dict(color=col, width=2, dash="dash")))
+                                           line=dict(color=col, width=2, dash="dot")))
     return _plotly_layout(fig, title)
 
 
 __all__ = [
     "STYLE", "plot_split_points", "plot_kt_maps", "plot_tip_trajectory", "plot_tip_trajectory_3d_interactive",
     "plot_curves_3d_interactive", "plot_shape_evolution", "plot_shape_change", "plot_reprojection_bars",
-    "plot_site_comparison", "plot_view_overlay",
+    "plot_site_comparison", "plot_view_overlay", "plot_response_fit", "plot_split_points_sites", "plot_kt_maps_sites",
+    "plot_tip_trajectory_sites", "plot_penalty_fits", "plot_reprojection_overlays", "plot_views", "plot_mask_overlay",
+    "plot_pwc_fit", "plot_grid_search", "show_interactive", "SINGLE_MM", "DOUBLE_MM",
 ]
 
 
@@ -562,7 +962,7 @@ def plot_pwc_fit(fit, *, title: str | None = None) -> Figure:
     """
     fr = fit.frames
     s = np.asarray(fit.s_mm)
-    fig = Figure(figsize=(7.0, 5.0), layout="constrained")
+    fig = Figure(figsize=_size("single", 75), layout="constrained")
     axes = fig.subplots(2, 1, sharex=True)
     for ax, kind, meas, law, fitted in ((axes[0], "curvature κ (1/mm)", fr.kappa, fit.kappa_law, fit.kappa_fit),
                                         (axes[1], "torsion τ (1/mm)", fr.tau, fit.tau_law, fit.tau_fit)):
@@ -570,46 +970,66 @@ def plot_pwc_fit(fit, *, title: str | None = None) -> Figure:
         ax.plot(s[ok], np.asarray(meas)[ok], ".", color="0.55", ms=2.5, label="measured")
         if (~ok).any():
             ax.plot(s[~ok], np.asarray(meas)[~ok], ".", color="0.8", ms=2.5, label="undefined")
-        ax.plot(s, fitted, color="red", lw=1.4, label=f"piece-wise linear ({law.n_segments} segments)")
+        ax.plot(s, fitted, color=OKABE_ITO["vermillion"], lw=1.2, label=f"piece-wise linear ({law.n_segments} segments)")
         for k in np.asarray(law.knots_mm)[1:-1]:
-            ax.axvline(k, color="red", lw=0.6, alpha=0.4)
+            ax.axvline(k, color=OKABE_ITO["vermillion"], lw=0.5, alpha=0.4)
         ax.set_ylabel(kind)
         ax.legend(loc="upper left")
     axes[1].set_xlabel("arc length s (mm)")
-    fig.suptitle(title or f"R² = {fit.r2:.5f}, SSE = {fit.sse_mm2:.3g} mm²")
+    axes[0].set_title(title or f"R² = {fit.r2:.5f}, SSE = {fit.sse_mm2:.3g} mm²")
+    _letters(axes)
     return fig
 
 
 @_styled
 def plot_grid_search(grid) -> Figure:
-    """The paper's penalty grid search (Figure 11): R² over each level's grid, the chosen cell marked."""
+    """The paper's penalty grid search (Figure 11): R² over each level's grid, the chosen cell marked.
+
+    Every level has its own colour scale (R² differences shrink as the grid
+    refines); the best cell of each level is outlined, the search's choice
+    (the best over all levels) starred. The caption line says why it stopped.
+    """
     levels = list(grid.levels)
     n = max(len(levels), 1)
-    fig = Figure(figsize=(3.2 * n, 3.2), layout="constrained")
+    fig = Figure(figsize=_size("double", 55), layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, n))
-    for ax, lev in zip(axes, levels):
+    for k, (ax, lev) in enumerate(zip(axes, levels)):
         pk, pt, r2 = np.asarray(lev.penalty_kappa), np.asarray(lev.penalty_tau), np.asarray(lev.r2)
-        im = ax.pcolormesh(pt, pk, r2, shading="nearest", cmap="viridis", vmin=max(float(np.nanmin(r2)), 0.9), vmax=1.0)
+        im = ax.pcolormesh(pt, pk, r2, shading="nearest", cmap="viridis")
+        fig.colorbar(im, ax=ax, location="bottom", shrink=0.9, pad=0.02).set_label("R²")
         i, j = lev.best
-        ax.plot([pt[j]], [pk[i]], "s", mfc="none", mec="red", ms=9)
-        ax.set_xlabel("ε_τ")
-        ax.set_ylabel("ε_κ")
+        ax.plot([pt[j]], [pk[i]], "s", mfc="none", mec=OKABE_ITO["vermillion"], ms=7, mew=1.0)
+        if np.isclose(pk[i], grid.penalty_kappa) and np.isclose(pt[j], grid.penalty_tau):
+            ax.plot([pt[j]], [pk[i]], "*", color=OKABE_ITO["yellow"], mec="black", mew=0.4, ms=7)
+        ax.set_title(f"level {k + 1}: best R² {r2[i, j]:.5f}")
+        ax.set_xlabel("torsion penalty ε_τ")
+        ax.set_ylabel("curvature penalty ε_κ")
         ax.grid(False)
-    fig.colorbar(im, ax=list(axes), label="R²", shrink=0.85)
-    fig.suptitle(f"grid search: ε_κ = {grid.penalty_kappa:.3g}, ε_τ = {grid.penalty_tau:.3g}"
-                 + ("" if grid.converged else " (not converged)"))
+    _letters(axes)
+    fig.supxlabel(("converged: " if grid.converged else "stopped: ") + (getattr(grid, "reason", "") or ""), fontsize=6.5)
     return fig
 
 
-def show_interactive(fig):
-    """Display a plotly figure in a notebook as self-contained HTML with a stable element id.
+class _Interactive:
+    """A plotly figure for a notebook: HTML without plotly.js (the page loads one copy) and plotly's own mime type."""
 
-    plotly.js comes from its CDN (a saved notebook stays small; the figures
-    saved by :func:`tendrilkit.io.save_figure` embed it for offline use) and the notebook is the
-    same at every run (plotly's default output carries a random id).
+    def __init__(self, fig, div_id: str):
+        self.fig, self.div_id = fig, div_id
+
+    def _repr_mimebundle_(self, include=None, exclude=None):
+        html = self.fig.to_html(include_plotlyjs=False, full_html=False, div_id=self.div_id)
+        return {"text/html": html, "application/vnd.plotly.v1+json": self.fig.to_plotly_json(),
+                "text/plain": f"interactive figure {self.div_id}"}
+
+
+def show_interactive(fig, *, name: str | None = None):
+    """Display a plotly figure in a notebook, with a stable element id (the notebook is the same at every run).
+
+    The output holds plotly's JSON (JupyterLab draws it with its plotly
+    renderer) and an HTML ``div`` that needs plotly.js on the page: the
+    report pages (:mod:`tendrilkit.reports`) load one offline copy; the
+    figures saved by :func:`tendrilkit.io.save_figure` embed it.
     """
-    from IPython.display import HTML
-
-    title = fig.layout.title.text if fig.layout.title and fig.layout.title.text else "figure"
+    title = name or (fig.layout.title.text if fig.layout.title and fig.layout.title.text else "figure")
     div_id = "tk-" + "".join(c if c.isalnum() else "-" for c in title.lower())[:40]
-    return HTML(fig.to_html(include_plotlyjs="cdn", full_html=False, div_id=div_id))
+    return _Interactive(fig, div_id)

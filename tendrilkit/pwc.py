@@ -1599,6 +1599,7 @@ class GridSearch:
     penalty_tau: float
     converged: bool
     fit: PWCFit
+    reason: str = ""  #: why the search stopped, in words
 
 
 def grid_search_penalties(
@@ -1668,15 +1669,18 @@ def grid_search_penalties(
     levels = []
     (k0, k1), (t0, t1) = kappa_range, tau_range
     converged = False
+    best_all = None  # (r2, -sse, pen_k, pen_t): the best cell of every level so far (refining never loses it)
+    reason = f"{max(1, refinements)} levels without reaching R² > {target_r2:g}"
     for _ in range(max(1, refinements)):
-        pk = np.linspace(k0, k1, grid)
-        pt = np.linspace(t0, t1, grid)
+        # the previous best cell is always on the refined grid
+        pk = np.unique(np.r_[np.linspace(k0, k1, grid), [] if best_all is None else [best_all[2]]])
+        pt = np.unique(np.r_[np.linspace(t0, t1, grid), [] if best_all is None else [best_all[3]]])
         ik = [path_k.index(p) for p in pk]
         it = [path_t.index(p) for p in pt]
-        r2 = np.empty((grid, grid))
-        sse = np.empty((grid, grid))
-        nk = np.empty((grid, grid), int)
-        nt = np.empty((grid, grid), int)
+        r2 = np.empty((len(pk), len(pt)))
+        sse = np.empty_like(r2)
+        nk = np.empty(r2.shape, int)
+        nt = np.empty(r2.shape, int)
         for a, i in enumerate(ik):
             lk = law(path_k, laws_k, i, fr.kappa, prep.wk, "kappa")
             for b, j in enumerate(it):
@@ -1689,14 +1693,21 @@ def grid_search_penalties(
         order = np.lexsort((sse.ravel(), -r2.ravel()))
         a, b = np.unravel_index(int(order[0]), r2.shape)
         levels.append(GridLevel(pk, pt, r2, sse, nk, nt, (int(a), int(b))))
-        if r2[a, b] > target_r2 and (target_sse_mm2 is None or sse[a, b] < target_sse_mm2):
+        cand = (float(r2[a, b]), -float(sse[a, b]), float(pk[a]), float(pt[b]))
+        improved = best_all is None or cand[:2] > best_all[:2]
+        if improved:
+            best_all = cand
+        if best_all[0] > target_r2 and (target_sse_mm2 is None or -best_all[1] < target_sse_mm2):
             converged = True
+            reason = f"R² {best_all[0]:.5f} > {target_r2:g} at level {len(levels)}"
             break
-        k0, k1 = pk[max(a - 1, 0)], pk[min(a + 1, grid - 1)]
-        t0, t1 = pt[max(b - 1, 0)], pt[min(b + 1, grid - 1)]
-    best = levels[-1]
-    pen_k = float(best.penalty_kappa[best.best[0]])
-    pen_t = float(best.penalty_tau[best.best[1]])
+        if len(levels) > 1 and not improved:
+            reason = (f"refining no longer improves R² (best {best_all[0]:.5f} < {target_r2:g}): the best cells already "
+                      f"give the most segments these data support; a finer grid cannot reach the target")
+            break
+        k0, k1 = pk[max(a - 1, 0)], pk[min(a + 1, len(pk) - 1)]
+        t0, t1 = pt[max(b - 1, 0)], pt[min(b + 1, len(pt) - 1)]
+    pen_k, pen_t = best_all[2], best_all[3]
     i, j = path_k.index(pen_k), path_t.index(pen_t)
     lk, lt = laws_k[i], laws_t[j]
     if refine:
@@ -1704,7 +1715,7 @@ def grid_search_penalties(
     fit = _finish(prep, lk, lt, bounds_k=path_k.bounds[i], bounds_t=path_t.bounds[j], pen_k=pen_k, pen_t=pen_t,
                   rng_k=(path_k.penalty_lo[i], path_k.penalty_hi[i]), rng_t=(path_t.penalty_lo[j], path_t.penalty_hi[j]),
                   selection="grid", candidates=np.zeros((0, 6)), refined=refine, positions=positions)
-    return GridSearch(tuple(levels), pen_k, pen_t, converged, fit)
+    return GridSearch(tuple(levels), pen_k, pen_t, converged, fit, reason)
 
 
 def penalty_table(points_mm: np.ndarray, penalties: list[tuple[float, float]], **options) -> list[dict]:

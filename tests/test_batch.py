@@ -78,6 +78,13 @@ def test_batch_runs_resumes_reports_failures_and_is_byte_stable(setup):
               "figures/shapes.pdf", "figures/shapes.png", "tables/frames.csv"):
         assert (rep / f).is_file(), f
     assert (reports / "comparison" / "figures" / "n.txt").read_text() == "1"
+    # index pages: the batch's, each experiment's (with its notebooks, figures, tables)
+    assert 'href="phantom-S2/index.html"' in (reports / "index.html").read_text()
+    index = (rep / "index.html").read_text()
+    assert 'href="00_test.html"' in index and "figures/shapes.png" in index and "tables/frames.csv" in index
+    assert (rep / "tables" / "README.md").is_file()
+    page = (rep / "00_test.html").read_text()
+    assert str(root) not in page and "https://cdnjs" not in page
     first = _digest(rep)
 
     again = _batch([exp, "--reports", reports], nbs)

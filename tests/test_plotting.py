@@ -72,7 +72,12 @@ def test_matplotlib_functions_return_figures(seq):
     assert any(s.startswith("onset") for s in labels) and any(s.startswith("stable") for s in labels)
     # tip figure: 3D path + three projections, in the paper's colours
     assert len(figs["tip"].axes) == 4
-    assert figs["tip"].axes[1].lines[0].get_color() == "orange"
+    assert figs["tip"].axes[1].lines[0].get_color() == pl.PROJECTION_COLORS["XY"]
+    # journal sizes: 85 or 180 mm wide, panel letters
+    for name, fig in figs.items():
+        if name != "overlay":
+            assert round(fig.get_figwidth() * 25.4) in (85, 180), name
+    assert "a" in [t.get_text() for t in figs["bars"].axes[0].texts]
 
 
 def test_plotly_functions(seq):
@@ -83,7 +88,8 @@ def test_plotly_functions(seq):
     pwc = seq["curves"].copy()
     f2 = pl.plot_curves_3d_interactive(seq["curves"], pwc, frames=[0, 10, 23])
     assert [t.name for t in f2.data] == ["frame 0", "PWC 0", "frame 10", "PWC 10", "frame 23", "PWC 23"]
-    assert f2.data[0].line.color == "#000000" and f2.data[-2].line.color == "#ff0000"
+    assert f2.data[0].line.color == pl.FIRST_COLOR.lower() and f2.data[-2].line.color == pl.LAST_COLOR.lower()
+    assert f2.data[-2].line.dash == "dash"  # first and last differ by more than colour
 
 
 def test_maps_with_a_failed_frame_and_no_response():
@@ -130,3 +136,39 @@ def test_plotly_html_is_byte_identical(seq, tmp_path):
     assert b'id="tip"' in b1[0] and b"cdn.plot.ly" not in b1[0][:2000]
     with pytest.raises(ValueError, match="static export"):
         io.save_figure(pl.plot_tip_trajectory_3d_interactive(seq["traj"]), tmp_path / "tip", formats=("svg",))
+
+
+def test_error_bars_never_below_zero():
+    rows = [(0, v, s, 0.2, 0.9) for v in (1, 2) for s in sq.SECTIONS]
+    fig = pl.plot_reprojection_bars(sq.table1(pd.DataFrame(rows, columns=list(sq.REPROJECTION_COLUMNS))))
+    for ax in fig.axes:
+        for coll in ax.collections:  # the error bars' vertical segments
+            for seg in getattr(coll, "get_segments", lambda: [])():
+                assert np.min(np.asarray(seg)[:, 1]) >= -1e-12
+        assert ax.get_ylim()[0] == 0
+
+
+def test_composites_and_paper_figures(seq):
+    split, maps, traj, curves = seq["split"], seq["maps"], seq["traj"], seq["curves"]
+    figs = [pl.plot_split_points_sites({"S1": split, "S2": split}),
+            pl.plot_kt_maps_sites({"S1": maps, "S2": maps}, {"S1": curves, "S2": curves}),
+            pl.plot_tip_trajectory_sites({"S1": traj, "S2": traj})]
+    assert len(figs[1].axes) >= 6  # morphology row + curvature + torsion per site (+ colour bars)
+    img = np.zeros((60, 80, 3), np.uint8)
+    line = np.c_[np.linspace(8, 60, 20), np.full(20, 30.0)]
+    panel = {"image": img, "roi": [5, 5, 60, 40], "skeleton_xy": line, "reprojected_xy": line + 1,
+             "pwc_xy": line + 2, "label": "frame 0, view 1"}
+    figs.append(pl.plot_reprojection_overlays([[panel, panel, panel]] * 3))
+    assert len(figs[-1].axes) == 9
+    figs.append(pl.plot_views([{"image": img, "roi": [5, 5, 60, 40], "keep_out": [0, 0, 5, 5],
+                                "base_point_xy": [8, 30], "centerline_xy": line, "label": f"view {v}"}
+                               for v in (1, 2, 3)]))
+    assert len(figs[-1].axes) == 3  # every view, not only the last
+    regions = pd.DataFrame({"experiment": ["a"] * 4 + ["b"] * 4, "region": ["S1", "S2", "S3", "S4"] * 2,
+                            "deformation_mm": [0.1, 0.2, 0.3, 0.1, 0.5, 3.0, 6.0, 2.0]})
+    sites = _sites().iloc[:2]
+    figs.append(pl.plot_site_comparison(sites, regions))
+    texts = [t.get_text() for t in figs[-1].axes[1].texts]
+    assert any("3 min" in t for t in texts) and any("12 min" in t for t in texts)
+    for f in figs:
+        assert isinstance(f, Figure)
