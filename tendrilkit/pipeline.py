@@ -77,12 +77,21 @@ Resuming
     an interrupted run (Ctrl-C) keeps its finished frames.
 
 Exit code
-    0 if every frame is ``ok``, 1 if some failed (the run still completes and
-    writes every table); user mistakes raise
+    0 if every frame is ``ok``, 1 if some are ``doubtful`` or ``failed`` (the
+    run still completes and writes every table); user mistakes raise
     :class:`~tendrilkit.exceptions.ExperimentError` (exit code 2 in the CLI);
     Ctrl-C propagates ``KeyboardInterrupt`` (exit code 130 in the CLI) after
     the finished frames are on disk. The last line printed is
-    ``N frames: X ok, Y failed``.
+    ``N frames: X ok, Y doubtful, Z failed``.
+
+Verification
+    Every reconstructed frame is checked against every view's image
+    (:func:`tendrilkit.verify.verify_curve` on
+    :func:`tendrilkit.evidence.view_evidence`, inside the frame's worker) and,
+    at assembly time over the ordered frames, against its neighbours in time
+    (:func:`with_temporal_checks`: the same whatever the chunks or workers).
+    A frame failing a check is ``doubtful``, the failed checks first in its
+    message; limits in the experiment's ``verification:`` section.
 """
 
 from __future__ import annotations
@@ -133,10 +142,11 @@ class FrameResult:
     time_s : float
         ``frame / fps``.
     status : str
-        ``ok`` or ``failed``.
+        ``ok``, ``doubtful`` (reconstructed, but a check of
+        :mod:`tendrilkit.verify` failed) or ``failed``.
     message : str
-        Why it failed, or notes on an ``ok`` frame (a view left out); empty
-        otherwise.
+        Why it failed or which checks it failed (with the figure and the
+        limit), then notes (a view left out); empty otherwise.
     points_mm : (n, 3) float array or None
         The centreline, ``points`` points base to tip, uniform arc length, mm.
     pwc_mm : (n, 3) float array or None
@@ -212,6 +222,9 @@ def quality_columns(n_views: int) -> list[str]:
     cols += [f"tri_err_px_v{v}" for v in range(1, n_views + 1)]
     cols += ["pwc_r2", "pwc_sse_mm2", "pwc_rmse_mm", "pwc_segments_kappa", "pwc_segments_tau"]
     cols += [f"n_crossings_v{v}" for v in range(1, n_views + 1)]
+    from tendrilkit.verify import VERIFY_COLUMNS_FRAME, view_columns
+
+    cols += list(VERIFY_COLUMNS_FRAME) + view_columns(n_views)  # the checks of tendrilkit.verify
     return cols
 
 
@@ -429,14 +442,32 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
                 q["pwc_segments_tau"] = int(pwc_row["n_tau"])
         reproj_rows = [{k_: (v_.item() if hasattr(v_, "item") else v_) for k_, v_ in r.items()}
                        for r in table.to_dict("records")]
+        t0 = time.perf_counter()
+        checks = _verify(points, images, cameras, exp, seg_opts, q)
+        timings["verify"] = time.perf_counter() - t0
     except FrameError as e:
         return failed("; ".join(notes + [f"{type(e).__name__}: {e}"]))
     except _NUMERICAL_ERRORS as e:
         return failed("; ".join(notes + [f"unexpected {type(e).__name__}: {e}"]))
-    return FrameResult(frame=frame, time_s=t_s, status="ok", message="; ".join(notes), points_mm=points,
+    return FrameResult(frame=frame, time_s=t_s, status="doubtful" if checks else "ok",
+                       message="; ".join(checks + notes), points_mm=points,
                        pwc_mm=pwc, quality=q, reprojection=reproj_rows, decisions=decisions,
                        centroids=centroids, n_components=ncomp, timings=timings,
                        pwc_segments=_plain(pwc_segments), pwc_metrics=_plain([pwc_row] if pwc_row else []))
+
+
+def _verify(points: np.ndarray, images: list, cameras: list[Camera], exp, seg_opts: dict, q: dict) -> list[str]:
+    """Check the curve against every view's image (:mod:`tendrilkit.verify`); figures into ``q``, failed checks out."""
+    from tendrilkit.evidence import view_evidence
+    from tendrilkit.verify import Thresholds, image_check_messages, verify_curve
+
+    th = Thresholds.from_params(exp.verification)
+    evidence = [None if img is None else
+                view_evidence(img, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, **seg_opts)
+                for img, m in zip(images, exp.views)]
+    q.update(verify_curve(points, cameras, evidence, tolerance_px=th.tolerance_px,
+                          coverage_tolerance_px=th.coverage_tolerance_px))
+    return image_check_messages(q, len(cameras), th)
 
 
 def _plain(rows: list[dict]) -> list[dict]:
@@ -612,7 +643,7 @@ def _assemble(results: list[FrameResult], n_views: int, n_points: int) -> dict[s
     for c in qcols:
         frames[c] = pd.to_numeric(frames[c], errors="coerce")
     frames["base_extended"] = frames["base_extended"].astype("boolean")
-    for c in ["views_used", "n_matched", "pwc_segments_kappa", "pwc_segments_tau"] + [f"n_crossings_v{v}" for v in range(1, n_views + 1)]:
+    for c in ["views_used", "views_checked", "n_matched", "pwc_segments_kappa", "pwc_segments_tau"] + [f"n_crossings_v{v}" for v in range(1, n_views + 1)]:
         frames[c] = frames[c].astype("Int64")
     rcols = ["frame", "view", "section", "mean_px", "std_px", "max_px", "n_points"]
     reproj = pd.DataFrame(rep, columns=rcols)
@@ -683,8 +714,8 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     Returns
     -------
     int
-        0 if every frame is ``ok``, 1 if some failed. The last line printed
-        is ``N frames: X ok, Y failed``.
+        0 if every frame is ``ok``, 1 if some are ``doubtful`` or ``failed``.
+        The last line printed is ``N frames: X ok, Y doubtful, Z failed``.
 
     Raises
     ------
@@ -805,14 +836,42 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     finally:
         cv2.setNumThreads(old_threads)
 
-    results = [done[f] for f in frames]
+    results = with_temporal_checks([done[f] for f in frames], exp.verification)
     tables = _assemble(results, V, exp.points)
     for name, df in tables.items():
         write_csv(df, out / name)
     n_ok = sum(r.status == "ok" for r in results)
-    n_failed = len(results) - n_ok
-    print(f"{len(results)} frames: {n_ok} ok, {n_failed} failed")  # the command's summary line
-    return 0 if n_failed == 0 else 1
+    n_doubtful = sum(r.status == "doubtful" for r in results)
+    n_failed = len(results) - n_ok - n_doubtful
+    print(f"{len(results)} frames: {n_ok} ok, {n_doubtful} doubtful, {n_failed} failed")  # the command's summary line
+    return 0 if n_ok == len(results) else 1
+
+
+def with_temporal_checks(results: list[FrameResult], verification=None) -> list[FrameResult]:
+    """The results with the checks against neighbouring frames applied (:func:`tendrilkit.verify.temporal_checks`).
+
+    Run at assembly time over the ordered results (so that it does not depend
+    on chunks or workers): fills ``length_change_pct``, ``shape_change_mm``
+    and ``dt_prev_s`` and turns an ``ok`` frame that jumps into ``doubtful``.
+    """
+    from dataclasses import replace
+
+    from tendrilkit.verify import Thresholds, temporal_checks
+
+    th = Thresholds.from_params(verification) if verification is not None else Thresholds()
+    results = sorted(results, key=lambda r: r.frame)
+    figs, msgs = temporal_checks([r.frame for r in results], [r.time_s for r in results],
+                                 [r.points_mm if r.status != "failed" else None for r in results],
+                                 [r.status == "ok" for r in results], th)
+    out = []
+    for r, fig, msg in zip(results, figs, msgs):
+        if r.status == "failed":
+            out.append(r)
+            continue
+        status = "doubtful" if (msg or r.status == "doubtful") else "ok"
+        message = "; ".join([m for m in msg] + ([r.message] if r.message else []))
+        out.append(replace(r, status=status, message=message, quality={**r.quality, **fig}))
+    return out
 
 
 class _Sources:
