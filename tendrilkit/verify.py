@@ -19,10 +19,11 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         reprojection error against the image).
     ``coverage_frac_v<i>``
         Fraction of the skeleton pixels of the dark components the projection
-        runs on that lie within ``coverage_tolerance_px`` of it: how much of
-        the tendril's pixels, from the base outward, the curve explains. A
-        shrunk curve (the tip missing) or one that jumps to another component
-        scores low.
+        runs on, and of those leaving the base mark (:func:`base_components`),
+        that lie within ``coverage_tolerance_px`` of it: how much of the
+        tendril's pixels, from the base outward, the curve explains. A shrunk
+        curve (the tip missing), one that jumps to another component or one
+        that runs along the stem instead of the tendril scores low.
     ``base_px_v<i>``
         Distance of the projected base (point 0) to the view's base mark, px.
     ``views_checked``
@@ -59,7 +60,7 @@ import numpy as np
 
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
 
-__all__ = ["Thresholds", "view_columns", "verify_curve", "image_check_messages", "temporal_checks",
+__all__ = ["Thresholds", "view_columns", "verify_curve", "base_components", "image_check_messages", "temporal_checks",
            "VERIFY_COLUMNS_FRAME"]
 
 #: Frame-level verification columns of ``frames.csv`` (after the per-view ones of :func:`view_columns`).
@@ -215,6 +216,8 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     counts = np.bincount(lab[lab > 0], minlength=int(ev.labels.max()) + 1)
     # components the curve runs along for at least 5 % of its on-tendril samples (a crossing's touch is not)
     touched = np.nonzero(counts >= max(3, 0.05 * len(on)))[0]
+    # and the components that leave the base (a curve on the stem leaves the tendril unexplained)
+    touched = np.union1d(touched, base_components(ev))
     if touched.size == 0:
         return 0.0
     sk = ev.skeleton_xy
@@ -225,6 +228,29 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
         return 0.0
     dist, _ = tree_cls(dense).query(sk, distance_upper_bound=cov_tol + 1e-9)
     return float(np.mean(np.isfinite(dist)))
+
+
+def base_components(ev: ViewEvidence) -> np.ndarray:
+    """Labels of the dark components that leave the base mark.
+
+    Those with a pixel within the keep-out box's half diagonal plus 4 px of
+    the base mark (3 px without a box), except those touching the ROI's
+    border: the stem and the node run out of the ROI, the tendril does not
+    (the ROI is the region it moves in).
+    """
+    L = ev.labels
+    h, w = L.shape
+    reach = 3.0 if ev.keep_out is None else 0.5 * float(np.hypot(ev.keep_out[2], ev.keep_out[3])) + 4.0
+    bx, by = ev.base_point_xy - ev.roi_offset_xy
+    r0, r1 = max(int(np.floor(by - reach)), 0), min(int(np.ceil(by + reach)) + 1, h)
+    c0, c1 = max(int(np.floor(bx - reach)), 0), min(int(np.ceil(bx + reach)) + 1, w)
+    if r1 <= r0 or c1 <= c0:
+        return np.zeros(0, int)
+    win = L[r0:r1, c0:c1]
+    rr, cc = np.nonzero(win)
+    near = win[rr, cc][np.hypot(rr + r0 - by, cc + c0 - bx) <= reach]
+    border = np.unique(np.concatenate([L[0], L[-1], L[:, 0], L[:, -1]]))
+    return np.setdiff1d(np.unique(near), np.append(border, 0))
 
 
 def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
