@@ -163,6 +163,9 @@ class FrameResult:
         Per view, the components the segmentation could choose from.
     timings : dict
         Seconds per stage (not written to the result files).
+    checks : list of str
+        The checks against the views it failed (:mod:`tendrilkit.verify`);
+        ``message`` starts with them.
     """
 
     frame: int
@@ -179,6 +182,7 @@ class FrameResult:
     timings: dict = field(default_factory=dict)
     pwc_segments: list = field(default_factory=list)
     pwc_metrics: list = field(default_factory=list)
+    checks: list = field(default_factory=list)
 
     def to_json(self) -> dict:
         def arr(a):
@@ -189,7 +193,7 @@ class FrameResult:
             "message": self.message, "points_mm": arr(self.points_mm), "pwc_mm": arr(self.pwc_mm),
             "quality": self.quality, "reprojection": self.reprojection, "decisions": self.decisions,
             "centroids": self.centroids, "n_components": self.n_components,
-            "pwc_segments": self.pwc_segments, "pwc_metrics": self.pwc_metrics,
+            "pwc_segments": self.pwc_segments, "pwc_metrics": self.pwc_metrics, "checks": self.checks,
         }
 
     @classmethod
@@ -201,7 +205,7 @@ class FrameResult:
                    points_mm=arr(d["points_mm"]), pwc_mm=arr(d["pwc_mm"]), quality=d["quality"],
                    reprojection=d["reprojection"], decisions=d["decisions"], centroids=d["centroids"],
                    n_components=d["n_components"], pwc_segments=d.get("pwc_segments", []),
-                   pwc_metrics=d.get("pwc_metrics", []))
+                   pwc_metrics=d.get("pwc_metrics", []), checks=d.get("checks", []))
 
 
 def quality_columns(n_views: int) -> list[str]:
@@ -453,7 +457,8 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
                        message="; ".join(checks + notes), points_mm=points,
                        pwc_mm=pwc, quality=q, reprojection=reproj_rows, decisions=decisions,
                        centroids=centroids, n_components=ncomp, timings=timings,
-                       pwc_segments=_plain(pwc_segments), pwc_metrics=_plain([pwc_row] if pwc_row else []))
+                       pwc_segments=_plain(pwc_segments), pwc_metrics=_plain([pwc_row] if pwc_row else []),
+                       checks=checks)
 
 
 def _verify(points: np.ndarray, images: list, cameras: list[Camera], exp, seg_opts: dict, q: dict) -> list[str]:
@@ -689,7 +694,8 @@ def _with_overrides(exp, overrides: dict | None):
 
 
 def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers: int | None = None,
-                    progress: bool = True, fit: bool = True, overrides: dict | None = None) -> int:
+                    progress: bool = True, fit: bool = True, overrides: dict | None = None,
+                    contact_sheet: bool = True) -> int:
     """``python -m tendrilkit reconstruct``: every selected frame of an experiment.
 
     Parameters
@@ -710,6 +716,10 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         Optional sections of the experiment to change for this run, e.g.
         ``{"correspondence": {"method": "frechet"}}`` (they enter the
         fingerprint).
+    contact_sheet : bool
+        Write ``qc_contact_sheet.png`` (:func:`tendrilkit.qc.write_contact_sheet`):
+        the doubtful frames and a sample of ok ones, the reconstruction
+        projected onto every view.
 
     Returns
     -------
@@ -840,6 +850,11 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     tables = _assemble(results, V, exp.points)
     for name, df in tables.items():
         write_csv(df, out / name)
+    if contact_sheet:
+        from tendrilkit.qc import CONTACT_SHEET, write_contact_sheet
+
+        write_contact_sheet(exp, cameras, tables["frames.csv"], tables["curves.csv"], tables["pwc_curves.csv"],
+                            out / CONTACT_SHEET)
     n_ok = sum(r.status == "ok" for r in results)
     n_doubtful = sum(r.status == "doubtful" for r in results)
     n_failed = len(results) - n_ok - n_doubtful
@@ -869,7 +884,8 @@ def with_temporal_checks(results: list[FrameResult], verification=None) -> list[
             out.append(r)
             continue
         status = "doubtful" if (msg or r.status == "doubtful") else "ok"
-        message = "; ".join([m for m in msg] + ([r.message] if r.message else []))
+        notes = r.message.split("; ")[len(r.checks):] if r.message else []
+        message = "; ".join(list(r.checks) + list(msg) + notes)  # the failed checks first, then the notes
         out.append(replace(r, status=status, message=message, quality={**r.quality, **fig}))
     return out
 
