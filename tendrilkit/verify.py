@@ -17,6 +17,9 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
     ``off_tendril_max_px_v<i>``
         The projected curve's largest distance to a dark pixel, px (the worst
         reprojection error against the image).
+    ``skeleton_mean_px_v<i>``
+        Mean distance of the projected curve's on-tendril part to the nearest
+        skeleton pixel, px: whether it runs along the tendril's middle.
     ``coverage_frac_v<i>``
         Fraction of the skeleton pixels of the dark components the projection
         runs on, and of those leaving the base mark (:func:`base_components`),
@@ -81,6 +84,13 @@ class Thresholds:
     max_off_tendril_px : float
         Largest distance of the projected curve to a dark pixel per view, px
         (15 px: a tendril is 5-15 px wide; a right frame stays under 3 px).
+    max_skeleton_mean_px : float
+        Largest mean distance, per view, of the projected curve (its part on
+        the tendril) to the nearest skeleton pixel, px (1.5 px). A curve can
+        lie inside a wide tendril's pixels and still be millimetres off: a
+        camera 6 px off shifts the triangulated curve by 1.7 mm while every
+        projection stays on the tendril's pixels, but 1.9 px off its middle
+        (right frames: 0.4-0.7 px, the skeleton's pixel quantisation).
     coverage_tolerance_px : float
         A skeleton pixel within this distance of the projected curve is
         explained (4 px: the skeleton's spurs and its ends at the tip).
@@ -109,6 +119,7 @@ class Thresholds:
     tolerance_px: float = 2.0
     min_on_tendril_frac: float = 0.9
     max_off_tendril_px: float = 15.0
+    max_skeleton_mean_px: float = 1.5
     coverage_tolerance_px: float = 4.0
     min_coverage_frac: float = 0.75
     max_base_px: float = 25.0
@@ -130,7 +141,8 @@ def view_columns(n_views: int) -> list[str]:
     """Per-view verification columns of ``frames.csv``, in order."""
     cols = []
     for v in range(1, n_views + 1):
-        cols += [f"on_tendril_frac_v{v}", f"off_tendril_max_px_v{v}", f"coverage_frac_v{v}", f"base_px_v{v}"]
+        cols += [f"on_tendril_frac_v{v}", f"off_tendril_max_px_v{v}", f"skeleton_mean_px_v{v}", f"coverage_frac_v{v}",
+                 f"base_px_v{v}"]
     return cols
 
 
@@ -189,8 +201,12 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             out[f"off_tendril_max_px_v{v + 1}"] = float(np.max(d_seen))
         out[f"base_px_v{v + 1}"] = float(np.hypot(*(xy[0] - ev.base_point_xy))) if np.all(np.isfinite(xy[0])) else None
         if ev.skeleton_xy is not None:
-            out[f"coverage_frac_v{v + 1}"] = _coverage(ev, dense[keep & roi_contains(ev, dense)], d[keep & roi_contains(ev, dense)],
-                                                       tolerance_px, coverage_tolerance_px, cKDTree)
+            inside = keep & roi_contains(ev, dense)
+            out[f"coverage_frac_v{v + 1}"] = _coverage(ev, dense[inside], d[inside], tolerance_px,
+                                                       coverage_tolerance_px, cKDTree)
+            on = dense[inside & (d <= tolerance_px)]
+            if len(on) and len(ev.skeleton_xy):
+                out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
     out["views_checked"] = checked
     return out
 
@@ -279,6 +295,10 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
         m = q.get(f"off_tendril_max_px_v{v}")
         if m is not None and m > th.max_off_tendril_px:
             msgs.append(f"off tendril: view {v} curve up to {m:.1f} px from the tendril (limit {th.max_off_tendril_px:g} px)")
+        k = q.get(f"skeleton_mean_px_v{v}")
+        if k is not None and k > th.max_skeleton_mean_px:
+            msgs.append(f"centre: view {v} curve {k:.2f} px (mean) from the tendril's skeleton "
+                        f"(limit {th.max_skeleton_mean_px:g} px)")
         c = q.get(f"coverage_frac_v{v}")
         if c is not None and c < th.min_coverage_frac:
             msgs.append(f"coverage: view {v} curve explains {100 * c:.0f} % of the tendril's skeleton "
