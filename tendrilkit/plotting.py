@@ -128,7 +128,8 @@ def _frame_colors(n: int, cmap: str = "viridis") -> list:
 
 # ------------------------------------------------------------------ sequence figures
 @_styled
-def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | None = None) -> Figure:
+def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | None = None,
+                      frames: pd.DataFrame | None = None) -> Figure:
     """Breakpoints of the curvature (top) and torsion (bottom) laws over frames (paper Figure 7).
 
     Parameters
@@ -137,6 +138,8 @@ def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | No
         :func:`tendrilkit.sequence.split_points` (``frame, kind, s_mm, s_norm``, optional ``point``).
     y : {"s_norm", "s_mm", "point"}
         Position along the tendril shown on the vertical axis.
+    frames : DataFrame, optional
+        ``frames.csv``: doubtful (orange, hatched) and failed (grey) frames shaded.
     """
     _check(split, ("frame", "kind", y), "split")
     fig = Figure(figsize=(6.4, 5.0), layout="constrained")
@@ -149,6 +152,7 @@ def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | No
         ax.set_title(f"{name} split points")
         if y == "s_norm":
             ax.set_ylim(0, 1)
+        _status_bands(ax, frames, x_time=False)
     axes[-1].set_xlabel("frame")
     if title:
         fig.suptitle(title)
