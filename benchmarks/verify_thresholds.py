@@ -3,7 +3,8 @@
     .venv/bin/python benchmarks/verify_thresholds.py WORK_DIR [--out FIGURES.csv]
 
 ``WORK_DIR`` holds ``<seed>/`` folders made by ``benchmarks/bench_verify.py``
-(experiment, ground truth, ``results/``). For every reconstructed frame the
+(experiment, ground truth, ``results/``) or ``random-<seed>/`` folders made by
+``benchmarks/bench_generalize.py`` (``scene/``, ``result-<method>/``). For every reconstructed frame the
 image figures are recomputed with the current :mod:`tendrilkit.verify`
 (the curves are not recomputed: a threshold study costs seconds per seed,
 not a reconstruction), the temporal checks applied, and the frame compared
@@ -34,14 +35,24 @@ from tendrilkit.pipeline import _options, accuracy_against_truth  # noqa: E402
 from tendrilkit.verify import Thresholds, image_check_messages, temporal_checks, verify_curve  # noqa: E402
 
 
+def _layout(d: Path):
+    """(seed, experiment file, results folder, ground-truth folder) of a bench_verify or bench_generalize folder."""
+    if d.name.isdigit():
+        return int(d.name), d / "experiment.yaml", d / "results", d / "ground_truth"
+    if d.name.startswith("random-") and d.name[7:].isdigit():
+        res = sorted(d.glob("result-*"))
+        return int(d.name[7:]), d / "scene" / "experiment.yaml", (res[0] if res else d / "missing"), d / "scene" / "ground_truth"
+    return None
+
+
 def reverify(seed_dir: Path, th: Thresholds) -> pd.DataFrame:
-    exp = load_experiment(seed_dir / "experiment.yaml")
-    res = seed_dir / "results"
+    seed, exp_path, res, gt = _layout(seed_dir)
+    exp = load_experiment(exp_path)
     frames = pd.read_csv(res / "frames.csv")
     curves = pd.read_csv(res / "curves.csv")
     cams = read_cameras(res / "cameras.json")
     seg_opts, _ = _options(exp)
-    acc = accuracy_against_truth(curves, pd.read_csv(seed_dir / "ground_truth" / "gt_curves.csv"))
+    acc = accuracy_against_truth(curves, pd.read_csv(gt / "gt_curves.csv"))
     srcs = open_views(list(exp.videos))
     rows, pts = [], []
     try:
@@ -73,7 +84,7 @@ def reverify(seed_dir: Path, th: Thresholds) -> pd.DataFrame:
             t.loc[i, "status"] = "doubtful"
             t.loc[i, "message"] = "; ".join([x for x in [t.loc[i, "message"]] if x] + m)
     t = t.merge(acc, on="frame", how="left")
-    t.insert(0, "seed", int(seed_dir.name))
+    t.insert(0, "seed", seed)
     return t
 
 
@@ -84,10 +95,11 @@ def main() -> None:
     a = ap.parse_args()
     th = Thresholds()
     parts = []
-    for d in sorted((p for p in a.work.iterdir() if p.name.isdigit()), key=lambda p: int(p.name)):
-        if int(d.name) >= 10000:
+    dirs = sorted((lay, d) for d in a.work.iterdir() if (lay := _layout(d)) is not None)
+    for lay, d in dirs:
+        if lay[0] >= 10000:
             sys.exit("seeds >= 10000 are reserved for the final generalisation benchmark")
-        if not (d / "results" / "frames.csv").is_file():
+        if not (lay[2] / "frames.csv").is_file() or not (lay[2] / "curves.csv").is_file():
             continue
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -101,7 +113,8 @@ def main() -> None:
     rec = t[t.status != "failed"]
     right, wrong = rec[rec.mean_mm <= 0.5], rec[rec.mean_mm > 1.5]
     for stem, worst in (("on_tendril_frac", "min"), ("off_tendril_max_px", "max"), ("skeleton_mean_px", "max"),
-                        ("coverage_frac", "min"), ("base_px", "max")):
+                        ("coverage_frac", "min"), ("tip_continuation_px", "max"), ("base_on_tendril_frac", "min"),
+                        ("base_px", "max")):
         cols = [c for c in t.columns if c.startswith(stem + "_v")]
         agg = (lambda df: df[cols].min(axis=1)) if worst == "min" else (lambda df: df[cols].max(axis=1))
         r, w = agg(right), agg(wrong)
