@@ -151,7 +151,9 @@ def test_reference_view_lost_uses_another(synthetic):
 
     images, cams, exp, X = synthetic
     r = reconstruct_frame([images[0], np.full_like(images[1], 235), images[2]], cams, exp, fit=False)
-    assert r.status == "ok" and "reference view 2 unavailable, view 1 used instead" in r.message
+    # doubtful: the blank view 2 does not confirm the curve (see test_reconstruct_frame_view_lost_then_frame_failed)
+    assert r.status == "doubtful" and r.message.startswith("precision: view 2 has 0 %"), r.message
+    assert "reference view 2 unavailable, view 1 used instead" in r.message
     d, _ = cKDTree(_densify(X)).query(r.points_mm)
     assert d.mean() < 0.5
 
