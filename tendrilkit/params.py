@@ -289,7 +289,7 @@ class Verification(_Strict):
     max_off_tendril_px: PositiveFloat = 8.0
     max_skeleton_mean_px: PositiveFloat = 1.0
     coverage_tolerance_px: PositiveFloat = 4.0
-    min_coverage_frac: float = Field(0.0, ge=0, le=1)
+    min_coverage_frac: float = Field(0.75, ge=0, le=1)
     max_tip_continuation_px: PositiveFloat = 20.0
     min_base_on_tendril_frac: float = Field(0.5, ge=0, le=1)
     max_base_px: PositiveFloat = 25.0

@@ -80,8 +80,7 @@ def test_curve_on_the_stem_is_caught_at_the_base(scene):
     assert q["coverage_frac_v1"] < 0.5            # and explains none of the tendril (only the stem's part)
     msgs = image_check_messages(q, 2, Thresholds())
     assert any(m.startswith("base: view 1 curve leaves the base off the tendril") for m in msgs)
-    # with the coverage check switched on, it fails that one too
-    assert any(m.startswith("coverage: view 1") for m in image_check_messages(q, 2, Thresholds(min_coverage_frac=0.75)))
+    assert any(m.startswith("coverage: view 1") for m in msgs)
 
 
 def test_shrunk_curve_is_caught_at_the_tip(scene):
@@ -90,8 +89,9 @@ def test_shrunk_curve_is_caught_at_the_tip(scene):
     assert q["on_tendril_frac_v1"] == 1.0 and q["base_on_tendril_frac_v1"] == 1.0
     assert q["tip_continuation_px_v1"] > 80 and q["coverage_frac_v1"] < 0.7
     msgs = image_check_messages(q, 2, Thresholds())
-    assert msgs == [f"tip: the tendril goes on beyond the curve's tip in view 1 ({q['tip_continuation_px_v1']:.0f} px), "
-                    f"view 2 ({q['tip_continuation_px_v2']:.0f} px) (limit 20 px)"]
+    assert f"tip: the tendril goes on beyond the curve's tip in view 1 ({q['tip_continuation_px_v1']:.0f} px), " \
+           f"view 2 ({q['tip_continuation_px_v2']:.0f} px) (limit 20 px)" in msgs
+    assert any(m.startswith("coverage: view 1") for m in msgs)
     # one view only (clutter at the tip in that view) is not enough
     one = {**q, "tip_continuation_px_v2": 0.0}
     assert not any(m.startswith("tip:") for m in image_check_messages(one, 2, Thresholds()))
