@@ -116,8 +116,9 @@ def main() -> None:
                         ("coverage_frac", "min"), ("tip_continuation_px", "max"), ("base_on_tendril_frac", "min"),
                         ("base_px", "max")):
         cols = [c for c in t.columns if c.startswith(stem + "_v")]
-        agg = (lambda df: df[cols].min(axis=1)) if worst == "min" else (lambda df: df[cols].max(axis=1))
-        r, w = agg(right), agg(wrong)
+        agg = ((lambda df: df[cols].astype(float).min(axis=1)) if worst == "min"
+               else (lambda df: df[cols].astype(float).max(axis=1)))
+        r, w = agg(right).astype(float), agg(wrong).astype(float)
         print(f"{stem:>20} ({worst} over views): right {np.nanpercentile(r, [0, 1, 5, 50, 95, 99, 100]).round(3) if len(r) else '-'}"
               f"  wrong {np.nanpercentile(w, [0, 5, 50, 95, 100]).round(3) if len(w) else '-'}")
     silent = t[(t.status == "ok") & (t.mean_mm > 1.5)]

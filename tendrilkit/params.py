@@ -286,7 +286,7 @@ class Verification(_Strict):
 
     tolerance_px: PositiveFloat = 2.0
     min_on_tendril_frac: float = Field(0.95, ge=0, le=1)
-    max_off_tendril_px: PositiveFloat = 8.0
+    max_off_tendril_px: PositiveFloat = 5.0
     max_skeleton_mean_px: PositiveFloat = 1.0
     coverage_tolerance_px: PositiveFloat = 4.0
     min_coverage_frac: float = Field(0.75, ge=0, le=1)
