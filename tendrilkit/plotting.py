@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import functools
 import os
+import textwrap
 from typing import Sequence
 
 import matplotlib
@@ -179,7 +180,7 @@ def _minutes(df: pd.DataFrame) -> tuple[np.ndarray, str]:
 # ------------------------------------------------------------------ sequence figures
 @_styled
 def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | None = None, ax_pair=None,
-                      width: str | float = "single") -> Figure:
+                      width: str | float = "single", frames: pd.DataFrame | None = None) -> Figure:
     """Breakpoints of the curvature (top) and torsion (bottom) laws over time (paper Figure 7).
 
     Parameters
@@ -189,11 +190,15 @@ def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | No
         The time axis is in minutes when ``time_s`` is present, else frames.
     y : {"s_norm", "s_mm", "point"}
         Position along the tendril shown on the vertical axis.
+    frames : DataFrame, optional
+        ``frames.csv``: doubtful (orange, hatched) and failed (grey) frames shaded.
     """
     _check(split, ("frame", "kind", y), "split")
     fig = Figure(figsize=_size(width, 70), layout="constrained")
     axes = fig.subplots(2, 1, sharex=True)
     _draw_split(axes, split, y)
+    for ax in axes:
+        _status_bands(ax, frames, x_time="time_s" in split.columns and bool(split["time_s"].notna().all()))
     _letters(axes)
     if title:
         fig.suptitle(title)
@@ -366,7 +371,8 @@ def plot_shape_evolution(curves: pd.DataFrame, *, frames: Sequence[int] | None =
 
 @_styled
 def plot_shape_change(change: pd.DataFrame, response=None, *, measure: str | None = None,
-                      title: str | None = None, width: str | float = "single") -> Figure:
+                      title: str | None = None, width: str | float = "single",
+                      frames: pd.DataFrame | None = None) -> Figure:
     """Shape change over time (minutes) with the response onset and stabilisation marked.
 
     Parameters
@@ -378,6 +384,10 @@ def plot_shape_change(change: pd.DataFrame, response=None, *, measure: str | Non
         on the table's time axis: the same ``stimulus_s``).
     measure : str, optional
         Column drawn in black; default the response's measure, else ``shape_mm``.
+    frames : DataFrame, optional
+        ``frames.csv``: its ``doubtful`` (orange, hatched) and ``failed``
+        (grey) frames are shaded, and the lines break there instead of
+        bridging them.
     """
     measure = measure or (response.measure if response is not None else "shape_mm")
     _check(change, ("frame", measure), "change")
@@ -386,10 +396,14 @@ def plot_shape_change(change: pd.DataFrame, response=None, *, measure: str | Non
     names = {"shape_mm": "shape change", "mean_mm": "motion (mean distance)", "tip_displacement_mm": "tip displacement"}
     fig = Figure(figsize=_size(width, 55), layout="constrained")
     ax = fig.add_subplot()
+    all_frames = None if frames is None else frames["frame"].to_numpy(int)
+    kept = change["frame"].to_numpy(int)
     for col, color in (("mean_mm", "#9a9a9a"), ("tip_displacement_mm", "#c8c8c8")):
         if col in change.columns and col != measure:
-            ax.plot(x, change[col], color=color, lw=0.7, label=names[col])
-    ax.plot(x, change[measure], ".-", color="black", ms=2, lw=0.8, label=names.get(measure, measure))
+            ax.plot(*_gapped(x, change[col].to_numpy(float), all_frames, kept), color=color, lw=0.7, label=names[col])
+    ax.plot(*_gapped(x, change[measure].to_numpy(float), all_frames, kept), ".-", color="black", ms=2, lw=0.8,
+            label=names.get(measure, measure))
+    _status_bands(ax, frames, x_time=minutes)
     if response is not None:
         if response.responded and minutes:
             if np.isfinite(response.onset_s):
@@ -853,6 +867,160 @@ def plot_marks(image_bgr: np.ndarray, *, roi: Sequence[float] | None, keep_out: 
             ax.plot([bp[0]], [bp[1]], "x", color="grey", ms=8, label="your base point")
         ax.plot([], [], color="grey", ls="--", label="your marks (dashed)")
     ax.legend(loc="upper right", frameon=True, fontsize=7)
+
+
+# ------------------------------------------------------------------ quality control (tendrilkit.verify)
+STATUS_COLORS = {"ok": OKABE_ITO["green"], "doubtful": OKABE_ITO["orange"], "failed": OKABE_ITO["vermillion"]}
+
+
+def _status_bands(ax, frames: pd.DataFrame | None, *, x_time: bool) -> None:
+    """Shade the frames that are not ``ok``: doubtful orange hatched, failed grey, half a frame each side.
+
+    Nothing is bridged: the caller breaks its lines at these frames.
+    """
+    if frames is None or "status" not in frames.columns or not len(frames):
+        return
+    f = frames.sort_values("frame")
+    x = f["time_s"].to_numpy(float) / 60.0 if (x_time and "time_s" in f.columns) else f["frame"].to_numpy(float)
+    half = 0.5 * (float(np.median(np.diff(x))) if len(x) > 1 else 1.0)
+    labelled = set()
+    for xi, st in zip(x, f["status"].astype(str)):
+        if st == "ok":
+            continue
+        style = ({"color": STATUS_COLORS["doubtful"], "alpha": 0.25, "hatch": "///"} if st == "doubtful"
+                 else {"color": "#7f7f7f", "alpha": 0.35})
+        ax.axvspan(xi - half, xi + half, lw=0, label=None if st in labelled else f"{st} frame", **style)
+        labelled.add(st)
+
+
+def _gapped(x: np.ndarray, y: np.ndarray, frames_all: np.ndarray | None, frames_kept: np.ndarray) -> tuple:
+    """``x, y`` with a NaN inserted wherever a frame between two kept frames is missing (lines are not bridged)."""
+    if frames_all is None or len(frames_kept) < 2:
+        return x, y
+    pos = np.searchsorted(np.sort(frames_all), frames_kept)
+    gap = np.nonzero(np.diff(pos) > 1)[0]
+    if not len(gap):
+        return x, y
+    return (np.insert(np.asarray(x, float), gap + 1, np.nan), np.insert(np.asarray(y, float), gap + 1, np.nan))
+
+
+@_styled
+def plot_quality_over_time(frames: pd.DataFrame, *, thresholds=None, title: str | None = None) -> Figure:
+    """Per-frame verification figures over time, one line per view, non-ok frames shaded.
+
+    Parameters
+    ----------
+    frames : DataFrame
+        ``frames.csv``: ``frame, time_s, status`` and the columns of
+        :mod:`tendrilkit.verify` (``on_tendril_frac_v<i>``,
+        ``skeleton_mean_px_v<i>``, ``coverage_frac_v<i>``, ``base_px_v<i>``,
+        ``length_change_pct``).
+    thresholds : tendrilkit.verify.Thresholds, optional
+        Draws the limits (dashed).
+    """
+    _check(frames, ("frame", "status"), "frames")
+    f = frames.sort_values("frame")
+    x, xlabel = _time_axis(f)
+    views = sorted(int(c.rsplit("_v", 1)[1]) for c in f.columns if c.startswith("on_tendril_frac_v"))
+    panels = [("on_tendril_frac_v{}", "precision (on tendril)", "min_on_tendril_frac", 1.0),
+              ("skeleton_mean_px_v{}", "off the middle (px)", "max_skeleton_mean_px", None),
+              ("coverage_frac_v{}", "coverage", "min_coverage_frac", 1.0),
+              ("base_px_v{}", "base to mark (px)", "max_base_px", None)]
+    fig = Figure(figsize=(7.5, 8.5), layout="constrained")
+    axes = fig.subplots(5, 1, sharex=True)
+    for ax, (pat, ylabel, key, _) in zip(axes, panels):
+        for v in views:
+            col = pat.format(v)
+            if col in f.columns:
+                ax.plot(x, f[col].to_numpy(float), ".-", ms=3, lw=0.8, label=f"view {v}")
+        if thresholds is not None:
+            ax.axhline(getattr(thresholds, key), color="black", ls="--", lw=0.7, label="limit")
+        ax.set_ylabel(ylabel)
+    ax = axes[4]
+    if "length_change_pct" in f.columns:
+        ax.plot(x, f["length_change_pct"].to_numpy(float), ".-", color="black", ms=3, lw=0.8,
+                label="length change (%)")
+    ax.set_ylabel("length change to\nprevious frame (%)")
+    ax.set_xlabel(xlabel)
+    for a in axes:
+        _status_bands(a, f, x_time=xlabel.startswith("time"))
+    axes[0].legend(loc="lower left", ncol=5)
+    counts = f["status"].value_counts()
+    fig.suptitle((title + ": " if title else "") + ", ".join(f"{int(counts.get(k, 0))} {k}" for k in STATUS_COLORS))
+    return fig
+
+
+def _draw_views(axes, views, *, status: str, header: str | None = None, note: str | None = None) -> None:
+    for k, (ax, v) in enumerate(zip(axes, views)):
+        ax.grid(False)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        for sp in ax.spines.values():
+            sp.set_color(STATUS_COLORS.get(status, "black"))
+            sp.set_linewidth(2.0)
+        if v.crop_bgr is None:
+            ax.text(0.5, 0.5, "no image", ha="center", va="center", transform=ax.transAxes)
+            continue
+        h, w = v.crop_bgr.shape[:2]
+        ax.imshow(v.crop_bgr[:, :, ::-1], interpolation="bilinear")
+        if v.pwc_xy is not None:
+            ax.plot(v.pwc_xy[:, 0], v.pwc_xy[:, 1], color="magenta", lw=0.8, label="PWC")
+        if v.curve_xy is not None:
+            ax.plot(v.curve_xy[:, 0], v.curve_xy[:, 1], color="cyan", lw=0.8, label="centreline")
+        ax.plot([v.base_xy[0]], [v.base_xy[1]], "*", color="yellow", mec="black", ms=7)
+        ax.set_xlim(-0.5, w - 0.5)
+        ax.set_ylim(h - 0.5, -0.5)
+        if k == 0 and header:
+            ax.set_ylabel(header, color=STATUS_COLORS.get(status, "black"), fontsize=8)
+        ax.set_title(f"view {k + 1}", fontsize=8)
+    if note:
+        axes[-1].text(1.02, 0.5, note, transform=axes[-1].transAxes, fontsize=6, va="center", wrap=True)
+
+
+@_styled
+def plot_frame_overlay(views, *, status: str = "ok", title: str | None = None) -> Figure:
+    """One frame: the centreline (cyan) and its PWC (magenta) projected onto every view, around the ROI.
+
+    Parameters
+    ----------
+    views : list of tendrilkit.overlay.ViewOverlay
+        :func:`tendrilkit.overlay.frame_overlays`.
+    status : str
+        Colours the frame of each panel (ok green, doubtful orange, failed red).
+    """
+    fig = Figure(figsize=(3.0 * len(views), 3.3), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(1, len(views)))
+    _draw_views(axes, views, status=status)
+    if title:
+        fig.suptitle(title, color=STATUS_COLORS.get(status, "black"))
+    return fig
+
+
+@_styled
+def plot_contact_sheet(rows, *, title: str | None = None) -> Figure:
+    """A contact sheet: one row per frame (its views side by side), reconstruction overlaid.
+
+    Parameters
+    ----------
+    rows : list of (frame, status, message, list of ViewOverlay)
+        E.g. the doubtful frames and a sample of ok ones
+        (:func:`tendrilkit.overlay.contact_frames`); the message's first
+        failed check is printed beside the row.
+    """
+    rows = list(rows)
+    n_views = max((len(r[3]) for r in rows), default=1)
+    fig = Figure(figsize=(2.6 * n_views + 1.8, 2.5 * max(len(rows), 1) + 0.4), layout="constrained")
+    if not rows:
+        fig.text(0.5, 0.5, "no reconstructed frame", ha="center")
+        return fig
+    axes = np.atleast_2d(fig.subplots(len(rows), n_views))
+    for ax_row, (frame, status, message, views) in zip(axes, rows):
+        note = None
+        if status != "ok" and message:
+            first = str(message).split("; ")[0]
+            note = "\n".join(textwrap.wrap(first, 30)[:6])
+        _draw_views(ax_row, views, status=status, header=f"frame {frame}: {status}", note=note)
+    fig.suptitle(title or "reconstruction projected onto the views (cyan centreline, magenta PWC)")
     return fig
 
 
