@@ -867,6 +867,7 @@ def plot_marks(image_bgr: np.ndarray, *, roi: Sequence[float] | None, keep_out: 
             ax.plot([bp[0]], [bp[1]], "x", color="grey", ms=8, label="your base point")
         ax.plot([], [], color="grey", ls="--", label="your marks (dashed)")
     ax.legend(loc="upper right", frameon=True, fontsize=7)
+    return fig
 
 
 # ------------------------------------------------------------------ quality control (tendrilkit.verify)
