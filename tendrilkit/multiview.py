@@ -351,7 +351,7 @@ def _fit(X0, evidence, B, segment_mm):
     X = refine_curve(_resample(X0, segment_mm), evidence, base_mm=B, segment_mm=segment_mm)
     X = adjust_tip(X, evidence)
     X = _resample(X, segment_mm)
-    X = refine_curve(X, evidence, base_mm=B, segment_mm=_segment(X), cap_px=(8.0, 6.0), iterations=10)
+    X = refine_curve(X, evidence, base_mm=B, segment_mm=_segment(X), cap_px=(8.0, 6.0), iterations=10, huber_px=3.0)
     return X
 
 
