@@ -18,8 +18,21 @@ from tendrilkit.exceptions import ExperimentError
 
 
 def _cmd_phantom(args: argparse.Namespace) -> int:
-    from tendrilkit.phantom import write_phantom_experiment
+    from tendrilkit.phantom import PhantomError, write_phantom_experiment
 
+    if args.scene is not None:
+        if args.site is not None:
+            raise ExperimentError("phantom: give --site or --scene, not both")
+        from tendrilkit.scene_render import write_scene_experiment
+
+        try:
+            path = write_scene_experiment(Path(args.out), seed=args.seed, scene=args.scene, n_frames=args.frames)
+        except PhantomError as e:
+            raise ExperimentError(str(e)) from None
+        print(f"{args.scene} seed {args.seed}: {path}")
+        return 0
+    if args.site is None:
+        raise ExperimentError("phantom: expected --site S1|S2|S3|S4|all or --scene NAME")
     sites = ["S1", "S2", "S3", "S4"] if args.site == "all" else [args.site]
     for site in sites:
         out = Path(args.out) if len(sites) == 1 else Path(args.out) / site
@@ -67,7 +80,11 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
 
     ph = sub.add_parser("phantom", help="generate a synthetic experiment with exact ground truth")
-    ph.add_argument("--site", choices=["S1", "S2", "S3", "S4", "all"], required=True)
+    ph.add_argument("--site", choices=["S1", "S2", "S3", "S4", "all"], default=None,
+                    help="a site phantom (the demo's four experiments)")
+    ph.add_argument("--scene", default=None, metavar="NAME",
+                    help="a random scene like a real recording: 'random' (factors drawn from --seed) or a preset "
+                         "switching one factor (see README: Random scenes)")
     ph.add_argument("--out", required=True, help="output folder")
     ph.add_argument("--frames", type=int, default=None, help="sequence length (default: the phantom's default)")
     ph.add_argument("--seed", type=int, default=0)

@@ -1,0 +1,252 @@
+"""Rendering and writing random phantom scenes (:mod:`tendrilkit.scenes`).
+
+A frame of a scene is drawn like a site phantom's
+(:func:`tendrilkit.phantom.render_view`): the static board scene (board,
+taped stem, leaves, markers) lit by a gradient with vignetting, then, per
+frame, the tendril's soft shadow on the board, the objects behind the
+tendril, the tendril (a tube of tapering radius, 4 x 4 supersampled, with a
+lighter core), the objects in front of it, a global gain (drift and
+flicker), optical blur, a short line blur (camera shake), sensor noise, and
+JPEG re-encoding (a documented stand-in for H.264 artefacts: blocking and
+ringing at low quality). The videos are then written as mp4v like the site
+phantoms, so a frame is compressed twice, as a phone's H.264 recording
+re-encoded by a user would be.
+
+Public API: :func:`render_scene_view`, :func:`scene_params_yaml`,
+:func:`write_scene_experiment`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import weakref
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from tendrilkit import phantom as P
+from tendrilkit.scenes import DEFAULT_SCENE_FRAMES, ScenePhantom, make_scene, scene_meta
+
+_STATIC: "weakref.WeakKeyDictionary[ScenePhantom, dict]" = weakref.WeakKeyDictionary()
+
+
+def _poly_cover(cam, poly_mm: np.ndarray, *, ss: int = 4) -> tuple[tuple[int, int, int, int], np.ndarray] | None:
+    """Anti-aliased coverage of a planar polygon in space (k, 3) mm: box and (h, w) in [0, 1]."""
+    xy = P._project_safe(cam, poly_mm)
+    if not np.all(np.isfinite(xy)):
+        return None
+    x0 = int(max(0, math.floor(xy[:, 0].min()) - 2))
+    y0 = int(max(0, math.floor(xy[:, 1].min()) - 2))
+    x1 = int(min(cam.width, math.ceil(xy[:, 0].max()) + 3))
+    y1 = int(min(cam.height, math.ceil(xy[:, 1].max()) + 3))
+    if x1 <= x0 or y1 <= y0:
+        return None
+    big = np.zeros(((y1 - y0) * ss, (x1 - x0) * ss), np.uint8)
+    pts = np.round(((xy - [x0, y0] + 0.5) * ss - 0.5) * 16).astype(np.int32)
+    cv2.fillPoly(big, [pts], 255, cv2.LINE_8, 4)
+    cover = cv2.resize(big, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA).astype(np.float32) / 255.0
+    return (x0, y0, x1, y1), cover
+
+
+def _object_layers(ph: ScenePhantom, view: int) -> tuple[list, list]:
+    """Coverage layers (box, cover, colour) of the objects behind and in front of the tendril in ``view``."""
+    cam = ph.cameras[view]
+    behind, front = [], []
+    for tb in ph.tubes:
+        res = P._tube_cover(cam, tb["pts"], tb["radius"])
+        if res is not None:
+            (front if view in tb["front_views"] else behind).append((res[0], res[1], np.array(tb["colour"])))
+    for pl in ph.plates:
+        res = _poly_cover(cam, pl["poly"])
+        if res is not None:
+            (front if view in pl["front_views"] else behind).append((res[0], res[1], np.array(pl["colour"])))
+    return behind, front
+
+
+def _smooth_field(rng: np.random.Generator, shape: tuple[int, int], cell_px: int) -> np.ndarray:
+    """Zero-mean, unit-scale random field (H, W) float32 varying over about ``cell_px`` pixels."""
+    H, W = shape
+    low = rng.standard_normal((H // cell_px + 3, W // cell_px + 3)).astype(np.float32)
+    big = cv2.resize(low, ((W // cell_px + 3) * cell_px, (H // cell_px + 3) * cell_px), interpolation=cv2.INTER_CUBIC)
+    return big[cell_px:cell_px + H, cell_px:cell_px + W]
+
+
+def _texture(albedo: np.ndarray, rng: np.random.Generator) -> None:
+    """Paper and leaf texture in place: slow +-1.5 % shading of the board, +-6 % mottling of green parts."""
+    H, W = albedo.shape[:2]
+    slow = _smooth_field(rng, (H, W), 240)
+    fine = _smooth_field(rng, (H, W), 16)
+    green = np.clip((albedo[..., 1] - albedo[..., 2] - 20.0) / 30.0, 0.0, 1.0)
+    albedo *= (1.0 + 0.015 * slow + 0.004 * fine + 0.06 * green * fine)[..., None]
+
+
+def _static(ph: ScenePhantom, view: int) -> dict:
+    per = _STATIC.setdefault(ph, {})
+    if view not in per:
+        cam = ph.cameras[view]
+        albedo = P._render_static(ph, view)
+        for bt in ph.board_tubes:  # side shoots of the stem, on the board
+            res = P._tube_cover(cam, bt["pts"], bt["radius"])
+            if res is not None:
+                P._blend(albedo, res[0], res[1], P._STEM)
+        _texture(albedo, np.random.default_rng([ph.seed, 1125, view]))
+        behind, front = _object_layers(ph, view)
+        for box, cover, colour in behind:
+            P._blend(albedo, box, cover, colour)
+        light = P._light_map(cam, ph.scene.light, view)
+        rng = np.random.default_rng([ph.seed, 1121, view])
+        noise = np.clip(np.round(rng.standard_normal((cam.height + 32, cam.width + 32, 3), dtype=np.float32)
+                                 * np.float32(ph.imaging["noise_sigma"])), -127, 127).astype(np.int8)
+        per[view] = {"light": light, "lit": albedo * light[..., None], "front": front, "noise": noise}
+    return per[view]
+
+
+def render_scene_view(ph: ScenePhantom, frame: int, view_index: int) -> np.ndarray:
+    """One frame of one view of a scene, BGR uint8 (height, width, 3), after JPEG re-encoding if asked.
+
+    Parameters
+    ----------
+    ph : ScenePhantom
+    frame : int
+        0-based frame.
+    view_index : int
+        0-based view.
+    """
+    if not 0 <= frame < ph.n_frames:
+        raise ValueError(f"frame: expected 0..{ph.n_frames - 1}, got {frame}")
+    if not 0 <= view_index < len(ph.cameras):
+        raise ValueError(f"view_index: expected 0..{len(ph.cameras) - 1}, got {view_index}")
+    st = _static(ph, view_index)
+    cam = ph.cameras[view_index]
+    im = ph.imaging
+    img = st["lit"].copy()
+    curve = ph.curves_mm[frame]
+    sh = im["shadow"]
+    if sh is not None:  # soft shadow: the tube projected along the light onto the board
+        ldir = np.asarray(sh["light_dir"])
+        spts = curve - (curve[:, 2] / ldir[2])[:, None] * ldir[None]
+        spts[:, 2] = 0.0
+        pad = int(3 * sh["softness_px"]) + 2
+        res = P._tube_cover(cam, spts, 1.2 * ph.radius_mm, pad_px=pad)
+        if res is not None:
+            (x0, y0, x1, y1), cover = res
+            cover = cv2.GaussianBlur(cover, (0, 0), sh["softness_px"])
+            img[y0:y1, x0:x1] *= (1.0 - sh["strength"] * cover)[..., None]
+    res = P._tube_cover(cam, curve, ph.radius_mm, pad_px=4)
+    if res is not None:
+        (x0, y0, x1, y1), cover = res
+        core = P._tube_cover(cam, curve, 0.4 * ph.radius_mm, box=(x0, y0, x1, y1))[1]
+        tube, hi = np.asarray(im["tendril_bgr"], np.float32), np.asarray(im["core_bgr"], np.float32)
+        colour = tube[None, None, :] + (0.6 * core)[..., None] * (hi - tube)[None, None, :]
+        colour *= st["light"][y0:y1, x0:x1, None]
+        sub = img[y0:y1, x0:x1]
+        sub += cover[..., None] * (colour - sub)
+    for (x0, y0, x1, y1), cover, colour in st["front"]:
+        sub = img[y0:y1, x0:x1]
+        sub += cover[..., None] * (colour[None, None, :].astype(np.float32) * st["light"][y0:y1, x0:x1, None] - sub)
+    img *= np.float32(im["gain"][frame])
+    if im["blur_sigma_px"] > 0:
+        img = cv2.GaussianBlur(img, (0, 0), im["blur_sigma_px"])
+    if im["motion_blur_px"] is not None:
+        ln, ang = float(im["motion_blur_px"][frame]), math.radians(float(im["motion_blur_deg"][frame]))
+        k = int(math.ceil(ln)) | 1
+        ker = np.zeros((k, k), np.float32)
+        c = (k - 1) / 2
+        for t in np.linspace(-ln / 2, ln / 2, 4 * k):
+            ker[int(round(c + t * math.sin(ang))), int(round(c + t * math.cos(ang)))] += 1.0
+        img = cv2.filter2D(img, -1, ker / ker.sum())
+    out = cv2.convertScaleAbs(img)
+    rng = np.random.default_rng([ph.seed, 1123, frame, view_index])
+    oy, ox = rng.integers(0, 32, size=2)
+    out = cv2.add(out, st["noise"][oy:oy + cam.height, ox:ox + cam.width], dtype=cv2.CV_8U)
+    if im["jpeg_quality"] is not None:
+        ok, buf = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, int(im["jpeg_quality"][frame])])
+        out = cv2.imdecode(buf, cv2.IMREAD_COLOR)
+    return out
+
+
+def scene_params_yaml(ph: ScenePhantom) -> str:
+    """The experiment file (EXPERIMENT_FORMAT.md) of a scene, as text (videos beside it)."""
+    fmt = P._fmt
+    world = ph.scene.markers[0]
+    lines = [
+        f"# Random phantom scene '{ph.scene_name}', seed {ph.seed}: a synthetic tendril with exact ground truth,",
+        f"# made by tendrilkit.scenes (generator version {P.GENERATOR_VERSION}, {ph.n_frames} frames).",
+        f"#   python -m tendrilkit phantom --scene {ph.scene_name} --seed {ph.seed} --frames {ph.n_frames} --out <folder>",
+        "# Factors: " + ", ".join(scene_meta(ph)["active_factors"]),
+        "# The marks (roi, keep_out, base_point) are what a user marked on frame 0.",
+        f"name: {ph.name}",
+        f"videos: [{', '.join(f'view{v + 1}.mp4' for v in range(len(ph.cameras)))}]",
+        f"fps: {fmt(ph.fps)}",
+        "reference_view: 2",
+        "cameras:",
+    ]
+    for v, cam in enumerate(ph.cameras):
+        K = cam.K
+        dist = ", ".join(fmt(x) for x in cam.dist)
+        lines.append(f"  - {{view: {v + 1}, fx: {fmt(K[0, 0])}, fy: {fmt(K[1, 1])}, cx: {fmt(K[0, 2])}, "
+                     f"cy: {fmt(K[1, 2])}, dist: [{dist}]}}")
+    lines.append(f"marker: {{dictionary: {P.DICTIONARY}, id: {world.id}, length_mm: {fmt(world.length_mm)}}}")
+    lines.append("views:")
+    for m in ph.views:
+        lines.append(f"  - {{view: {m['view']}, roi: {list(m['roi'])}, keep_out: {list(m['keep_out'])}, "
+                     f"base_point: {list(m['base_point'])}}}")
+    lines.append("points: 200")
+    return "\n".join(lines) + "\n"
+
+
+def _write_video(ph: ScenePhantom, view: int, path: Path) -> None:
+    tmp = path.with_name(f".{path.stem}.partial{path.suffix}")
+    cam = ph.cameras[view]
+    writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), float(ph.options["container_fps"]),
+                             (cam.width, cam.height))
+    if not writer.isOpened():
+        raise P.PhantomError(f"{path}: OpenCV cannot write an mp4v video here")
+    try:
+        for f in range(ph.n_frames):
+            writer.write(render_scene_view(ph, f, view))
+    finally:
+        writer.release()
+    tmp.replace(path)
+
+
+def write_scene_experiment(out_dir: str | Path, *, seed: int, scene: str = "random",
+                           n_frames: int | None = None) -> Path:
+    """Write a random scene: three videos, ``experiment.yaml`` and ``ground_truth/``.
+
+    Same layout as :func:`tendrilkit.phantom.write_phantom_experiment` (so
+    ``reconstruct`` and :func:`tendrilkit.phantom.read_ground_truth` work on
+    it); ``gt_meta.json`` also holds the scene's factors
+    (:func:`tendrilkit.scenes.scene_meta`). An existing folder with the same
+    stamp (seed, scene, frames, generator version) is left alone.
+
+    Returns
+    -------
+    Path
+        ``out_dir/experiment.yaml``.
+    """
+    from tendrilkit.io import check_writable_dir, write_json, write_text
+
+    n = DEFAULT_SCENE_FRAMES if n_frames is None else int(n_frames)
+    out = check_writable_dir(out_dir)
+    stamp = {"generator_version": P.GENERATOR_VERSION, "scene": scene, "seed": int(seed), "n_frames": n}
+    stamp_path = out / ".phantom_stamp.json"
+    if stamp_path.is_file() and all((out / f).is_file() for f in P._OUTPUTS):
+        try:
+            if json.loads(stamp_path.read_text(encoding="utf-8")) == stamp:
+                return out / "experiment.yaml"
+        except json.JSONDecodeError:
+            pass
+    if stamp_path.exists():
+        stamp_path.unlink()
+    ph = make_scene(seed, scene=scene, n_frames=n)
+    for v in range(len(ph.cameras)):
+        _write_video(ph, v, out / f"view{v + 1}.mp4")
+    P.write_ground_truth(ph, out / "ground_truth")
+    write_json(scene_meta(ph), out / "ground_truth" / "gt_meta.json")
+    write_text(scene_params_yaml(ph), out / "experiment.yaml")
+    write_json(stamp, stamp_path)
+    _STATIC.pop(ph, None)
+    return out / "experiment.yaml"
