@@ -1,7 +1,7 @@
 """Generalisation benchmark: today's method on random scenes like real recordings.
 
     .venv/bin/python benchmarks/bench_generalize.py --seeds 0:40 [--frames 6] [--workers 2]
-        [--scene random] [--out DIR]
+        [--scene random] [--method chain|multiview] [--out DIR]
 
 For every seed: writes the random scene (``python -m tendrilkit phantom
 --scene random --seed N``, :mod:`tendrilkit.scenes`), reconstructs it with
@@ -31,7 +31,8 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
-def one_scene(seed: int, scene: str, n_frames: int, out: str) -> tuple[int, pd.DataFrame | None, str, float, float]:
+def one_scene(seed: int, scene: str, n_frames: int, out: str, method: str | None = None
+              ) -> tuple[int, pd.DataFrame | None, str, float, float]:
     """Generate, reconstruct and score one scene; returns (seed, scores or None, error, wall s, cpu s)."""
     import os
 
@@ -52,8 +53,10 @@ def one_scene(seed: int, scene: str, n_frames: int, out: str) -> tuple[int, pd.D
     except PhantomError as e:
         return seed, None, f"not generated: {e}", time.perf_counter() - w0, time.process_time() - c0
     try:
-        run_reconstruct(exp, folder / "result", workers=1, progress=False)
-        scores = score_result(folder / "result", folder / "scene", scene=f"{scene}-{seed}")
+        res = folder / ("result" if method is None else f"result-{method}")
+        run_reconstruct(exp, res, workers=1, progress=False,
+                        overrides=None if method is None else {"reconstruction": {"method": method}})
+        scores = score_result(res, folder / "scene", scene=f"{scene}-{seed}")
     except ExperimentError as e:  # the whole run failed (e.g. calibration): every frame failed
         from tendrilkit.phantom import read_ground_truth
 
@@ -72,6 +75,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--scene", default="random", help="random or a preset of tendrilkit.scene_factors.PRESETS")
     p.add_argument("--out", default=None, help="keep scenes, results and tables here")
+    p.add_argument("--method", default=None, choices=["chain", "multiview"],
+                   help="reconstruction.method (default: the experiment file's)")
     a = p.parse_args(argv)
     start, stop = (int(x) for x in a.seeds.split(":"))
     out = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="bench_generalize_"))
@@ -82,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     tables, errors, cpu = [], [], 0.0
     seeds = list(range(start, stop))
     with ProcessPoolExecutor(max_workers=a.workers) as pool:
-        futs = [pool.submit(one_scene, s, a.scene, a.frames, str(out)) for s in seeds]
+        futs = [pool.submit(one_scene, s, a.scene, a.frames, str(out), a.method) for s in seeds]
         for f in futs:
             seed, scores, err, wall, c = f.result()
             cpu += c
