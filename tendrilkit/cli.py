@@ -2,8 +2,9 @@
 
 Every user mistake (:class:`~tendrilkit.exceptions.ExperimentError`) is printed
 as one line ``tendrilkit: error: ...`` and the command exits with code 2; no
-traceback. ``reconstruct`` and ``fit`` exit with 0 when every frame is ``ok``
-and 1 when some failed (the run still completes); Ctrl-C exits with 130.
+traceback. ``reconstruct`` exits with 0 when every frame is ``ok`` and 1 when
+some are ``doubtful`` or ``failed``, ``fit`` with 1 when some failed (the run
+still completes); Ctrl-C exits with 130.
 Each command's body lives in the library; this module only parses arguments
 and reports.
 """
@@ -56,6 +57,13 @@ def _cmd_reconstruct(args: argparse.Namespace) -> int:
                            progress=not args.quiet)
 
 
+def _cmd_overlay(args: argparse.Namespace) -> int:
+    from tendrilkit.qc import run_overlay
+
+    return run_overlay(Path(args.experiment), Path(args.results), video=args.video, sheet=args.sheet,
+                       fps=args.fps, height_px=args.height)
+
+
 def _cmd_fit(args: argparse.Namespace) -> int:
     from tendrilkit.fitting import run_fit
 
@@ -101,6 +109,16 @@ def build_parser() -> argparse.ArgumentParser:
     re_.add_argument("--workers", type=int, default=None, help="processes for frames (default: all cores)")
     re_.add_argument("--quiet", action="store_true", help="no progress bar")
     re_.set_defaults(func=_cmd_reconstruct)
+
+    ov = sub.add_parser("overlay", help="the reconstruction projected onto the views: a video and/or a contact sheet")
+    ov.add_argument("experiment")
+    ov.add_argument("results", help="the reconstruct run's folder")
+    ov.add_argument("--video", default=None, help="write every frame's overlay to this .mp4/.avi")
+    ov.add_argument("--sheet", default=None, help="write a contact sheet PNG (default without --video: "
+                                                  "RESULTS/qc_contact_sheet.png)")
+    ov.add_argument("--fps", type=float, default=4.0, help="video frame rate (playback)")
+    ov.add_argument("--height", type=int, default=480, help="height of each view in the video, px")
+    ov.set_defaults(func=_cmd_overlay)
 
     fi = sub.add_parser("fit", help="refit the piece-wise clothoid to every frame of a curves.csv")
     fi.add_argument("curves")

@@ -350,6 +350,42 @@ def read_results(folder: str | Path) -> Results:
     )
 
 
+def write_video(frames_bgr, path: str | Path, *, fps: float) -> int:
+    """Write BGR frames (an iterable of equal-size (h, w, 3) uint8 arrays) as a video, atomically.
+
+    ``.mp4`` (``mp4v``) or ``.avi`` (``MJPG``), the codecs OpenCV writes here.
+    Returns the number of frames written; raises ExperimentError for another
+    suffix or when OpenCV cannot open the writer.
+    """
+    import cv2
+
+    path = Path(path)
+    fourcc = {".mp4": "mp4v", ".avi": "MJPG"}.get(path.suffix.lower())
+    if fourcc is None:
+        raise ExperimentError(f"{path}: video suffix {path.suffix!r} not supported (expected .mp4 or .avi)")
+    n = 0
+    with atomic_path(path) as tmp:
+        tmp_v = tmp.with_suffix(path.suffix)  # OpenCV picks the container from the suffix
+        writer = None
+        try:
+            for img in frames_bgr:
+                if writer is None:
+                    h, w = img.shape[:2]
+                    writer = cv2.VideoWriter(str(tmp_v), cv2.VideoWriter_fourcc(*fourcc), float(fps), (w, h))
+                    if not writer.isOpened():
+                        raise ExperimentError(f"{path}: OpenCV cannot write a {fourcc} video")
+                writer.write(img)
+                n += 1
+        finally:
+            if writer is not None:
+                writer.release()
+        if n:
+            os.replace(tmp_v, tmp)
+        elif tmp_v.exists():
+            tmp_v.unlink()
+    return n
+
+
 def read_frames(exp, frame: int) -> list[np.ndarray]:
     """Frame ``frame`` (0-based) of every view of an experiment, BGR uint8."""
     sources = open_views(list(exp.videos))

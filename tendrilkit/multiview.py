@@ -53,7 +53,7 @@ from tendrilkit.camera import Camera
 from tendrilkit.correspondence import resample_by_arclength
 from tendrilkit.exceptions import DegenerateCurveError, TendrilLostError
 from tendrilkit.mv_acquire import ON_PX, advance, claim, cone_directions, grow_curve, point_costs
-from tendrilkit.mv_evidence import ViewEvidence, sample_distance
+from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
 from tendrilkit.triangulation import triangulate
 
 __all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "reconstruct_multiview",
@@ -126,7 +126,7 @@ def _bending_blocks(n: int) -> np.ndarray:
     return np.stack([np.r_[np.zeros(2), np.diagonal(D, 2)], np.r_[0.0, np.diagonal(D, 1)], np.diagonal(D)])
 
 
-def refine_curve(X0_mm: np.ndarray, evidence: list[ViewEvidence], *, base_mm: np.ndarray, segment_mm: float,
+def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm: np.ndarray, segment_mm: float,
                  iterations: int = 20, bend_weight: float = 20.0, length_weight: float = 30.0,
                  base_weight: float = 3.0, huber_px: float = 1.5, cap_px: tuple[float, float] = (25.0, 8.0)
                  ) -> np.ndarray:
@@ -136,7 +136,7 @@ def refine_curve(X0_mm: np.ndarray, evidence: list[ViewEvidence], *, base_mm: np
     ----------
     X0_mm : (m, 3) float array
         Start nodes, base first.
-    evidence : list of ViewEvidence
+    evidence : list of SkeletonEvidence
     base_mm : (3,) float array
     segment_mm : float
         Rest length of a segment, mm.
@@ -166,7 +166,7 @@ def refine_curve(X0_mm: np.ndarray, evidence: list[ViewEvidence], *, base_mm: np
         g = np.zeros((n, 3))
         for ev in evidence:
             u, J = _proj_jac(ev.camera, X)
-            d, gd, seen = sample_distance(ev, u, outside_px=1e3)
+            d, gd, seen = skeleton_distance(ev, u, outside_px=1e3)
             w = np.where(d <= huber_px, 1.0, huber_px / np.maximum(d, 1e-9)) * (seen & (d <= cap))
             row = np.einsum("ka,kai->ki", gd, J)
             Hd += w[:, None, None] * np.einsum("ki,kj->kij", row, row)
@@ -220,7 +220,7 @@ def _support(evidence, P):
     return d, seen, on
 
 
-def adjust_tip(X_mm: np.ndarray, evidence: list[ViewEvidence], *, step_mm: float = 0.5,
+def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: float = 0.5,
                max_extend_mm: float = 60.0) -> np.ndarray:
     """Move the tip to where the views' evidence ends (extend, then trim), base kept.
 
@@ -228,7 +228,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[ViewEvidence], *, step_mm: float
     ----------
     X_mm : (m, 3) float array
         Nodes, base first.
-    evidence : list of ViewEvidence
+    evidence : list of SkeletonEvidence
     step_mm : float
     max_extend_mm : float
 
@@ -272,7 +272,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[ViewEvidence], *, step_mm: float
     return np.asarray(X + ext, float)
 
 
-def _trim(X: np.ndarray, evidence: list[ViewEvidence], *, lag_mm: float = 1.5) -> np.ndarray:
+def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.5) -> np.ndarray:
     """The curve up to its last node that two views see on skeleton pixels the curve had not explained yet."""
     s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
     d, seen, near, bg = point_costs(evidence, X, nearest=True)
@@ -309,7 +309,7 @@ def _segment(X: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(X, axis=0), axis=1).mean())
 
 
-def curve_support(X_mm: np.ndarray, evidence: list[ViewEvidence], *, tol_px: float = 3.0):
+def curve_support(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, tol_px: float = 3.0):
     """Precision and coverage per view of a curve (see :class:`MultiviewResult`).
 
     Returns
@@ -355,14 +355,14 @@ def _fit(X0, evidence, B, segment_mm):
     return X
 
 
-def reconstruct_multiview(evidence: list[ViewEvidence], base_mm: np.ndarray, *, previous_mm: np.ndarray | None = None,
+def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, previous_mm: np.ndarray | None = None,
                           segment_mm: float = 1.0, min_score: float = 0.9, keep_candidates: bool = False
                           ) -> MultiviewResult:
     """The 3D curve of one frame from every view's evidence, tracked or acquired.
 
     Parameters
     ----------
-    evidence : list of ViewEvidence
+    evidence : list of SkeletonEvidence
         Every usable view (at least two).
     base_mm : (3,) float array
         The base point, world mm.
@@ -419,7 +419,7 @@ def reconstruct_multiview(evidence: list[ViewEvidence], base_mm: np.ndarray, *, 
                            coverage=best["coverage"], note=note if best["mode"] == "acquired" else "", candidates=keep)
 
 
-def distance_table(points_mm: np.ndarray, evidence: list[ViewEvidence | None]) -> list[dict]:
+def distance_table(points_mm: np.ndarray, evidence: list[SkeletonEvidence | None]) -> list[dict]:
     """Table 1 rows against each view's skeleton pixels (views without evidence skipped).
 
     Returns rows ``view, section, mean_px, std_px, max_px, n_points`` as
@@ -434,7 +434,7 @@ def distance_table(points_mm: np.ndarray, evidence: list[ViewEvidence | None]) -
     for v, ev in enumerate(evidence):
         if ev is None:
             continue
-        d, _, seen = sample_distance(ev, ev.camera.project(X))
+        d, _, seen = skeleton_distance(ev, ev.camera.project(X))
         for name in ("base", "tip", "entire"):
             dd = d[sec[name] & seen]
             rows.append({"view": v + 1, "section": name, "mean_px": float(dd.mean()) if dd.size else None,

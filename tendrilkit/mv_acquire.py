@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tendrilkit.mv_evidence import ViewEvidence, sample_distance
+from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
 
 __all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance"]
 
@@ -42,12 +42,12 @@ ON_PX = 2.5
 STOP_PX = 4.0
 
 
-def point_costs(evidence: list[ViewEvidence], P_mm: np.ndarray, *, cap_px: float = CAP_PX, nearest: bool = False):
+def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: float = CAP_PX, nearest: bool = False):
     """Distance to each view's skeleton of world points, and whether the view sees them.
 
     Parameters
     ----------
-    evidence : list of ViewEvidence
+    evidence : list of SkeletonEvidence
     P_mm : (n, 3) float array
     cap_px : float
 
@@ -67,13 +67,13 @@ def point_costs(evidence: list[ViewEvidence], P_mm: np.ndarray, *, cap_px: float
     near = np.empty((len(evidence), len(P)), int)
     bg = np.empty((len(evidence), len(P)), bool)
     for v, ev in enumerate(evidence):
-        dv, _, sv, near[v], bg[v] = sample_distance(ev, ev.camera.project(P), outside_px=cap_px, index=True)
+        dv, _, sv, near[v], bg[v] = skeleton_distance(ev, ev.camera.project(P), outside_px=cap_px, index=True)
         d[v] = np.minimum(dv, cap_px)
         seen[v] = sv
     return (d, seen, near, bg) if nearest else (d, seen)
 
 
-def advance(evidence: list[ViewEvidence], A_mm: np.ndarray, B_mm: np.ndarray, *, fraction: float = 0.3) -> np.ndarray:
+def advance(evidence: list[SkeletonEvidence], A_mm: np.ndarray, B_mm: np.ndarray, *, fraction: float = 0.3) -> np.ndarray:
     """(V, n) whether the step from A to B (n, 3) moves in each image by ``fraction`` of its length seen face-on.
 
     A step along a view's line of sight moves its projection little: that view
@@ -127,13 +127,13 @@ def _frames(axes: np.ndarray) -> np.ndarray:
     return np.stack([p, q, a], axis=2)
 
 
-def claim(evidence: list[ViewEvidence], claims: list[np.ndarray] | None, P_mm: np.ndarray, *,
+def claim(evidence: list[SkeletonEvidence], claims: list[np.ndarray] | None, P_mm: np.ndarray, *,
           radius_px: float = 4.0) -> list[np.ndarray]:
     """Skeleton pixels a curve explains: per view, a bool per row of ``skeleton_xy``.
 
     Parameters
     ----------
-    evidence : list of ViewEvidence
+    evidence : list of SkeletonEvidence
     claims : list of (k_v,) bool arrays or None
         Pixels already claimed (copied, not changed); None: none.
     P_mm : (n, 3) float array
@@ -184,14 +184,14 @@ def _seeds(evidence, base_mm, n_seeds: int) -> np.ndarray:
     return dirs[chosen]
 
 
-def grow_curve(evidence: list[ViewEvidence], base_mm: np.ndarray, *, step_mm: float = 2.0, beam: int = 8,
+def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm: float = 2.0, beam: int = 8,
                n_seeds: int = 6, cone_deg: float = 40.0, max_length_mm: float = 400.0,
                max_unseen_steps: int = 6) -> np.ndarray:
     """Grow the tendril's 3D curve from the base by a beam search on every view's evidence.
 
     Parameters
     ----------
-    evidence : list of ViewEvidence
+    evidence : list of SkeletonEvidence
         Every usable view (two or more).
     base_mm : (3,) float array
         The base point, world mm.

@@ -1,10 +1,11 @@
-"""Evidence of the tendril in one view for the multi-view fit (:mod:`tendrilkit.multiview`).
+"""The skeleton of one view as short line pieces, for the multi-view fit (:mod:`tendrilkit.multiview`).
 
-Prototype of the per-view evidence (the trust issue's ``evidence`` module will
-replace it): no decision is taken in a view. Every dark pixel of the region of
-interest outside the keep-out box is foreground (no component is chosen), its
-skeleton is kept whole, and the distance of every pixel to the nearest
-skeleton pixel is the field the 3D curve's projection is pulled onto.
+Built on :func:`tendrilkit.evidence.view_evidence` (every dark pixel of the
+ROI outside the keep-out box, no component chosen, and its skeleton): the
+skeleton pixels go into a k-d tree, and every pixel gets the mean and the
+principal direction of its neighbours within 3.5 px, so that the distance of
+a projected point to the skeleton (:func:`skeleton_distance`) is sub-pixel
+and smooth across the curve.
 """
 
 from __future__ import annotations
@@ -16,26 +17,24 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from tendrilkit.camera import Camera
+from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
-from tendrilkit.segmentation import grey_image
-from tendrilkit.skeleton import _skeletonize_strips
 
-__all__ = ["ViewEvidence", "view_evidence", "sample_distance"]
+__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance"]
 
 
 @dataclass(frozen=True, eq=False)
-class ViewEvidence:
-    """The tendril's evidence in one view, on the region of interest's crop.
+class SkeletonEvidence:
+    """One view's evidence as the multi-view fit reads it (ROI crop).
 
     Attributes
     ----------
     offset_xy : (2,) int array
         Full-image pixel ``(x, y)`` of the crop's pixel ``[0, 0]``.
     foreground : (h, w) bool array
-        Dark pixels of the ROI (keep-out box painted background, opened).
+        Every dark pixel of the ROI (:attr:`tendrilkit.evidence.ViewEvidence.foreground`).
     skeleton : (h, w) bool array
-        Skeleton of ``foreground`` (components under ``min_component_px``
-        pixels of foreground dropped).
+        Its skeleton, on the crop.
     skeleton_xy : (k, 2) float array
         The skeleton's pixels, full-image ``(x, y)``.
     tree : scipy.spatial.cKDTree
@@ -45,12 +44,13 @@ class ViewEvidence:
         and their principal direction (unit): the skeleton as short line
         pieces, for sub-pixel distances.
     near_foreground : (h, w) bool array
-        Foreground dilated by 2 px: a point projecting outside it is on the
-        board in that view (the view contradicts it).
+        Within 2 px of the foreground: a point projecting outside it is on
+        the board in that view (the view contradicts it).
     seen : (h, w) bool array
         Pixels where the view can see the tendril: inside the ROI and the
         image, outside the keep-out box.
     camera : Camera
+        The view's calibrated camera.
     """
 
     offset_xy: np.ndarray
@@ -65,73 +65,32 @@ class ViewEvidence:
     camera: Camera
 
 
-def _crop(box, W: int, H: int) -> tuple[int, int, int, int]:
-    x, y, w, h = (int(round(float(v))) for v in box)
-    return max(x, 0), max(y, 0), min(x + w, W), min(y + h, H)
-
-
-def view_evidence(image_bgr: np.ndarray, camera: Camera, *, roi, keep_out, channel: str = "blue",
-                  threshold: str | int = "otsu", opening_radius_px: int = 1,
-                  min_component_px: int = 50) -> ViewEvidence:
-    """Foreground, skeleton and distance field of one view's ROI.
-
-    Parameters
-    ----------
-    image_bgr : (H, W, 3) uint8 array
-        The full frame.
-    camera : Camera
-        The view's calibrated camera (kept with the evidence).
-    roi, keep_out : [x, y, w, h]
-        The experiment file's marks, full-image pixels (``keep_out`` may be None).
-    channel, threshold, opening_radius_px, min_component_px
-        As in :func:`tendrilkit.segmentation.segment_view`.
-
-    Returns
-    -------
-    ViewEvidence
+def skeleton_evidence(ev: ViewEvidence, camera: Camera) -> SkeletonEvidence:
+    """The multi-view fit's view of :func:`tendrilkit.evidence.view_evidence` (made with ``skeleton=True``).
 
     Raises
     ------
     TendrilLostError
-        No foreground component of ``min_component_px`` pixels in the ROI.
+        The ROI's foreground thins to fewer than 3 skeleton pixels.
     """
-    img = np.asarray(image_bgr)
-    H, W = img.shape[:2]
-    x0, y0, x1, y1 = _crop(roi, W, H)
-    if x1 - x0 < 2 or y1 - y0 < 2:
-        raise ValueError(f"roi {list(roi)} does not overlap the {W}x{H} image")
-    grey = grey_image(img[y0:y1, x0:x1], channel=channel)
-    if threshold == "otsu":
-        _, fg = cv2.threshold(grey, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
-    else:
-        _, fg = cv2.threshold(grey, int(threshold) - 1, 255, cv2.THRESH_BINARY_INV)
-    seen = np.ones(fg.shape, bool)
-    if keep_out is not None:
-        kx0, ky0, kx1, ky1 = _crop(keep_out, W, H)
-        a0, b0, a1, b1 = kx0 - x0, ky0 - y0, kx1 - x0, ky1 - y0
-        if a1 > max(a0, 0) and b1 > max(b0, 0):
-            fg[max(b0, 0):b1, max(a0, 0):a1] = 0
-            seen[max(b0, 0):b1, max(a0, 0):a1] = False
-    if opening_radius_px > 0:
-        r = int(opening_radius_px)
-        fg = cv2.morphologyEx(fg, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(fg, connectivity=8)
-    small = np.nonzero(stats[:, cv2.CC_STAT_AREA] < max(min_component_px, 1))[0]
-    small = small[small > 0]
-    if len(small):
-        fg[np.isin(labels, small)] = 0
-    if not fg.any():
-        raise TendrilLostError(f"no component of at least {min_component_px} px in the roi {list(roi)}")
-    skel = _skeletonize_strips(fg).astype(bool)
-    rc = np.argwhere(skel)
-    if len(rc) < 3:
-        raise TendrilLostError(f"the foreground of the roi {list(roi)} thins to {len(rc)} skeleton pixel(s)")
-    xy = np.column_stack([rc[:, 1] + x0, rc[:, 0] + y0]).astype(float)
+    if ev.skeleton_xy is None:
+        raise ValueError("the evidence must be made with skeleton=True")
+    xy = np.asarray(ev.skeleton_xy, float)
+    if len(xy) < 3:
+        raise TendrilLostError(f"the foreground of the roi thins to {len(xy)} skeleton pixel(s)")
+    h, w = ev.shape
+    off = np.asarray(ev.roi_offset_xy, int)
+    skel = np.zeros((h, w), bool)
+    skel[xy[:, 1].astype(int) - off[1], xy[:, 0].astype(int) - off[0]] = True
+    seen = np.ones((h, w), bool)
+    if ev.keep_out is not None:
+        kx, ky, kw, kh = (int(v) for v in ev.keep_out)
+        seen[max(ky - off[1], 0):max(ky + kh - off[1], 0), max(kx - off[0], 0):max(kx + kw - off[0], 0)] = False
     tree = cKDTree(xy)
     centre, tangent = _local_lines(xy, tree)
-    return ViewEvidence(offset_xy=np.array([x0, y0]), foreground=fg > 0, skeleton=skel, skeleton_xy=xy,
-                        tree=tree, centre_xy=centre, tangent_xy=tangent,
-                        near_foreground=cv2.dilate(fg, np.ones((5, 5), np.uint8)) > 0, seen=seen, camera=camera)
+    return SkeletonEvidence(offset_xy=off, foreground=ev.foreground, skeleton=skel, skeleton_xy=xy, tree=tree,
+                            centre_xy=centre, tangent_xy=tangent, near_foreground=ev.distance_px <= 2.0,
+                            seen=seen, camera=camera)
 
 
 def _local_lines(xy: np.ndarray, tree: cKDTree, radius_px: float = 3.5, k: int = 9):
@@ -148,12 +107,12 @@ def _local_lines(xy: np.ndarray, tree: cKDTree, radius_px: float = 3.5, k: int =
     return c, np.column_stack([np.cos(ang), np.sin(ang)])
 
 
-def sample_distance(ev: ViewEvidence, points_xy: np.ndarray, *, outside_px: float = 50.0, index: bool = False):
+def skeleton_distance(ev: SkeletonEvidence, points_xy: np.ndarray, *, outside_px: float = 50.0, index: bool = False):
     """Distance to the skeleton at full-image pixels, with its gradient.
 
     Parameters
     ----------
-    ev : ViewEvidence
+    ev : SkeletonEvidence
     points_xy : (n, 2) float array
         Full-image pixels (NaN allowed).
     outside_px : float

@@ -296,6 +296,32 @@ class Calibration(_Strict):
     bundle_adjust: bool = True
 
 
+class Verification(_Strict):
+    """Limits of the per-frame checks against every view and the neighbouring
+    frames (:class:`tendrilkit.verify.Thresholds`, same names; the defaults and
+    why are documented there). A reconstructed frame failing one is
+    ``doubtful``."""
+
+    tolerance_px: PositiveFloat = 2.0
+    min_on_tendril_frac: float = Field(0.9, ge=0, le=1)
+    max_off_tendril_px: PositiveFloat = 15.0
+    coverage_tolerance_px: PositiveFloat = 4.0
+    min_coverage_frac: float = Field(0.75, ge=0, le=1)
+    max_base_px: PositiveFloat = 25.0
+    max_length_change_pct: NonNegFloat = 5.0
+    length_rate_pct_per_min: NonNegFloat = 1.0
+    max_shape_change_mm: NonNegFloat = 3.0
+    shape_rate_mm_per_min: NonNegFloat = 20.0
+    min_pwc_r2: float = Field(0.5, le=1)
+
+
+class Analysis(_Strict):
+    """Which frames the sequence analyses and the paper's tables use:
+    ``ok`` frames only, or also ``doubtful`` ones (``include_doubtful``)."""
+
+    include_doubtful: bool = False
+
+
 class Experiment(_Strict):
     """A validated experiment; every path is absolute."""
 
@@ -319,6 +345,8 @@ class Experiment(_Strict):
     smoothing: Smoothing = Field(default_factory=Smoothing)
     fit: Fit = Field(default_factory=Fit)
     calibration: Calibration = Field(default_factory=Calibration)
+    verification: Verification = Field(default_factory=Verification)
+    analysis: Analysis = Field(default_factory=Analysis)
 
     source: Path | None = Field(None, exclude=True)
 

@@ -77,12 +77,21 @@ Resuming
     an interrupted run (Ctrl-C) keeps its finished frames.
 
 Exit code
-    0 if every frame is ``ok``, 1 if some failed (the run still completes and
-    writes every table); user mistakes raise
+    0 if every frame is ``ok``, 1 if some are ``doubtful`` or ``failed`` (the
+    run still completes and writes every table); user mistakes raise
     :class:`~tendrilkit.exceptions.ExperimentError` (exit code 2 in the CLI);
     Ctrl-C propagates ``KeyboardInterrupt`` (exit code 130 in the CLI) after
     the finished frames are on disk. The last line printed is
-    ``N frames: X ok, Y failed``.
+    ``N frames: X ok, Y doubtful, Z failed``.
+
+Verification
+    Every reconstructed frame is checked against every view's image
+    (:func:`tendrilkit.verify.verify_curve` on
+    :func:`tendrilkit.evidence.view_evidence`, inside the frame's worker) and,
+    at assembly time over the ordered frames, against its neighbours in time
+    (:func:`with_temporal_checks`: the same whatever the chunks or workers).
+    A frame failing a check is ``doubtful``, the failed checks first in its
+    message; limits in the experiment's ``verification:`` section.
 """
 
 from __future__ import annotations
@@ -133,10 +142,11 @@ class FrameResult:
     time_s : float
         ``frame / fps``.
     status : str
-        ``ok`` or ``failed``.
+        ``ok``, ``doubtful`` (reconstructed, but a check of
+        :mod:`tendrilkit.verify` failed) or ``failed``.
     message : str
-        Why it failed, or notes on an ``ok`` frame (a view left out); empty
-        otherwise.
+        Why it failed or which checks it failed (with the figure and the
+        limit), then notes (a view left out); empty otherwise.
     points_mm : (n, 3) float array or None
         The centreline, ``points`` points base to tip, uniform arc length, mm.
     pwc_mm : (n, 3) float array or None
@@ -153,6 +163,9 @@ class FrameResult:
         Per view, the components the segmentation could choose from.
     timings : dict
         Seconds per stage (not written to the result files).
+    checks : list of str
+        The checks against the views it failed (:mod:`tendrilkit.verify`);
+        ``message`` starts with them.
     """
 
     frame: int
@@ -169,6 +182,7 @@ class FrameResult:
     timings: dict = field(default_factory=dict)
     pwc_segments: list = field(default_factory=list)
     pwc_metrics: list = field(default_factory=list)
+    checks: list = field(default_factory=list)
 
     def to_json(self) -> dict:
         def arr(a):
@@ -179,7 +193,7 @@ class FrameResult:
             "message": self.message, "points_mm": arr(self.points_mm), "pwc_mm": arr(self.pwc_mm),
             "quality": self.quality, "reprojection": self.reprojection, "decisions": self.decisions,
             "centroids": self.centroids, "n_components": self.n_components,
-            "pwc_segments": self.pwc_segments, "pwc_metrics": self.pwc_metrics,
+            "pwc_segments": self.pwc_segments, "pwc_metrics": self.pwc_metrics, "checks": self.checks,
         }
 
     @classmethod
@@ -191,7 +205,7 @@ class FrameResult:
                    points_mm=arr(d["points_mm"]), pwc_mm=arr(d["pwc_mm"]), quality=d["quality"],
                    reprojection=d["reprojection"], decisions=d["decisions"], centroids=d["centroids"],
                    n_components=d["n_components"], pwc_segments=d.get("pwc_segments", []),
-                   pwc_metrics=d.get("pwc_metrics", []))
+                   pwc_metrics=d.get("pwc_metrics", []), checks=d.get("checks", []))
 
 
 def quality_columns(n_views: int) -> list[str]:
@@ -212,6 +226,9 @@ def quality_columns(n_views: int) -> list[str]:
     cols += [f"tri_err_px_v{v}" for v in range(1, n_views + 1)]
     cols += ["pwc_r2", "pwc_sse_mm2", "pwc_rmse_mm", "pwc_segments_kappa", "pwc_segments_tau"]
     cols += [f"n_crossings_v{v}" for v in range(1, n_views + 1)]
+    from tendrilkit.verify import VERIFY_COLUMNS_FRAME, view_columns
+
+    cols += list(VERIFY_COLUMNS_FRAME) + view_columns(n_views)  # the checks of tendrilkit.verify
     return cols
 
 
@@ -410,14 +427,33 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         pwc, pwc_segments, pwc_row = _shape_and_fit(points, q, notes, exp, frame, t_s, fit, timings)
         reproj_rows = [{k_: (v_.item() if hasattr(v_, "item") else v_) for k_, v_ in r.items()}
                        for r in table.to_dict("records")]
+        t0 = time.perf_counter()
+        checks = _verify(points, images, cameras, exp, seg_opts, q)
+        timings["verify"] = time.perf_counter() - t0
     except FrameError as e:
         return failed("; ".join(notes + [f"{type(e).__name__}: {e}"]))
     except _NUMERICAL_ERRORS as e:
         return failed("; ".join(notes + [f"unexpected {type(e).__name__}: {e}"]))
-    return FrameResult(frame=frame, time_s=t_s, status="ok", message="; ".join(notes), points_mm=points,
+    return FrameResult(frame=frame, time_s=t_s, status="doubtful" if checks else "ok",
+                       message="; ".join(checks + notes), points_mm=points,
                        pwc_mm=pwc, quality=q, reprojection=reproj_rows, decisions=decisions,
                        centroids=centroids, n_components=ncomp, timings=timings,
-                       pwc_segments=_plain(pwc_segments), pwc_metrics=_plain([pwc_row] if pwc_row else []))
+                       pwc_segments=_plain(pwc_segments), pwc_metrics=_plain([pwc_row] if pwc_row else []),
+                       checks=checks)
+
+
+def _verify(points: np.ndarray, images: list, cameras: list[Camera], exp, seg_opts: dict, q: dict) -> list[str]:
+    """Check the curve against every view's image (:mod:`tendrilkit.verify`); figures into ``q``, failed checks out."""
+    from tendrilkit.evidence import view_evidence
+    from tendrilkit.verify import Thresholds, image_check_messages, verify_curve
+
+    th = Thresholds.from_params(exp.verification)
+    evidence = [None if img is None else
+                view_evidence(img, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, **seg_opts)
+                for img, m in zip(images, exp.views)]
+    q.update(verify_curve(points, cameras, evidence, tolerance_px=th.tolerance_px,
+                          coverage_tolerance_px=th.coverage_tolerance_px))
+    return image_check_messages(q, len(cameras), th)
 
 
 def _shape_and_fit(points: np.ndarray, q: dict, notes: list, exp, frame: int, t_s: float, fit: bool,
@@ -455,8 +491,10 @@ def _shape_and_fit(points: np.ndarray, q: dict, notes: list, exp, frame: int, t_
 def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous_mm, read_errors, fit: bool
                      ) -> FrameResult:
     """:func:`reconstruct_frame` by ``reconstruction.method: multiview`` (:mod:`tendrilkit.multiview`)."""
+    from tendrilkit.evidence import view_evidence
     from tendrilkit.multiview import base_point_from_marks, distance_table, reconstruct_multiview
-    from tendrilkit.mv_evidence import view_evidence
+    from tendrilkit.mv_evidence import skeleton_evidence
+    from tendrilkit.verify import Thresholds, image_check_messages, verify_curve
 
     V = len(cameras)
     read_errors = list(read_errors) if read_errors is not None else [None] * V
@@ -464,6 +502,7 @@ def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous
     t_s = frame / exp.fps
     timings: dict[str, float] = {}
     notes: list[str] = []
+    views: list = [None] * V  # tendrilkit.evidence per view (also what the verification reads)
     evidence: list = [None] * V
     t0 = time.perf_counter()
     for v in range(V):
@@ -472,7 +511,8 @@ def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous
             continue
         m = exp.views[v]
         try:
-            evidence[v] = view_evidence(images[v], cameras[v], roi=m.roi, keep_out=m.keep_out, **seg_opts)
+            views[v] = view_evidence(images[v], roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, **seg_opts)
+            evidence[v] = skeleton_evidence(views[v], cameras[v])
         except FrameError as e:
             notes.append(f"view {v + 1}: {type(e).__name__}: {e}")
         except _NUMERICAL_ERRORS as e:
@@ -500,15 +540,22 @@ def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous
                 for k_ in ("mean", "std", "max"):
                     q[f"reproj_{k_}_px_v{row['view']}"] = row[f"{k_}_px"]
         pwc, pwc_segments, pwc_row = _shape_and_fit(points, q, notes, exp, frame, t_s, fit, timings)
+        t0 = time.perf_counter()
+        th = Thresholds.from_params(exp.verification)
+        q.update(verify_curve(points, cameras, views, tolerance_px=th.tolerance_px,
+                              coverage_tolerance_px=th.coverage_tolerance_px))
+        checks = image_check_messages(q, V, th)
+        timings["verify"] = time.perf_counter() - t0
     except FrameError as e:
         return FrameResult(frame=frame, time_s=t_s, status="failed", message="; ".join(notes + [f"{type(e).__name__}: {e}"]),
                            timings=timings)
     except _NUMERICAL_ERRORS as e:
         return FrameResult(frame=frame, time_s=t_s, status="failed",
                            message="; ".join(notes + [f"unexpected {type(e).__name__}: {e}"]), timings=timings)
-    return FrameResult(frame=frame, time_s=t_s, status="ok", message="; ".join(notes), points_mm=points, pwc_mm=pwc,
-                       quality=q, reprojection=_plain(rows), timings=timings, pwc_segments=_plain(pwc_segments),
-                       pwc_metrics=_plain([pwc_row] if pwc_row else []))
+    return FrameResult(frame=frame, time_s=t_s, status="doubtful" if checks else "ok", message="; ".join(checks + notes),
+                       points_mm=points, pwc_mm=pwc, quality=q, reprojection=_plain(rows), timings=timings,
+                       pwc_segments=_plain(pwc_segments), pwc_metrics=_plain([pwc_row] if pwc_row else []),
+                       checks=checks)
 
 
 def _plain(rows: list[dict]) -> list[dict]:
@@ -684,7 +731,7 @@ def _assemble(results: list[FrameResult], n_views: int, n_points: int) -> dict[s
     for c in qcols:
         frames[c] = pd.to_numeric(frames[c], errors="coerce")
     frames["base_extended"] = frames["base_extended"].astype("boolean")
-    for c in ["views_used", "n_matched", "pwc_segments_kappa", "pwc_segments_tau"] + [f"n_crossings_v{v}" for v in range(1, n_views + 1)]:
+    for c in ["views_used", "views_checked", "n_matched", "pwc_segments_kappa", "pwc_segments_tau"] + [f"n_crossings_v{v}" for v in range(1, n_views + 1)]:
         frames[c] = frames[c].astype("Int64")
     rcols = ["frame", "view", "section", "mean_px", "std_px", "max_px", "n_points"]
     reproj = pd.DataFrame(rep, columns=rcols)
@@ -730,7 +777,8 @@ def _with_overrides(exp, overrides: dict | None):
 
 
 def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers: int | None = None,
-                    progress: bool = True, fit: bool = True, overrides: dict | None = None) -> int:
+                    progress: bool = True, fit: bool = True, overrides: dict | None = None,
+                    contact_sheet: bool = True) -> int:
     """``python -m tendrilkit reconstruct``: every selected frame of an experiment.
 
     Parameters
@@ -751,12 +799,16 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         Optional sections of the experiment to change for this run, e.g.
         ``{"correspondence": {"method": "frechet"}}`` (they enter the
         fingerprint).
+    contact_sheet : bool
+        Write ``qc_contact_sheet.png`` (:func:`tendrilkit.qc.write_contact_sheet`):
+        the doubtful frames and a sample of ok ones, the reconstruction
+        projected onto every view.
 
     Returns
     -------
     int
-        0 if every frame is ``ok``, 1 if some failed. The last line printed
-        is ``N frames: X ok, Y failed``.
+        0 if every frame is ``ok``, 1 if some are ``doubtful`` or ``failed``.
+        The last line printed is ``N frames: X ok, Y doubtful, Z failed``.
 
     Raises
     ------
@@ -888,14 +940,48 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     finally:
         cv2.setNumThreads(old_threads)
 
-    results = [done[f] for f in frames]
+    results = with_temporal_checks([done[f] for f in frames], exp.verification)
     tables = _assemble(results, V, exp.points)
     for name, df in tables.items():
         write_csv(df, out / name)
+    if contact_sheet:
+        from tendrilkit.qc import CONTACT_SHEET, write_contact_sheet
+
+        write_contact_sheet(exp, cameras, tables["frames.csv"], tables["curves.csv"], tables["pwc_curves.csv"],
+                            out / CONTACT_SHEET)
     n_ok = sum(r.status == "ok" for r in results)
-    n_failed = len(results) - n_ok
-    print(f"{len(results)} frames: {n_ok} ok, {n_failed} failed")  # the command's summary line
-    return 0 if n_failed == 0 else 1
+    n_doubtful = sum(r.status == "doubtful" for r in results)
+    n_failed = len(results) - n_ok - n_doubtful
+    print(f"{len(results)} frames: {n_ok} ok, {n_doubtful} doubtful, {n_failed} failed")  # the command's summary line
+    return 0 if n_ok == len(results) else 1
+
+
+def with_temporal_checks(results: list[FrameResult], verification=None) -> list[FrameResult]:
+    """The results with the checks against neighbouring frames applied (:func:`tendrilkit.verify.temporal_checks`).
+
+    Run at assembly time over the ordered results (so that it does not depend
+    on chunks or workers): fills ``length_change_pct``, ``shape_change_mm``
+    and ``dt_prev_s`` and turns an ``ok`` frame that jumps into ``doubtful``.
+    """
+    from dataclasses import replace
+
+    from tendrilkit.verify import Thresholds, temporal_checks
+
+    th = Thresholds.from_params(verification) if verification is not None else Thresholds()
+    results = sorted(results, key=lambda r: r.frame)
+    figs, msgs = temporal_checks([r.frame for r in results], [r.time_s for r in results],
+                                 [r.points_mm if r.status != "failed" else None for r in results],
+                                 [r.status == "ok" for r in results], th)
+    out = []
+    for r, fig, msg in zip(results, figs, msgs):
+        if r.status == "failed":
+            out.append(r)
+            continue
+        status = "doubtful" if (msg or r.status == "doubtful") else "ok"
+        notes = r.message.split("; ")[len(r.checks):] if r.message else []
+        message = "; ".join(list(r.checks) + list(msg) + notes)  # the failed checks first, then the notes
+        out.append(replace(r, status=status, message=message, quality={**r.quality, **fig}))
+    return out
 
 
 class _Sources:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import os
+import textwrap
 from typing import Sequence
 
 import matplotlib
@@ -247,7 +248,7 @@ def plot_shape_evolution(curves: pd.DataFrame, *, frames: Sequence[int] | None =
 
 @_styled
 def plot_shape_change(change: pd.DataFrame, response=None, *, measure: str | None = None,
-                      title: str | None = None) -> Figure:
+                      title: str | None = None, frames: pd.DataFrame | None = None) -> Figure:
     """Shape change over time with the response onset and stabilisation marked.
 
     Parameters
@@ -261,6 +262,10 @@ def plot_shape_change(change: pd.DataFrame, response=None, *, measure: str | Non
     measure : str, optional
         Column drawn in black; default the response's measure, else ``shape_mm``.
         The motion (``mean_mm``) and the tip displacement are drawn in grey.
+    frames : DataFrame, optional
+        ``frames.csv``: its ``doubtful`` (orange, hatched) and ``failed``
+        (grey) frames are shaded, and the lines break there instead of
+        bridging them.
     """
     measure = measure or (response.measure if response is not None else "shape_mm")
     _check(change, ("frame", measure), "change")
@@ -270,10 +275,14 @@ def plot_shape_change(change: pd.DataFrame, response=None, *, measure: str | Non
              "tip_displacement_mm": "tip displacement"}
     fig = Figure(figsize=(7.0, 3.6), layout="constrained")
     ax = fig.add_subplot()
+    all_frames = None if frames is None else frames["frame"].to_numpy(int)
+    kept = change["frame"].to_numpy(int)
     for col, color in (("mean_mm", "#9a9a9a"), ("tip_displacement_mm", "#c8c8c8")):
         if col in change.columns and col != measure:
-            ax.plot(x, change[col], color=color, lw=0.8, label=names[col])
-    ax.plot(x, change[measure], ".-", color="black", ms=3, lw=0.9, label=names.get(measure, measure))
+            ax.plot(*_gapped(x, change[col].to_numpy(float), all_frames, kept), color=color, lw=0.8, label=names[col])
+    ax.plot(*_gapped(x, change[measure].to_numpy(float), all_frames, kept), ".-", color="black", ms=3, lw=0.9,
+            label=names.get(measure, measure))
+    _status_bands(ax, frames, x_time=xlabel.startswith("time"))
     if response is not None:
         for level in (response.baseline_mm, response.plateau_mm):
             if np.isfinite(level):
@@ -428,7 +437,7 @@ def plot_multiview_decision(evidence: Sequence, result, *, truth_mm: np.ndarray 
 
     Parameters
     ----------
-    evidence : list of tendrilkit.mv_evidence.ViewEvidence
+    evidence : list of tendrilkit.mv_evidence.SkeletonEvidence
         The views' evidence (foreground grey, skeleton black).
     result : tendrilkit.multiview.MultiviewResult
         Made with ``keep_candidates=True``: each candidate curve (tracked
@@ -469,6 +478,159 @@ def plot_multiview_decision(evidence: Sequence, result, *, truth_mm: np.ndarray 
             ax.legend(loc="lower left", frameon=True)
     if title:
         fig.suptitle(title)
+    return fig
+
+
+# ------------------------------------------------------------------ quality control (tendrilkit.verify)
+STATUS_COLORS = {"ok": "#2ca02c", "doubtful": "#ff7f0e", "failed": "#d62728"}
+
+
+def _status_bands(ax, frames: pd.DataFrame | None, *, x_time: bool) -> None:
+    """Shade the frames that are not ``ok``: doubtful orange hatched, failed grey, half a frame each side.
+
+    Nothing is bridged: the caller breaks its lines at these frames.
+    """
+    if frames is None or "status" not in frames.columns or not len(frames):
+        return
+    f = frames.sort_values("frame")
+    x = f["time_s"].to_numpy(float) / 60.0 if (x_time and "time_s" in f.columns) else f["frame"].to_numpy(float)
+    half = 0.5 * (float(np.median(np.diff(x))) if len(x) > 1 else 1.0)
+    labelled = set()
+    for xi, st in zip(x, f["status"].astype(str)):
+        if st == "ok":
+            continue
+        style = ({"color": STATUS_COLORS["doubtful"], "alpha": 0.25, "hatch": "///"} if st == "doubtful"
+                 else {"color": "#7f7f7f", "alpha": 0.35})
+        ax.axvspan(xi - half, xi + half, lw=0, label=None if st in labelled else f"{st} frame", **style)
+        labelled.add(st)
+
+
+def _gapped(x: np.ndarray, y: np.ndarray, frames_all: np.ndarray | None, frames_kept: np.ndarray) -> tuple:
+    """``x, y`` with a NaN inserted wherever a frame between two kept frames is missing (lines are not bridged)."""
+    if frames_all is None or len(frames_kept) < 2:
+        return x, y
+    pos = np.searchsorted(np.sort(frames_all), frames_kept)
+    gap = np.nonzero(np.diff(pos) > 1)[0]
+    if not len(gap):
+        return x, y
+    return (np.insert(np.asarray(x, float), gap + 1, np.nan), np.insert(np.asarray(y, float), gap + 1, np.nan))
+
+
+@_styled
+def plot_quality_over_time(frames: pd.DataFrame, *, thresholds=None, title: str | None = None) -> Figure:
+    """Per-frame verification figures over time, one line per view, non-ok frames shaded.
+
+    Parameters
+    ----------
+    frames : DataFrame
+        ``frames.csv``: ``frame, time_s, status`` and the columns of
+        :mod:`tendrilkit.verify` (``on_tendril_frac_v<i>``,
+        ``coverage_frac_v<i>``, ``base_px_v<i>``, ``length_change_pct``).
+    thresholds : tendrilkit.verify.Thresholds, optional
+        Draws the limits (dashed).
+    """
+    _check(frames, ("frame", "status"), "frames")
+    f = frames.sort_values("frame")
+    x, xlabel = _time_axis(f)
+    views = sorted(int(c.rsplit("_v", 1)[1]) for c in f.columns if c.startswith("on_tendril_frac_v"))
+    panels = [("on_tendril_frac_v{}", "precision (on tendril)", "min_on_tendril_frac", 1.0),
+              ("coverage_frac_v{}", "coverage", "min_coverage_frac", 1.0),
+              ("base_px_v{}", "base to mark (px)", "max_base_px", None)]
+    fig = Figure(figsize=(7.5, 7.0), layout="constrained")
+    axes = fig.subplots(4, 1, sharex=True)
+    for ax, (pat, ylabel, key, _) in zip(axes, panels):
+        for v in views:
+            col = pat.format(v)
+            if col in f.columns:
+                ax.plot(x, f[col].to_numpy(float), ".-", ms=3, lw=0.8, label=f"view {v}")
+        if thresholds is not None:
+            ax.axhline(getattr(thresholds, key), color="black", ls="--", lw=0.7, label="limit")
+        ax.set_ylabel(ylabel)
+    ax = axes[3]
+    if "length_change_pct" in f.columns:
+        ax.plot(x, f["length_change_pct"].to_numpy(float), ".-", color="black", ms=3, lw=0.8,
+                label="length change (%)")
+    ax.set_ylabel("length change to\nprevious frame (%)")
+    ax.set_xlabel(xlabel)
+    for a in axes:
+        _status_bands(a, f, x_time=xlabel.startswith("time"))
+    axes[0].legend(loc="lower left", ncol=5)
+    counts = f["status"].value_counts()
+    fig.suptitle((title + ": " if title else "") + ", ".join(f"{int(counts.get(k, 0))} {k}" for k in STATUS_COLORS))
+    return fig
+
+
+def _draw_views(axes, views, *, status: str, header: str | None = None, note: str | None = None) -> None:
+    for k, (ax, v) in enumerate(zip(axes, views)):
+        ax.grid(False)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        for sp in ax.spines.values():
+            sp.set_color(STATUS_COLORS.get(status, "black"))
+            sp.set_linewidth(2.0)
+        if v.crop_bgr is None:
+            ax.text(0.5, 0.5, "no image", ha="center", va="center", transform=ax.transAxes)
+            continue
+        h, w = v.crop_bgr.shape[:2]
+        ax.imshow(v.crop_bgr[:, :, ::-1], interpolation="bilinear")
+        if v.pwc_xy is not None:
+            ax.plot(v.pwc_xy[:, 0], v.pwc_xy[:, 1], color="magenta", lw=0.8, label="PWC")
+        if v.curve_xy is not None:
+            ax.plot(v.curve_xy[:, 0], v.curve_xy[:, 1], color="cyan", lw=0.8, label="centreline")
+        ax.plot([v.base_xy[0]], [v.base_xy[1]], "*", color="yellow", mec="black", ms=7)
+        ax.set_xlim(-0.5, w - 0.5)
+        ax.set_ylim(h - 0.5, -0.5)
+        if k == 0 and header:
+            ax.set_ylabel(header, color=STATUS_COLORS.get(status, "black"), fontsize=8)
+        ax.set_title(f"view {k + 1}", fontsize=8)
+    if note:
+        axes[-1].text(1.02, 0.5, note, transform=axes[-1].transAxes, fontsize=6, va="center", wrap=True)
+
+
+@_styled
+def plot_frame_overlay(views, *, status: str = "ok", title: str | None = None) -> Figure:
+    """One frame: the centreline (cyan) and its PWC (magenta) projected onto every view, around the ROI.
+
+    Parameters
+    ----------
+    views : list of tendrilkit.overlay.ViewOverlay
+        :func:`tendrilkit.overlay.frame_overlays`.
+    status : str
+        Colours the frame of each panel (ok green, doubtful orange, failed red).
+    """
+    fig = Figure(figsize=(3.0 * len(views), 3.3), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(1, len(views)))
+    _draw_views(axes, views, status=status)
+    if title:
+        fig.suptitle(title, color=STATUS_COLORS.get(status, "black"))
+    return fig
+
+
+@_styled
+def plot_contact_sheet(rows, *, title: str | None = None) -> Figure:
+    """A contact sheet: one row per frame (its views side by side), reconstruction overlaid.
+
+    Parameters
+    ----------
+    rows : list of (frame, status, message, list of ViewOverlay)
+        E.g. the doubtful frames and a sample of ok ones
+        (:func:`tendrilkit.overlay.contact_frames`); the message's first
+        failed check is printed beside the row.
+    """
+    rows = list(rows)
+    n_views = max((len(r[3]) for r in rows), default=1)
+    fig = Figure(figsize=(2.6 * n_views + 1.8, 2.5 * max(len(rows), 1) + 0.4), layout="constrained")
+    if not rows:
+        fig.text(0.5, 0.5, "no reconstructed frame", ha="center")
+        return fig
+    axes = np.atleast_2d(fig.subplots(len(rows), n_views))
+    for ax_row, (frame, status, message, views) in zip(axes, rows):
+        note = None
+        if status != "ok" and message:
+            first = str(message).split("; ")[0]
+            note = "\n".join(textwrap.wrap(first, 30)[:6])
+        _draw_views(ax_row, views, status=status, header=f"frame {frame}: {status}", note=note)
+    fig.suptitle(title or "reconstruction projected onto the views (cyan centreline, magenta PWC)")
     return fig
 
 

@@ -14,7 +14,7 @@ Input tables (EXPERIMENT_FORMAT.md and the fit tables)
     ``frame, kind, segment, s0_mm, s1_mm, value_s0, value_s1``: the piece-wise
     linear laws of the fit, ``kind`` is ``kappa`` or ``tau``, values in 1/mm.
 ``frames``
-    ``frame, time_s, status`` (``ok``/``failed``), ``message``, quality columns.
+    ``frame, time_s, status`` (``ok``/``doubtful``/``failed``), ``message``, quality columns.
 ``reprojection``
     ``frame, view, section`` (``base``/``tip``/``entire``), ``mean_px, std_px``.
 ``fit metrics``
@@ -26,10 +26,13 @@ Every function taking a table also accepts ``columns=``, a mapping from the
 canonical name above to the name used in the table, when a producer spells a
 column differently.
 
-Failed frames
--------------
+Failed and doubtful frames
+--------------------------
 Frames are 0-based video frame indices. Every function that takes an optional
-``frames`` table drops the frames whose status is not ``ok``; frames with
+``frames`` table drops the frames whose status is not ``ok`` (``failed``, and
+``doubtful``: reconstructed but a check of :mod:`tendrilkit.verify` failed);
+with ``include_doubtful=True`` (the experiment's ``analysis:
+{include_doubtful: true}``) it keeps the ``doubtful`` ones; frames with
 missing or non-finite coordinates are dropped too. Nothing is interpolated:
 dropped frames are listed in a :class:`UserWarning` and in
 ``result.attrs["excluded_frames"]`` of the returned table (maps keep a NaN
@@ -169,21 +172,27 @@ def _canonical(df: pd.DataFrame, required: Sequence[str], name: str,
     return out
 
 
-def frame_status(frames: pd.DataFrame, *, columns: Mapping[str, str] | None = None) -> tuple[np.ndarray, pd.DataFrame]:
-    """Ok frame indices (sorted) and the table of failed frames (``frame, message``).
+def frame_status(frames: pd.DataFrame, *, columns: Mapping[str, str] | None = None,
+                 include_doubtful: bool = False) -> tuple[np.ndarray, pd.DataFrame]:
+    """Usable frame indices (sorted) and the table of the others (``frame, status, message``).
 
     Parameters
     ----------
     frames : DataFrame
-        ``frame, status`` (``ok`` or anything else = failed), optional ``message``.
+        ``frame, status`` (``ok``, ``doubtful``, ``failed``), optional ``message``.
+    include_doubtful : bool
+        Also use ``doubtful`` frames (reconstructed, but a check against the
+        views or the neighbouring frames failed); by default only ``ok`` ones.
     """
     f = _canonical(frames, ("frame", "status"), "frames", columns)
-    ok_mask = f["status"].astype(str).str.lower().eq("ok").to_numpy()
+    status = f["status"].astype(str).str.lower()
+    ok_mask = (status.eq("ok") | (status.eq("doubtful") & include_doubtful)).to_numpy()
     ok = np.sort(f.loc[ok_mask, "frame"].to_numpy(dtype=int))
     failed = f.loc[~ok_mask].copy()
     if "message" not in failed.columns:
         failed["message"] = ""
-    failed = failed[["frame", "message"]].sort_values("frame").reset_index(drop=True)
+    failed["status"] = status[~ok_mask].to_numpy()
+    failed = failed[["frame", "status", "message"]].sort_values("frame").reset_index(drop=True)
     return ok, failed
 
 
@@ -203,9 +212,9 @@ class _Curves:
 
 
 def _split_curves(curves: pd.DataFrame, frames: pd.DataFrame | None, columns, what: str,
-                  min_points: int = 2) -> _Curves:
+                  min_points: int = 2, include_doubtful: bool = False) -> _Curves:
     c = _canonical(curves, CURVE_COLUMNS, "curves", columns)
-    ok_set, excluded = _frames_filter(frames)
+    ok_set, excluded = _frames_filter(frames, include_doubtful)
     c = c.sort_values(["frame", "point"], kind="stable")
     fr_out, t_out, pts_out = [], [], []
     for fr, g in c.groupby("frame", sort=True):
@@ -303,16 +312,16 @@ def _eval_law(g: pd.DataFrame, s_mm: np.ndarray) -> np.ndarray:
     return v0[i] + np.clip(w, 0.0, 1.0) * (v1[i] - v0[i])
 
 
-def _frames_filter(frames: pd.DataFrame | None) -> tuple[set | None, dict[int, str]]:
+def _frames_filter(frames: pd.DataFrame | None, include_doubtful: bool = False) -> tuple[set | None, dict[int, str]]:
     if frames is None:
         return None, {}
-    ok, failed = frame_status(frames)
-    excluded = {int(f): (f"failed: {m}" if isinstance(m, str) and m else "failed")
-                for f, m in zip(failed["frame"], failed["message"])}
+    ok, failed = frame_status(frames, include_doubtful=include_doubtful)
+    excluded = {int(f): (f"{st}: {m}" if isinstance(m, str) and m else st)
+                for f, st, m in zip(failed["frame"], failed["status"], failed["message"])}
     return set(ok.tolist()), excluded
 
 
-def split_points(segments: pd.DataFrame, *, frames: pd.DataFrame | None = None, points: int | None = None,
+def split_points(segments: pd.DataFrame, *, frames: pd.DataFrame | None = None, include_doubtful: bool = False, points: int | None = None,
                  columns: Mapping[str, str] | None = None) -> pd.DataFrame:
     """Interior breakpoints of the curvature and torsion laws of every frame (paper Figure 7).
 
@@ -344,7 +353,7 @@ def split_points(segments: pd.DataFrame, *, frames: pd.DataFrame | None = None, 
     [[40.0, 0.4], [90.0, 0.9]]
     """
     s = _segments(segments, columns)
-    ok_set, excluded = _frames_filter(frames)
+    ok_set, excluded = _frames_filter(frames, include_doubtful)
     rows = []
     for (fr, kind), g in s.groupby(["frame", "kind"], sort=True):
         fr = int(fr)
@@ -431,6 +440,7 @@ def curvature_torsion_maps(
     *,
     n_s: int = 100,
     frames: pd.DataFrame | None = None,
+    include_doubtful: bool = False,
     source: str = "auto",
     scale_percentile: float = 100.0,
     smoothing_length_mm: float | None = None,
@@ -471,7 +481,7 @@ def curvature_torsion_maps(
     cols_k, cols_t, fr_list, t_list, L_list = [], [], [], [], []
     if source == "laws":
         s = _segments(data, columns)
-        ok_set, excluded = _frames_filter(frames)
+        ok_set, excluded = _frames_filter(frames, include_doubtful)
         for fr, g in s.groupby("frame", sort=True):
             fr = int(fr)
             if ok_set is not None and fr not in ok_set:
@@ -502,7 +512,7 @@ def curvature_torsion_maps(
     elif source == "frenet":
         from tendrilkit.frenet import frenet_frames  # lazy: only the raw estimates need it
 
-        cv = _split_curves(data, frames, columns, "curvature_torsion_maps", min_points=5)
+        cv = _split_curves(data, frames, columns, "curvature_torsion_maps", min_points=5, include_doubtful=include_doubtful)
         excluded = dict(cv.excluded)
         for fr, t, P in zip(cv.frame, cv.time_s, cv.points):
             try:
@@ -577,7 +587,7 @@ class TipPathStats:
     n_frames: int
 
 
-def tip_trajectory(curves: pd.DataFrame, *, frames: pd.DataFrame | None = None,
+def tip_trajectory(curves: pd.DataFrame, *, frames: pd.DataFrame | None = None, include_doubtful: bool = False,
                    columns: Mapping[str, str] | None = None) -> pd.DataFrame:
     """The tip (last point) of every ok frame.
 
@@ -588,7 +598,7 @@ def tip_trajectory(curves: pd.DataFrame, *, frames: pd.DataFrame | None = None,
         previous kept frame, 0 for the first), ``path_mm`` (cumulative) and
         ``displacement_mm`` (from the first kept frame).
     """
-    cv = _split_curves(curves, frames, columns, "tip_trajectory", min_points=1)
+    cv = _split_curves(curves, frames, columns, "tip_trajectory", min_points=1, include_doubtful=include_doubtful)
     tips = np.array([P[-1] for P in cv.points]).reshape(-1, 3)
     step = np.concatenate([[0.0], np.linalg.norm(np.diff(tips, axis=0), axis=1)]) if len(tips) else np.zeros(0)
     out = pd.DataFrame({
@@ -622,7 +632,7 @@ def tip_path_stats(trajectory: pd.DataFrame, *, median_frames: int = 1) -> TipPa
 
 # ---------------------------------------------------------------- shape change
 def shape_change(curves: pd.DataFrame, *, reference_frame: int | None = None, n_s: int | None = None,
-                 align: str = "none", frames: pd.DataFrame | None = None,
+                 align: str = "none", frames: pd.DataFrame | None = None, include_doubtful: bool = False,
                  columns: Mapping[str, str] | None = None) -> pd.DataFrame:
     """How far every frame's curve is from the reference frame's (module notes).
 
@@ -655,7 +665,7 @@ def shape_change(curves: pd.DataFrame, *, reference_frame: int | None = None, n_
     """
     if align not in ("none", "base", "rigid"):
         raise ValueError(f"align must be 'none', 'base' or 'rigid', got {align!r}")
-    cv = _split_curves(curves, frames, columns, "shape_change")
+    cv = _split_curves(curves, frames, columns, "shape_change", include_doubtful=include_doubtful)
     cols = ["frame", "time_s", "mean_mm", "rms_mm", "max_mm", "shape_mm", "tip_displacement_mm", "base_shift_mm",
             "length_mm"]
     if len(cv.frame) == 0:
@@ -907,6 +917,7 @@ def region_response(
     n_s: int | None = None,
     min_deformation_mm: float = 1.0,
     frames: pd.DataFrame | None = None,
+    include_doubtful: bool = False,
     columns: Mapping[str, str] | None = None,
 ) -> pd.DataFrame:
     """Which regions of the tendril changed between two frames, and how much.
@@ -941,7 +952,7 @@ def region_response(
     """
     if n_regions < 1:
         raise ValueError(f"n_regions must be >= 1, got {n_regions}")
-    cv = _split_curves(curves, frames, columns, "region_response")
+    cv = _split_curves(curves, frames, columns, "region_response", include_doubtful=include_doubtful)
     if len(cv.frame) < 2:
         raise ValueError(f"curves: region_response needs two kept frames, got {len(cv.frame)}")
 
@@ -1026,15 +1037,16 @@ class ExperimentSummary:
 
 def summarize_experiment(curves: pd.DataFrame, *, name: str = "", site: str = "",
                          segments: pd.DataFrame | None = None, frames: pd.DataFrame | None = None,
+                         include_doubtful: bool = False,
                          response_kwargs: Mapping | None = None, tip_median_frames: int = 1,
                          columns: Mapping[str, str] | None = None) -> ExperimentSummary:
     """Shape change, response times, region response and tip path of one experiment."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        change = shape_change(curves, frames=frames, columns=columns)
+        change = shape_change(curves, frames=frames, columns=columns, include_doubtful=include_doubtful)
         resp = response_times(change, **dict(response_kwargs or {}))
-        regions = region_response(curves, segments=segments, frames=frames, columns=columns)
-        tip = tip_path_stats(tip_trajectory(curves, frames=frames, columns=columns), median_frames=tip_median_frames)
+        regions = region_response(curves, segments=segments, frames=frames, columns=columns, include_doubtful=include_doubtful)
+        tip = tip_path_stats(tip_trajectory(curves, frames=frames, columns=columns, include_doubtful=include_doubtful), median_frames=tip_median_frames)
     seen = set()
     for w in caught:  # report each distinct warning once
         if str(w.message) not in seen:
@@ -1107,10 +1119,10 @@ def _chosen(available: np.ndarray, chosen: Sequence[int] | None, what: str) -> l
     return chosen
 
 
-def _error_table(rep: pd.DataFrame, chosen, frames, columns, what) -> pd.DataFrame:
+def _error_table(rep: pd.DataFrame, chosen, frames, columns, what, include_doubtful: bool = False) -> pd.DataFrame:
     r = _canonical(rep, REPROJECTION_COLUMNS, what, columns)
     if frames is not None:
-        ok, _ = frame_status(frames)
+        ok, _ = frame_status(frames, include_doubtful=include_doubtful)
         r = r[r["frame"].isin(ok)]
     fr = _chosen(r["frame"].to_numpy(), chosen, what)
     r = r[r["frame"].isin(fr)]
@@ -1128,7 +1140,8 @@ def _error_table(rep: pd.DataFrame, chosen, frames, columns, what) -> pd.DataFra
 
 
 def table1(reprojection: pd.DataFrame, *, at_frames: Sequence[int] | None = None,
-           frames: pd.DataFrame | None = None, columns: Mapping[str, str] | None = None) -> pd.DataFrame:
+           frames: pd.DataFrame | None = None, columns: Mapping[str, str] | None = None,
+           include_doubtful: bool = False) -> pd.DataFrame:
     """Paper Table 1: reprojection error of the reconstruction per frame and view.
 
     Parameters
@@ -1146,7 +1159,7 @@ def table1(reprojection: pd.DataFrame, *, at_frames: Sequence[int] | None = None
         ``frame, view, mean_base_px, mean_tip_px, mean_entire_px,
         std_base_px, std_tip_px, std_entire_px``.
     """
-    return _error_table(reprojection, at_frames, frames, columns, "reprojection")
+    return _error_table(reprojection, at_frames, frames, columns, "reprojection", include_doubtful)
 
 
 def projection_errors(curves: pd.DataFrame, other: pd.DataFrame, cameras: Sequence, *,
@@ -1192,18 +1205,20 @@ def projection_errors(curves: pd.DataFrame, other: pd.DataFrame, cameras: Sequen
 
 
 def table2(pwc_errors: pd.DataFrame, *, at_frames: Sequence[int] | None = None,
-           frames: pd.DataFrame | None = None, columns: Mapping[str, str] | None = None) -> pd.DataFrame:
+           frames: pd.DataFrame | None = None, columns: Mapping[str, str] | None = None,
+           include_doubtful: bool = False) -> pd.DataFrame:
     """Paper Table 2: projected distance between the PWC curve and the reconstruction.
 
     ``pwc_errors`` has the ``reprojection`` layout, e.g. from
     :func:`projection_errors` ``(curves, pwc_curves, cameras)``; the result has
     the layout of :func:`table1`.
     """
-    return _error_table(pwc_errors, at_frames, frames, columns, "pwc_errors")
+    return _error_table(pwc_errors, at_frames, frames, columns, "pwc_errors", include_doubtful)
 
 
 def table3(fit_metrics: pd.DataFrame, *, at_frames: Sequence[int] | None = None,
-           frames: pd.DataFrame | None = None, columns: Mapping[str, str] | None = None) -> pd.DataFrame:
+           frames: pd.DataFrame | None = None, columns: Mapping[str, str] | None = None,
+           include_doubtful: bool = False) -> pd.DataFrame:
     """Paper Table 3: segments, R^2 and SSE of the PWC fit for chosen frames.
 
     Parameters
@@ -1231,7 +1246,7 @@ def table3(fit_metrics: pd.DataFrame, *, at_frames: Sequence[int] | None = None,
     if "status" in m.columns:  # pwc_metrics.csv carries its own status per frame
         m = m[m["status"].astype(str).str.lower().eq("ok")]
     if frames is not None:
-        ok, _ = frame_status(frames)
+        ok, _ = frame_status(frames, include_doubtful=include_doubtful)
         m = m[m["frame"].isin(ok)]
     fr = _chosen(m["frame"].to_numpy(), at_frames, "fit_metrics")
     keep = [c for c in FIT_METRIC_COLUMNS if c in m.columns]

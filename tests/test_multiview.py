@@ -15,7 +15,8 @@ from scipy.spatial import cKDTree
 
 from tendrilkit.correspondence import resample_by_arclength
 from tendrilkit.multiview import base_point_from_marks, reconstruct_multiview
-from tendrilkit.mv_evidence import view_evidence
+from tendrilkit.evidence import view_evidence
+from tendrilkit.mv_evidence import skeleton_evidence
 from tendrilkit.phantom import render_tube_views
 from tendrilkit.pipeline import reconstruct_frame
 
@@ -70,7 +71,8 @@ def test_coil_seen_end_on_resolved_by_the_other_views(coil):
 
 
 def _evidence(images, cams, exp):
-    return [view_evidence(im, c, roi=m.roi, keep_out=m.keep_out) for im, c, m in zip(images, cams, exp.views)]
+    return [skeleton_evidence(view_evidence(im, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point), c)
+            for im, c, m in zip(images, cams, exp.views)]
 
 
 def test_acquired_then_tracked():

@@ -44,7 +44,7 @@ def phantom_run(tmp_path_factory):
 def test_files_and_columns(phantom_run):
     base, _, r1 = phantom_run
     assert r1.returncode == 0, r1.stderr
-    assert r1.stdout.strip().splitlines()[-1] == "3 frames: 3 ok, 0 failed"
+    assert r1.stdout.strip().splitlines()[-1] == "3 frames: 3 ok, 0 doubtful, 0 failed"
     out = base / "out1"
     for name in ("curves.csv", "pwc_curves.csv", "frames.csv", "reprojection.csv", "ordering.csv",
                  "calibration_markers.csv", "cameras.json"):

@@ -282,7 +282,7 @@ def test_shorter_view_leaves_that_view_out_of_its_last_frame(faulty_run):
 
 @pytest.mark.slow
 def test_summary_line_counts_the_failures(phantom, tmp_path_factory, capsys):
-    """The last line of stdout is ``N frames: X ok, Y failed``; rerunning a finished run recomputes nothing."""
+    """The last line of stdout is ``N frames: X ok, Y doubtful, Z failed``; rerunning a finished run recomputes nothing."""
     base = tmp_path_factory.mktemp("robust_summary")
     exp = copy_experiment(image_folder_experiment(tmp_path_factory), base / "exp")
     for v, marks in enumerate(_data(exp)["views"], start=1):
@@ -292,7 +292,7 @@ def test_summary_line_counts_the_failures(phantom, tmp_path_factory, capsys):
     exp.write_text(yaml.safe_dump(data, sort_keys=False))
     code, out, err = reconstruct(capsys, exp, base / "out")
     assert code == 1, err
-    assert out.strip().splitlines()[-1] == "2 frames: 1 ok, 1 failed"
+    assert out.strip().splitlines()[-1] == "2 frames: 1 ok, 0 doubtful, 1 failed"
 
 
 @pytest.mark.slow

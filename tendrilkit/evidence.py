@@ -1,0 +1,266 @@
+"""What one view's image says about where the tendril is, before any decision.
+
+A reconstruction method (the epipolar chain, the paper's Fréchet matching, a
+3D curve fitted to all views at once) and the verification of its result
+(:mod:`tendrilkit.verify`) both need the same per-view evidence, and neither
+should depend on which connected component the segmentation picked or how a
+skeleton was walked. :func:`view_evidence` computes it once per view and
+frame, on the region of interest (ROI) only:
+
+* ``foreground``: every dark pixel of the ROI (the same channel, threshold,
+  keep-out box and opening as :func:`tendrilkit.segmentation.segment_view`,
+  by the same function, :func:`tendrilkit.segmentation.foreground_roi`),
+  components smaller than ``min_component_px`` dropped; no component is
+  chosen;
+* ``labels``: the 8-connected components of ``foreground`` (0: background);
+* ``distance_px``: for every ROI pixel, the Euclidean distance in pixels to
+  the nearest foreground pixel (0 on the tendril), float32 (OpenCV's 5 x 5
+  chamfer distance: within 2 % of the exact one);
+* ``skeleton_xy``: the one-pixel skeleton of ``foreground``, full-image pixel
+  positions (optional);
+* ``probability``: a soft tendril probability, a logistic function of how
+  much darker than the threshold a pixel is (optional).
+
+:func:`sample_distance` reads ``distance_px`` at sub-pixel positions
+(bilinear): the data term of a curve fitted to the images, and the precision
+measure of the verification.
+
+Example
+-------
+>>> import numpy as np
+>>> img = np.full((40, 60, 3), 255, np.uint8)
+>>> img[20:23, 5:55] = 20                                 # a dark horizontal bar
+>>> ev = view_evidence(img, roi=[0, 0, 60, 40], keep_out=None, base_point_xy=[5, 21],
+...                    opening_radius_px=0, min_component_px=10)
+>>> sample_distance(ev, np.array([[30.0, 21.0], [30.0, 30.0]])).round(1).tolist()
+[0.0, 8.0]
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from tendrilkit.segmentation import _box, foreground_roi, grey_image
+
+__all__ = ["ViewEvidence", "view_evidence", "sample_distance", "roi_contains"]
+
+
+@dataclass(frozen=True, eq=False)
+class ViewEvidence:
+    """The tendril's evidence in one view of one frame (ROI crop).
+
+    Attributes
+    ----------
+    foreground : (h, w) bool array
+        Dark pixels of the ROI crop (keep-out box painted background, opening
+        applied, components under ``min_component_px`` dropped).
+    labels : (h, w) int32 array
+        Component label of every foreground pixel (1, 2, ...), 0 elsewhere.
+    distance_px : (h, w) float32 array
+        Distance of every crop pixel to the nearest foreground pixel, px
+        (0 on the foreground; the crop's diagonal if there is none).
+    roi_offset_xy : (2,) int array
+        Full-image pixel ``(x, y)`` of the crop's pixel ``[0, 0]``.
+    base_point_xy : (2,) float array
+        The base mark, full-image pixels.
+    keep_out : (4,) int array or None
+        The keep-out box ``[x, y, w, h]``, full-image pixels.
+    skeleton_xy : (m, 2) float array or None
+        Skeleton pixels of ``foreground``, full-image ``(x, y)``, sorted by
+        row then column; None when not asked for.
+    width_px : float
+        Typical width of the dark structures: foreground area over skeleton
+        length (NaN without skeleton or foreground).
+    probability : (h, w) float32 array or None
+        Soft tendril probability in [0, 1] (0.5 at the threshold), when asked.
+    """
+
+    foreground: np.ndarray
+    labels: np.ndarray
+    distance_px: np.ndarray
+    roi_offset_xy: np.ndarray
+    base_point_xy: np.ndarray
+    keep_out: np.ndarray | None = None
+    skeleton_xy: np.ndarray | None = None
+    width_px: float = float("nan")
+    probability: np.ndarray | None = None
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(h, w)`` of the ROI crop."""
+        return self.foreground.shape
+
+    def in_keep_out(self, xy: np.ndarray) -> np.ndarray:
+        """(n,) bool: which full-image points ``xy`` (n, 2) lie in the keep-out box."""
+        xy = np.asarray(xy, float).reshape(-1, 2)
+        if self.keep_out is None:
+            return np.zeros(len(xy), bool)
+        x, y, w, h = self.keep_out
+        return (xy[:, 0] >= x) & (xy[:, 0] < x + w) & (xy[:, 1] >= y) & (xy[:, 1] < y + h)
+
+
+def view_evidence(
+    image_bgr: np.ndarray,
+    *,
+    roi,
+    keep_out,
+    base_point_xy,
+    channel: str = "blue",
+    threshold: str | int = "otsu",
+    opening_radius_px: int = 1,
+    min_component_px: int = 50,
+    skeleton: bool = True,
+    probability: bool = False,
+    probability_scale: float = 10.0,
+) -> ViewEvidence:
+    """The evidence of one view (see the module's docstring).
+
+    Parameters
+    ----------
+    image_bgr : (H, W, 3) or (H, W) uint8 array
+        The full frame, BGR.
+    roi, keep_out : [x, y, w, h]
+        The view's marks, full-image pixels (``keep_out`` may be None).
+    base_point_xy : (2,) sequence of float
+        The base mark, full-image pixels (kept for the checks).
+    channel, threshold, opening_radius_px, min_component_px
+        As in :func:`tendrilkit.segmentation.segment_view` (the experiment's
+        ``segmentation:`` section).
+    skeleton : bool
+        Compute ``skeleton_xy`` and ``width_px`` (about 3-6 ms on a 1080p
+        view's ROI; the rest takes 1-2 ms).
+    probability : bool
+        Compute ``probability``: :math:`1 / (1 + e^{(g - t) / c})` with ``g``
+        the grey level, ``t`` the threshold (Otsu's or the fixed one) and
+        ``c = probability_scale`` grey levels.
+    probability_scale : float
+        Grey levels over which the probability goes from 0.27 to 0.73.
+
+    Returns
+    -------
+    ViewEvidence
+
+    Raises
+    ------
+    ValueError
+        Malformed image, box or option.
+    """
+    if min_component_px < 0:
+        raise ValueError(f"min_component_px must be >= 0, got {min_component_px}")
+    if not probability_scale > 0:
+        raise ValueError(f"probability_scale must be > 0, got {probability_scale}")
+    fg, offset = foreground_roi(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
+                                opening_radius_px=opening_radius_px)
+    n, labels = cv2.connectedComponents(fg, connectivity=8, ltype=cv2.CV_32S)
+    if n > 1 and min_component_px > 1:
+        areas = np.bincount(labels.ravel(), minlength=n)
+        small = areas < min_component_px
+        small[0] = False
+        if small.any():
+            remap = np.cumsum(~small) - 1  # background stays 0; kept labels renumbered 1, 2, ...
+            remap[small] = 0
+            labels = remap.astype(np.int32)[labels]
+            fg = np.where(labels > 0, np.uint8(255), np.uint8(0))
+    mask = fg > 0
+    if mask.any():
+        # the 5x5 chamfer mask: within 2 % of the exact Euclidean distance, 2-3 times faster than the exact one
+        dist = cv2.distanceTransform(np.where(mask, np.uint8(0), np.uint8(255)), cv2.DIST_L2, 5)
+    else:
+        dist = np.full(mask.shape, float(np.hypot(*mask.shape)), np.float32)
+
+    skel_xy, width = None, float("nan")
+    if skeleton:
+        skel_xy, width = _skeleton(mask, offset)
+
+    prob = None
+    if probability:
+        img = np.asarray(image_bgr)
+        h, w = mask.shape
+        grey = grey_image(img[offset[1]:offset[1] + h, offset[0]:offset[0] + w], channel=channel).astype(np.float32)
+        if threshold == "otsu":
+            t, _ = cv2.threshold(grey.astype(np.uint8), 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
+            t += 0.5  # grey <= t is foreground
+        else:
+            t = float(threshold) - 0.5
+        prob = (1.0 / (1.0 + np.exp((grey - np.float32(t)) / np.float32(probability_scale)))).astype(np.float32)
+        if keep_out is not None:
+            kx, ky, kw, kh = _box(keep_out, "keep_out")
+            prob[max(ky - offset[1], 0):max(ky + kh - offset[1], 0), max(kx - offset[0], 0):max(kx + kw - offset[0], 0)] = 0
+
+    ko = None if keep_out is None else np.array(_box(keep_out, "keep_out"), int)
+    return ViewEvidence(foreground=mask, labels=labels, distance_px=dist, roi_offset_xy=np.asarray(offset, int),
+                        base_point_xy=np.asarray(base_point_xy, float).reshape(2), keep_out=ko,
+                        skeleton_xy=skel_xy, width_px=width, probability=prob)
+
+
+def _skeleton(mask: np.ndarray, offset: np.ndarray) -> tuple[np.ndarray, float]:
+    """Skeleton pixels (m, 2) full-image xy of a mask, and area / skeleton length (px)."""
+    from tendrilkit.skeleton import _skeletonize_strips  # the 2D stage's own thinning (strip by strip, faster)
+
+    nz = cv2.findNonZero(mask.view(np.uint8))
+    if nz is None:
+        return np.zeros((0, 2)), float("nan")
+    x0, y0, w, h = cv2.boundingRect(nz)
+    sub = mask[y0:y0 + h, x0:x0 + w]
+    sk = _skeletonize_strips(np.ascontiguousarray(sub.view(np.uint8)) * np.uint8(255))
+    r, c = np.nonzero(sk)
+    xy = np.column_stack([c + x0 + offset[0], r + y0 + offset[1]]).astype(float)
+    width = float(len(nz)) / max(len(xy), 1)
+    return xy, width
+
+
+def roi_contains(ev: ViewEvidence, xy: np.ndarray) -> np.ndarray:
+    """(n,) bool: which full-image points ``xy`` (n, 2) lie inside the ROI crop."""
+    xy = np.asarray(xy, float).reshape(-1, 2)
+    h, w = ev.shape
+    u = xy[:, 0] - ev.roi_offset_xy[0]
+    v = xy[:, 1] - ev.roi_offset_xy[1]
+    return (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1)
+
+
+def sample_distance(ev: ViewEvidence, xy: np.ndarray) -> np.ndarray:
+    """Distance to the nearest foreground pixel at sub-pixel positions, px.
+
+    Parameters
+    ----------
+    ev : ViewEvidence
+    xy : (n, 2) float array
+        Full-image positions ``(x, y)`` (x = column), e.g. a 3D curve
+        projected into the view.
+
+    Returns
+    -------
+    (n,) float array
+        Bilinear interpolation of ``ev.distance_px``. A point outside the
+        ROI crop gets the value at the nearest crop pixel plus its distance
+        to the crop (continuous, and growing away from the ROI: a curve
+        leaving the ROI is off the tendril). NaN where ``xy`` is NaN.
+
+    Notes
+    -----
+    Plain numpy gather: about 10 µs for 200 points, 60 µs for 10 000.
+    """
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    h, w = ev.distance_px.shape
+    u = xy[:, 0] - ev.roi_offset_xy[0]
+    v = xy[:, 1] - ev.roi_offset_xy[1]
+    uc = np.clip(u, 0.0, w - 1.0)
+    vc = np.clip(v, 0.0, h - 1.0)
+    bad = ~(np.isfinite(u) & np.isfinite(v))
+    uc[bad] = 0.0
+    vc[bad] = 0.0
+    i0 = np.minimum(vc.astype(np.intp), max(h - 2, 0))
+    j0 = np.minimum(uc.astype(np.intp), max(w - 2, 0))
+    i1 = np.minimum(i0 + 1, h - 1)
+    j1 = np.minimum(j0 + 1, w - 1)
+    fv = vc - i0
+    fu = uc - j0
+    D = ev.distance_px
+    d = (D[i0, j0] * (1 - fu) * (1 - fv) + D[i0, j1] * fu * (1 - fv)
+         + D[i1, j0] * (1 - fu) * fv + D[i1, j1] * fu * fv).astype(float)
+    d += np.hypot(u - uc, v - vc)
+    d[bad] = np.nan
+    return d

@@ -1,0 +1,377 @@
+"""Is a reconstructed frame right? Checks of a 3D curve against every view's image and its neighbours in time.
+
+A frame used to be ``ok`` whenever no stage raised: a curve 30-50 mm from
+the truth, one view's reprojection error at 250 px, was ``ok``. Here every
+reconstructed curve, whatever the method that made it (epipolar chain,
+Fréchet matching, a multi-view fit), is projected into every view and
+compared with that view's evidence (:mod:`tendrilkit.evidence`: the dark
+pixels of the ROI, their distance transform and skeleton, computed without
+choosing a component), and with the frames before and after it.
+
+Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
+    ``on_tendril_frac_v<i>`` (precision)
+        Fraction of the projected curve (resampled every pixel, the part
+        inside the keep-out box left out) lying within ``tolerance_px`` of a
+        dark pixel. A curve on the stem or across the board, or a view
+        shifted by a wrong camera, scores low.
+    ``off_tendril_max_px_v<i>``
+        The projected curve's largest distance to a dark pixel, px (the worst
+        reprojection error against the image).
+    ``coverage_frac_v<i>``
+        Fraction of the skeleton pixels of the dark components the projection
+        runs on, and of those leaving the base mark (:func:`base_components`),
+        that lie within ``coverage_tolerance_px`` of it: how much of the
+        tendril's pixels, from the base outward, the curve explains. A shrunk
+        curve (the tip missing), one that jumps to another component or one
+        that runs along the stem instead of the tendril scores low.
+    ``base_px_v<i>``
+        Distance of the projected base (point 0) to the view's base mark, px.
+    ``views_checked``
+        Views whose image was read (every check needs at least two).
+    ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s``
+        Against the previous reconstructed frame that passed the image checks
+        (:func:`temporal_checks`): relative change of length (%), mean
+        distance between corresponding points (same fraction of arc length)
+        in mm, and the time between the two frames in s.
+
+Statuses
+    ``ok``: reconstructed and every check passed; ``doubtful``: reconstructed
+    but a check failed (the message names each failed check, its figure and
+    its limit); ``failed``: not reconstructed.
+
+Defaults (``verification:`` section of the experiment; :class:`Thresholds`)
+    were chosen from measurements on the four phantom sites (every frame
+    right to better than 0.3 mm) and on random phantom scenes, with
+    corrupted renders for the failures (see ``benchmarks/bench_verify.py``):
+    on right frames the precision is at least 0.97, the coverage at least
+    0.85, the base within 6 px of its mark; wrong frames (a stem piece taken
+    as the tendril, a view's camera 10 px off, a curve shrunk by 20 %) score
+    below them by a wide margin. The temporal limits follow the biology: a
+    tendril grows well under 1 % of its length per minute and moves at most a
+    few millimetres per minute; a fixed allowance absorbs reconstruction
+    noise (length of the hidden base, tip).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
+
+__all__ = ["Thresholds", "view_columns", "verify_curve", "base_components", "image_check_messages", "temporal_checks",
+           "VERIFY_COLUMNS_FRAME"]
+
+#: Frame-level verification columns of ``frames.csv`` (after the per-view ones of :func:`view_columns`).
+VERIFY_COLUMNS_FRAME = ("views_checked", "length_change_pct", "shape_change_mm", "dt_prev_s")
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    """Limits of the checks (the experiment's ``verification:`` section, same names).
+
+    Attributes
+    ----------
+    tolerance_px : float
+        A projected sample within this distance of a dark pixel is on the
+        tendril (2 px: sub-pixel calibration error plus anti-aliased edges).
+    min_on_tendril_frac : float
+        Smallest precision per view (0.9; right frames: >= 0.97).
+    max_off_tendril_px : float
+        Largest distance of the projected curve to a dark pixel per view, px
+        (15 px: a tendril is 5-15 px wide; a right frame stays under 3 px).
+    coverage_tolerance_px : float
+        A skeleton pixel within this distance of the projected curve is
+        explained (4 px: the skeleton's spurs and its ends at the tip).
+    min_coverage_frac : float
+        Smallest coverage per view (0.75).
+    max_base_px : float
+        Largest distance of the projected base to the base mark per view, px
+        (25 px: the base mark is a click at the keep-out box).
+    max_length_change_pct : float
+        Length change allowed between neighbouring frames at no time apart, %
+        (5 %: reconstruction noise of the hidden base and the tip).
+    length_rate_pct_per_min : float
+        Added allowance per minute between the frames, % (1 %/min: growth).
+    max_shape_change_mm : float
+        Mean point distance allowed between neighbouring frames at no time
+        apart, mm (3 mm).
+    shape_rate_mm_per_min : float
+        Added allowance per minute between the frames, mm/min (20 mm/min: the
+        phantoms' fastest coiling moves a 175 mm tendril by 3.8 mm, mean over
+        its points, in 15 s, i.e. 15 mm/min; 8 mm allowed in 15 s).
+    min_pwc_r2 : float
+        Smallest R² of the piece-wise clothoid fit (0.5: a right centreline
+        is fitted with R² >= 0.9; a zig-zag between two objects is not).
+    """
+
+    tolerance_px: float = 2.0
+    min_on_tendril_frac: float = 0.9
+    max_off_tendril_px: float = 15.0
+    coverage_tolerance_px: float = 4.0
+    min_coverage_frac: float = 0.75
+    max_base_px: float = 25.0
+    max_length_change_pct: float = 5.0
+    length_rate_pct_per_min: float = 1.0
+    max_shape_change_mm: float = 3.0
+    shape_rate_mm_per_min: float = 20.0
+    min_pwc_r2: float = 0.5
+
+    @classmethod
+    def from_params(cls, section) -> "Thresholds":
+        """From the experiment's ``verification:`` section (a pydantic model or a dict); same field names."""
+        data = section.model_dump() if hasattr(section, "model_dump") else dict(section or {})
+        names = set(cls.__dataclass_fields__)
+        return cls(**{k: float(v) for k, v in data.items() if k in names})
+
+
+def view_columns(n_views: int) -> list[str]:
+    """Per-view verification columns of ``frames.csv``, in order."""
+    cols = []
+    for v in range(1, n_views + 1):
+        cols += [f"on_tendril_frac_v{v}", f"off_tendril_max_px_v{v}", f"coverage_frac_v{v}", f"base_px_v{v}"]
+    return cols
+
+
+def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
+    """A polyline (n, 2) resampled every ``step_px`` (at least its vertices' count), NaN rows dropped."""
+    xy = xy[np.all(np.isfinite(xy), axis=1)]
+    if len(xy) < 2:
+        return xy
+    seg = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    n = max(len(xy), int(np.ceil(s[-1] / step_px)) + 1)
+    t = np.linspace(0.0, s[-1], n)
+    return np.column_stack([np.interp(t, s, xy[:, 0]), np.interp(t, s, xy[:, 1])])
+
+
+def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEvidence | None], *,
+                 tolerance_px: float = 2.0, coverage_tolerance_px: float = 4.0) -> dict:
+    """Image figures of one reconstructed curve in every view.
+
+    Parameters
+    ----------
+    points_mm : (n, 3) float array
+        The centreline, base (0) to tip, world mm.
+    cameras : list of Camera
+        The rig, view order.
+    evidence : list of ViewEvidence or None
+        Per view (None: no image; the view's figures are None). The
+        skeleton is needed for the coverage (else None).
+    tolerance_px, coverage_tolerance_px : float
+        See :class:`Thresholds`.
+
+    Returns
+    -------
+    dict
+        The columns of :func:`view_columns` and ``views_checked``.
+    """
+    from scipy.spatial import cKDTree
+
+    X = np.asarray(points_mm, float).reshape(-1, 3)
+    out: dict = {c: None for c in view_columns(len(cameras))}
+    checked = 0
+    for v, (cam, ev) in enumerate(zip(cameras, evidence)):
+        if ev is None:
+            continue
+        checked += 1
+        xy = cam.project(X)
+        dense = _densify(xy)
+        if len(dense) == 0:
+            out[f"on_tendril_frac_v{v + 1}"] = 0.0
+            continue
+        keep = ~ev.in_keep_out(dense)
+        d = sample_distance(ev, dense)
+        d_seen = d[keep]
+        if d_seen.size:
+            out[f"on_tendril_frac_v{v + 1}"] = float(np.mean(d_seen <= tolerance_px))
+            out[f"off_tendril_max_px_v{v + 1}"] = float(np.max(d_seen))
+        out[f"base_px_v{v + 1}"] = float(np.hypot(*(xy[0] - ev.base_point_xy))) if np.all(np.isfinite(xy[0])) else None
+        if ev.skeleton_xy is not None:
+            out[f"coverage_frac_v{v + 1}"] = _coverage(ev, dense[keep & roi_contains(ev, dense)], d[keep & roi_contains(ev, dense)],
+                                                       tolerance_px, coverage_tolerance_px, cKDTree)
+    out["views_checked"] = checked
+    return out
+
+
+def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float, tree_cls) -> float:
+    """Fraction of the skeleton of the components the curve runs on that lies near the curve."""
+    on = dense[d <= tol]
+    if len(on) == 0 or len(ev.skeleton_xy) == 0:
+        return 0.0
+    off = ev.roi_offset_xy
+    h, w = ev.shape
+    # the component under every on-tendril sample (the nearest foreground pixel within the tolerance)
+    r = np.clip(np.rint(on[:, 1] - off[1]).astype(int), 0, h - 1)
+    c = np.clip(np.rint(on[:, 0] - off[0]).astype(int), 0, w - 1)
+    lab = ev.labels[r, c]
+    if np.any(lab == 0):  # samples beside the mask: look around them
+        miss = np.nonzero(lab == 0)[0]
+        rad = int(np.ceil(tol))
+        for i in miss:
+            win = ev.labels[max(r[i] - rad, 0):r[i] + rad + 1, max(c[i] - rad, 0):c[i] + rad + 1]
+            nz = win[win > 0]
+            lab[i] = int(np.bincount(nz).argmax()) if nz.size else 0
+    counts = np.bincount(lab[lab > 0], minlength=int(ev.labels.max()) + 1)
+    # components the curve runs along for at least 5 % of its on-tendril samples (a crossing's touch is not)
+    touched = np.nonzero(counts >= max(3, 0.05 * len(on)))[0]
+    # and the components that leave the base (a curve on the stem leaves the tendril unexplained)
+    touched = np.union1d(touched, base_components(ev))
+    if touched.size == 0:
+        return 0.0
+    sk = ev.skeleton_xy
+    sr = (sk[:, 1] - off[1]).astype(int)
+    sc = (sk[:, 0] - off[0]).astype(int)
+    sk = sk[np.isin(ev.labels[sr, sc], touched)]
+    if len(sk) == 0:
+        return 0.0
+    dist, _ = tree_cls(dense).query(sk, distance_upper_bound=cov_tol + 1e-9)
+    return float(np.mean(np.isfinite(dist)))
+
+
+def base_components(ev: ViewEvidence) -> np.ndarray:
+    """Labels of the dark components that leave the base mark.
+
+    Those with a pixel within the keep-out box's half diagonal plus 4 px of
+    the base mark (3 px without a box), except those touching the ROI's
+    border: the stem and the node run out of the ROI, the tendril does not
+    (the ROI is the region it moves in).
+    """
+    L = ev.labels
+    h, w = L.shape
+    reach = 3.0 if ev.keep_out is None else 0.5 * float(np.hypot(ev.keep_out[2], ev.keep_out[3])) + 4.0
+    bx, by = ev.base_point_xy - ev.roi_offset_xy
+    r0, r1 = max(int(np.floor(by - reach)), 0), min(int(np.ceil(by + reach)) + 1, h)
+    c0, c1 = max(int(np.floor(bx - reach)), 0), min(int(np.ceil(bx + reach)) + 1, w)
+    if r1 <= r0 or c1 <= c0:
+        return np.zeros(0, int)
+    win = L[r0:r1, c0:c1]
+    rr, cc = np.nonzero(win)
+    near = win[rr, cc][np.hypot(rr + r0 - by, cc + c0 - bx) <= reach]
+    border = np.unique(np.concatenate([L[0], L[-1], L[:, 0], L[:, -1]]))
+    return np.setdiff1d(np.unique(near), np.append(border, 0))
+
+
+def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
+    """The image checks a frame fails, one message each (empty: all pass).
+
+    Parameters
+    ----------
+    q : dict
+        The frame's figures (:func:`verify_curve`'s and ``pwc_r2``).
+    n_views : int
+    th : Thresholds
+
+    Returns
+    -------
+    list of str
+        E.g. ``"precision: view 2 has 41 % of the curve on the tendril (limit 90 %)"``.
+    """
+    msgs: list[str] = []
+    if (q.get("views_checked") or 0) < 2:
+        msgs.append(f"views: only {q.get('views_checked') or 0} view image(s) to check the curve against (need 2)")
+    for v in range(1, n_views + 1):
+        p = q.get(f"on_tendril_frac_v{v}")
+        if p is not None and p < th.min_on_tendril_frac:
+            msgs.append(f"precision: view {v} has {100 * p:.0f} % of the curve on the tendril "
+                        f"(limit {100 * th.min_on_tendril_frac:.0f} %)")
+        m = q.get(f"off_tendril_max_px_v{v}")
+        if m is not None and m > th.max_off_tendril_px:
+            msgs.append(f"off tendril: view {v} curve up to {m:.1f} px from the tendril (limit {th.max_off_tendril_px:g} px)")
+        c = q.get(f"coverage_frac_v{v}")
+        if c is not None and c < th.min_coverage_frac:
+            msgs.append(f"coverage: view {v} curve explains {100 * c:.0f} % of the tendril's skeleton "
+                        f"(limit {100 * th.min_coverage_frac:.0f} %)")
+        b = q.get(f"base_px_v{v}")
+        if b is not None and b > th.max_base_px:
+            msgs.append(f"base: view {v} base {b:.1f} px from its mark (limit {th.max_base_px:g} px)")
+    r2 = q.get("pwc_r2")
+    if r2 is not None and np.isfinite(r2) and r2 < th.min_pwc_r2:
+        msgs.append(f"fit: piece-wise clothoid R2 {r2:.3f} (limit {th.min_pwc_r2:g})")
+    return msgs
+
+
+def _change(P: np.ndarray, Q: np.ndarray) -> tuple[float, float]:
+    """Relative length change (%) from Q to P and mean distance of corresponding points (mm)."""
+    def arclen(X):
+        return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))])
+
+    sp, sq = arclen(P), arclen(Q)
+    n = 100
+    t = np.linspace(0.0, 1.0, n)
+    Pi = np.column_stack([np.interp(t * sp[-1], sp, P[:, k]) for k in range(3)])
+    Qi = np.column_stack([np.interp(t * sq[-1], sq, Q[:, k]) for k in range(3)])
+    pct = 100.0 * (sp[-1] - sq[-1]) / sq[-1] if sq[-1] > 0 else float("inf")
+    return float(pct), float(np.mean(np.linalg.norm(Pi - Qi, axis=1)))
+
+
+def temporal_checks(frames: list[int], times_s: list[float], curves: list[np.ndarray | None],
+                    passed: list[bool], th: Thresholds) -> tuple[list[dict], list[list[str]]]:
+    """Length and shape change of every frame against its neighbours in time.
+
+    Parameters
+    ----------
+    frames : list of int
+        Frame indices, in increasing order.
+    times_s : list of float
+        Their times, s.
+    curves : list of (n, 3) float array or None
+        The reconstructed centrelines (None: failed frame).
+    passed : list of bool
+        Whether each frame passed the image checks; only those serve as
+        neighbours (a wrong frame must not make its right neighbours look
+        wrong).
+    th : Thresholds
+
+    Returns
+    -------
+    figures : list of dict
+        Per frame ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s``
+        against the previous neighbour (None for the first or a failed frame).
+    messages : list of list of str
+        Per frame the temporal checks it fails. A frame fails a check when
+        the change exceeds the allowance (``max_* + rate * dt``) against its
+        previous neighbour *and* against its next one (or against its only
+        neighbour): an isolated jump is flagged, while a genuine change of
+        shape, after which the sequence goes on from the new shape, flags
+        neither side's frames by itself.
+    """
+    n = len(frames)
+    idx = [i for i in range(n) if curves[i] is not None and passed[i]]
+    figs: list[dict] = [{"length_change_pct": None, "shape_change_mm": None, "dt_prev_s": None} for _ in range(n)]
+    msgs: list[list[str]] = [[] for _ in range(n)]
+
+    def compare(i: int, j: int) -> tuple[float, float, float, list[str]]:
+        pct, mm = _change(curves[i], curves[j])
+        dt_min = abs(times_s[i] - times_s[j]) / 60.0
+        lim_pct = th.max_length_change_pct + th.length_rate_pct_per_min * dt_min
+        lim_mm = th.max_shape_change_mm + th.shape_rate_mm_per_min * dt_min
+        bad = []
+        if abs(pct) > lim_pct:
+            bad.append(("length", f"length changed by {pct:+.1f} % from frame {frames[j]} in "
+                                  f"{abs(times_s[i] - times_s[j]):g} s (limit {lim_pct:.1f} %)"))
+        if mm > lim_mm:
+            bad.append(("shape", f"shape moved by {mm:.1f} mm (mean) from frame {frames[j]} in "
+                                 f"{abs(times_s[i] - times_s[j]):g} s (limit {lim_mm:.1f} mm)"))
+        return pct, mm, abs(times_s[i] - times_s[j]), bad
+
+    for i in range(n):
+        if curves[i] is None:
+            continue
+        prev = max((j for j in idx if j < i), default=None)
+        nxt = min((j for j in idx if j > i), default=None)
+        bad_prev = bad_next = None
+        if prev is not None:
+            pct, mm, dt, bad_prev = compare(i, prev)
+            figs[i] = {"length_change_pct": pct, "shape_change_mm": mm, "dt_prev_s": dt}
+        if nxt is not None:
+            _, _, _, bad_next = compare(i, nxt)
+        sides = [b for b in (bad_prev, bad_next) if b is not None]
+        if not sides:
+            continue
+        for kind in ("length", "shape"):
+            hits = [dict(b)[kind] for b in sides if kind in dict(b)]
+            if len(hits) == len(sides):
+                msgs[i].append(f"{kind} jump: " + "; ".join(hits))
+    return figs, msgs

@@ -1,0 +1,75 @@
+"""Per-view evidence: foreground, distance transform, skeleton, bilinear sampling (tiny hand-made images)."""
+
+import numpy as np
+import pytest
+
+from tendrilkit.evidence import roi_contains, sample_distance, view_evidence
+from tendrilkit.segmentation import segment_view
+
+
+def _image(h=60, w=80):
+    img = np.full((h, w, 3), 250, np.uint8)
+    img[30:33, 10:70] = 20      # the tendril: a horizontal bar, rows 30-32
+    img[5:25, 60:75] = 30       # another dark blob (a leaf)
+    img[50:52, 2:4] = 30        # speckle, 4 px
+    return img
+
+
+def test_foreground_independent_of_component_choice():
+    img = _image()
+    ev = view_evidence(img, roi=[0, 0, 80, 60], keep_out=None, base_point_xy=[10, 31], opening_radius_px=0,
+                       min_component_px=10)
+    assert ev.labels.max() == 2                      # bar and leaf kept, speckle dropped
+    assert not ev.foreground[50, 2]
+    assert ev.foreground[31, 40] and ev.foreground[10, 65]
+    # the same pixels as the segmentation's chosen component, plus the others
+    seg = segment_view(img, roi=[0, 0, 80, 60], keep_out=None, base_point_xy=[10, 31], opening_radius_px=0,
+                       min_component_px=10)
+    assert np.all(ev.foreground[seg.mask_roi])
+    assert ev.foreground.sum() > seg.mask_roi.sum()
+
+
+def test_distance_and_bilinear_sampling():
+    img = _image()
+    ev = view_evidence(img, roi=[5, 20, 70, 40], keep_out=None, base_point_xy=[10, 31], opening_radius_px=0)
+    assert ev.distance_px.dtype == np.float32 and ev.distance_px.shape == (40, 70)
+    d = sample_distance(ev, np.array([[40.0, 31.0], [40.0, 36.0], [40.0, 37.5], [np.nan, 3.0]]))
+    assert d[0] == 0.0
+    assert d[1] == pytest.approx(4.0, abs=0.1)        # row 36 is 4 px below the bar's last row 32
+    assert d[2] == pytest.approx(5.5, abs=0.1)        # bilinear between rows 37 and 38
+    assert np.isnan(d[3])
+    # outside the ROI: the border value plus the distance to the ROI, continuous at the border
+    inside = sample_distance(ev, np.array([[40.0, 59.0]]))[0]
+    outside = sample_distance(ev, np.array([[40.0, 69.0]]))[0]
+    assert outside == pytest.approx(inside + 10.0, abs=1e-6)
+    assert roi_contains(ev, np.array([[40.0, 59.0], [40.0, 69.0]])).tolist() == [True, False]
+
+
+def test_keep_out_painted_and_skeleton():
+    img = _image()
+    ev = view_evidence(img, roi=[0, 0, 80, 60], keep_out=[8, 28, 6, 8], base_point_xy=[10, 31], opening_radius_px=0,
+                       threshold=128, probability=True)
+    assert not ev.foreground[30:33, 8:14].any()
+    assert ev.in_keep_out(np.array([[10.0, 31.0], [40.0, 31.0]])).tolist() == [True, False]
+    on_bar = (ev.skeleton_xy[:, 1] == 31) & (ev.skeleton_xy[:, 0] > 20) & (ev.skeleton_xy[:, 0] < 55)
+    assert on_bar.sum() >= 30                          # the bar's skeleton is its middle row
+    assert ev.probability[31, 40] > 0.99 and ev.probability[45, 40] < 0.01
+    assert ev.probability[31, 10] == 0.0               # keep-out box
+    # Otsu: one half at the threshold, the darker the likelier
+    ev2 = view_evidence(img, roi=[0, 0, 80, 60], keep_out=None, base_point_xy=[10, 31], probability=True)
+    assert ev2.probability[31, 40] > ev2.probability[10, 65] > 0.5 > ev2.probability[45, 40]
+
+
+def test_empty_view():
+    img = np.full((30, 30, 3), 250, np.uint8)
+    ev = view_evidence(img, roi=[0, 0, 30, 30], keep_out=None, base_point_xy=[5, 5], threshold=100)
+    assert not ev.foreground.any() and len(ev.skeleton_xy) == 0
+    assert np.all(sample_distance(ev, np.array([[10.0, 10.0]])) > 30)
+
+
+def test_bad_arguments():
+    img = _image()
+    with pytest.raises(ValueError, match="min_component_px"):
+        view_evidence(img, roi=[0, 0, 80, 60], keep_out=None, base_point_xy=[0, 0], min_component_px=-1)
+    with pytest.raises(ValueError, match="roi"):
+        view_evidence(img, roi=[0, 0, 0, 60], keep_out=None, base_point_xy=[0, 0])

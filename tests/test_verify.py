@@ -1,0 +1,140 @@
+"""Checks of a reconstructed curve against the views and its neighbours in time (tiny synthetic scenes)."""
+
+import cv2
+import numpy as np
+import pytest
+
+from tendrilkit.camera import Camera
+from tendrilkit.evidence import view_evidence
+from tendrilkit.verify import Thresholds, base_components, image_check_messages, temporal_checks, verify_curve
+
+Z = 200.0  # every point at depth 200 mm: 5 px per mm with f = 1000
+
+
+def _cameras():
+    K = np.array([[1000.0, 0, 200], [0, 1000, 150], [0, 0, 1]])
+    return [Camera(K=K, t_mm=np.array([tx, 0.0, Z]), width=400, height=300) for tx in (0.0, -8.0)]
+
+
+def _tendril_mm(n=200, frac=1.0):
+    """A curved tendril from the base (-20, -10) mm, about 46 mm long."""
+    t = np.linspace(0.0, frac, n)
+    return np.column_stack([-20 + 40 * t, -10 + 18 * t ** 2, np.zeros(n)])
+
+
+def _stem_mm(n=100):
+    """The stem: from the image's top edge down to just before the base, on the other side of the keep-out box."""
+    t = np.linspace(0.0, 1.0, n)
+    return np.column_stack([-23 + 0 * t, -30 + 19 * t, np.zeros(n)])
+
+
+def _scene():
+    """Images and evidence of two views: tendril (5 px wide), stem (9 px wide), keep-out box between them."""
+    cams = _cameras()
+    T, S = _tendril_mm(), _stem_mm()
+    evidence = []
+    for cam in cams:
+        img = np.full((300, 400, 3), 240, np.uint8)
+        for X, width in ((T, 5), (S, 9)):
+            xy = cam.project(X)
+            cv2.polylines(img, [np.round(xy * 16).astype(np.int32)], False, (30, 30, 30), width, cv2.LINE_AA, 4)
+        base = cam.project(T[:1])[0]
+        keep_out = [int(base[0]) - 12, int(base[1]) - 6, 12, 12]
+        roi = [int(base[0]) - 30, 0, 300, 250]
+        evidence.append(view_evidence(img, roi=roi, keep_out=keep_out, base_point_xy=base, opening_radius_px=0,
+                                      min_component_px=20))
+    return cams, evidence
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return _scene()
+
+
+def test_right_curve_passes(scene):
+    cams, ev = scene
+    q = verify_curve(_tendril_mm(), cams, ev)
+    assert q["views_checked"] == 2
+    for v in (1, 2):
+        assert q[f"on_tendril_frac_v{v}"] == 1.0
+        assert q[f"off_tendril_max_px_v{v}"] <= 1.0
+        assert q[f"coverage_frac_v{v}"] >= 0.95
+        assert q[f"base_px_v{v}"] < 1.0
+    assert image_check_messages(q, 2, Thresholds()) == []
+
+
+def test_stem_is_a_base_component_only_if_inside_the_roi(scene):
+    cams, ev = scene
+    comps = base_components(ev[0])
+    # the tendril leaves the base; the stem runs to the ROI's top edge and is left out
+    xy = np.round(cams[0].project(_tendril_mm()[100:101])[0] - ev[0].roi_offset_xy).astype(int)
+    assert comps.tolist() == [ev[0].labels[xy[1], xy[0]]]
+
+
+def test_curve_on_the_stem_is_caught_by_coverage(scene):
+    cams, ev = scene
+    q = verify_curve(_stem_mm()[::-1], cams, ev)  # along the stem, from the base upwards
+    assert q["on_tendril_frac_v1"] > 0.9          # it does lie on dark pixels ...
+    assert q["coverage_frac_v1"] < 0.5            # ... but explains none of the tendril (only the stem's part)
+    msgs = image_check_messages(q, 2, Thresholds())
+    assert any(m.startswith("coverage: view 1") for m in msgs)
+
+
+def test_shrunk_curve_is_caught_by_coverage(scene):
+    cams, ev = scene
+    q = verify_curve(_tendril_mm(frac=0.6), cams, ev)
+    assert q["on_tendril_frac_v1"] == 1.0
+    assert q["coverage_frac_v1"] < 0.7
+    assert any("coverage" in m for m in image_check_messages(q, 2, Thresholds()))
+
+
+def test_shifted_curve_is_caught_by_precision(scene):
+    cams, ev = scene
+    X = _tendril_mm() + np.array([0.0, 6.0, 0.0])   # 6 mm = 30 px off in both views
+    q = verify_curve(X, cams, ev)
+    assert q["on_tendril_frac_v1"] < 0.2
+    msgs = image_check_messages(q, 2, Thresholds())
+    assert any(m.startswith("precision: view 1") and "limit 90 %" in m for m in msgs)
+    assert any(m.startswith("base: view 1") for m in msgs)
+
+
+def test_missing_view_and_low_r2():
+    th = Thresholds()
+    assert image_check_messages({"views_checked": 1}, 2, th)[0].startswith("views: only 1")
+    assert image_check_messages({"views_checked": 2, "pwc_r2": 0.2}, 2, th) == ["fit: piece-wise clothoid R2 0.200 (limit 0.5)"]
+
+
+def test_temporal_jump_flags_only_the_jumping_frame():
+    T = _tendril_mm()
+    frames = list(range(6))
+    times = [15.0 * f for f in frames]
+    curves = [T + np.array([0.05 * f, 0, 0]) for f in frames]  # a slow drift: fine
+    curves[3] = _tendril_mm(frac=0.8)                         # 20 % shorter for one frame
+    figs, msgs = temporal_checks(frames, times, curves, [True] * 6, Thresholds())
+    assert [bool(m) for m in msgs] == [False, False, False, True, False, False]
+    length = [np.linalg.norm(np.diff(c, axis=0), axis=1).sum() for c in curves[2:4]]
+    pct = 100 * (length[1] - length[0]) / length[0]
+    assert pct < -20
+    assert msgs[3][0].startswith(f"length jump: length changed by {pct:+.1f} % from frame 2 in 15 s (limit 5.2 %)")
+    assert figs[3]["length_change_pct"] == pytest.approx(pct)
+    assert figs[4]["dt_prev_s"] == 15.0 and figs[0]["dt_prev_s"] is None
+    # a wrong first frame is flagged (it has only one neighbour); its right successor is not
+    curves = [T + np.array([0.0, 10.0, 0.0])] + [T] * 5
+    _, msgs = temporal_checks(frames, times, curves, [True] * 6, Thresholds())
+    assert [bool(m) for m in msgs] == [True] + [False] * 5
+    assert msgs[0][0].startswith("shape jump: shape moved by 10.0 mm")
+
+
+def test_temporal_allowance_grows_with_time():
+    T = _tendril_mm()
+    moved = T + np.array([0.0, 10.0, 0.0])              # 10 mm mean displacement (limit 8 mm in 15 s)
+    _, near = temporal_checks([0, 1], [0.0, 15.0], [T, moved], [True, True], Thresholds())
+    _, far = temporal_checks([0, 40], [0.0, 600.0], [T, moved], [True, True], Thresholds())
+    assert near[1] and not far[1]                       # 10 mm in 15 s is a jump, in 10 min it is not
+
+
+def test_failed_or_doubtful_frames_are_not_neighbours():
+    T = _tendril_mm()
+    curves = [T, T + np.array([0, 20.0, 0]), T]
+    _, msgs = temporal_checks([0, 1, 2], [0.0, 15.0, 30.0], curves, [True, False, True], Thresholds())
+    assert not msgs[0] and not msgs[2] and msgs[1]
