@@ -305,6 +305,10 @@ def _resample(X: np.ndarray, segment_mm: float) -> np.ndarray:
     return resample_by_arclength(X, n)
 
 
+def _length(X: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(X, axis=0), axis=1).sum())
+
+
 def _segment(X: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(X, axis=0), axis=1).mean())
 
@@ -356,8 +360,8 @@ def _fit(X0, evidence, B, segment_mm):
 
 
 def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, previous_mm: np.ndarray | None = None,
-                          segment_mm: float = 1.0, min_score: float = 0.9, keep_candidates: bool = False
-                          ) -> MultiviewResult:
+                          segment_mm: float = 1.0, min_score: float = 0.9, max_shrink: float = 0.08,
+                          keep_candidates: bool = False) -> MultiviewResult:
     """The 3D curve of one frame from every view's evidence, tracked or acquired.
 
     Parameters
@@ -371,9 +375,13 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
         acquire.
     segment_mm : float
         Node spacing, mm.
+    max_shrink : float
+        A tracked curve shorter than the previous one by more than this
+        fraction is lost too (a tendril grows; it does not shrink by 8 %
+        between processed frames).
     min_score : float
         A tracked curve whose precision x coverage (mean over the views)
-        is below this is lost: the frame is acquired afresh too and the better
+        is below this, or below this less 0.1 in one view, is lost: the frame is acquired afresh too and the better
         curve kept.
     keep_candidates : bool
         Keep every candidate's nodes in the result (figures).
@@ -398,9 +406,14 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
         X = _fit(P, evidence, B, segment_mm)
         prec, cov = curve_support(X, evidence)
         cands.append({"mode": "tracked", "nodes_mm": X, "precision": prec, "coverage": cov, "score": _score(prec, cov)})
-        if cands[-1]["score"] < min_score:
-            note = f"tracking lost (precision x coverage {cands[-1]['score']:.2f} < {min_score}): acquired afresh"
-    if not cands or cands[-1]["score"] < min_score:
+        worst = float(np.nanmin(prec * cov)) if np.any(np.isfinite(prec * cov)) else 0.0
+        shrink = _length(X) / max(_length(P), 1e-9)
+        if cands[-1]["score"] < min_score or worst < min_score - 0.1:
+            note = (f"tracking lost (precision x coverage {cands[-1]['score']:.2f}, worst view {worst:.2f}; "
+                    f"limits {min_score}, {min_score - 0.1:.1f}): acquired afresh")
+        elif shrink < 1.0 - max_shrink:
+            note = f"tracking lost (length {100 * (shrink - 1):.0f} % from the previous frame): acquired afresh"
+    if not cands or note:
         G = grow_curve(evidence, B)
         if len(G) < 3:
             if not cands:
@@ -410,7 +423,7 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
             prec, cov = curve_support(X, evidence)
             cands.append({"mode": "acquired", "nodes_mm": X, "precision": prec, "coverage": cov,
                           "score": _score(prec, cov)})
-    best = max(cands, key=lambda c: c["score"])  # ties: the first (tracked)
+    best = max(cands, key=lambda c: (round(c["score"], 3), _length(c["nodes_mm"])))  # ties: the longer, then tracked
     length = float(np.linalg.norm(np.diff(best["nodes_mm"], axis=0), axis=1).sum())
     if length < 5 * segment_mm:
         raise TendrilLostError(f"the curve that two views explain is only {length:.1f} mm long")

@@ -67,6 +67,15 @@ Tracking and workers
     inputs and are kept. The results are therefore identical, byte for byte,
     whatever the number of workers.
 
+    With ``reconstruction.method: multiview`` the tracking state is the
+    previous frame's 3D curve (:mod:`tendrilkit.multiview`; none after a
+    frame that is not ``ok``). The frames are cut into fixed chunks of
+    ``reconstruction.chunk_frames`` processed frames, independent of the
+    number of workers; each chunk starts by acquiring the curve from the
+    base, then tracks it frame by frame, so the results are identical
+    whatever the number of workers (a resumed run starts a chunk's remaining
+    frames from the curve of the last finished one).
+
 Resuming
     Every finished frame is written atomically to
     ``DIR/frames/frame_000123.json`` with a fingerprint of the run (resolved

@@ -147,7 +147,8 @@ def test_workers_identical_and_accurate(tmp_path):
     exp.write_text(text + "reconstruction:\n  method: multiview\n  chunk_frames: 2\n")
     r1 = _run(exp, tmp_path / "w1", 1)
     r2 = _run(exp, tmp_path / "w2", 2)
-    assert r1.returncode == 0 and r2.returncode == 0, (r1.stderr, r2.stderr)
+    assert r1.returncode in (0, 1) and r2.returncode in (0, 1), (r1.stderr, r2.stderr)
+    assert r1.stdout.strip().splitlines()[-1].endswith(" 0 failed"), r1.stdout
     for name in ("curves.csv", "frames.csv", "reprojection.csv", "pwc_curves.csv"):
         assert (tmp_path / "w1" / name).read_bytes() == (tmp_path / "w2" / name).read_bytes(), name
     from tendrilkit.pipeline import accuracy_against_truth
