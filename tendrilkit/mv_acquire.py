@@ -272,17 +272,37 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         finished.extend(hyps[h][:3] for h in np.flatnonzero(~has))
         idx = np.flatnonzero(ok)
         idx = idx[np.argsort(score[idx], kind="stable")]
-        # one hypothesis per cell of 0.7 step: the best (diversity)
-        cell = np.floor(pts[idx] / (0.7 * step_mm)).astype(np.int64)
+        # diversity: one hypothesis per cell of 1.5 steps (the best), at most two children per parent,
+        # so that the branches of a crossing both stay in the beam
+        cell = np.floor(pts[idx] / (1.5 * step_mm)).astype(np.int64)
         _, first_in_cell = np.unique(cell, axis=0, return_index=True)
-        idx = idx[np.sort(first_in_cell)][:beam]
-        new_hyps = []
+        idx = idx[np.sort(first_in_cell)]
+        kept, per_parent = [], np.zeros(len(hyps), int)
         for i in idx:
-            nodes, _, _, _, cl = hyps[own[i]]
-            if len(nodes) >= 3:  # claim what the curve explained two steps back
-                cl = claim(evidence, cl, nodes[-3] + np.linspace(0, 1, 5)[:, None] * (nodes[-2] - nodes[-3]))
-            new_hyps.append((nodes + [pts[i]], float(score[i]), int(tail[i]), dirs[i], cl))
-        hyps = new_hyps
+            if per_parent[own[i]] < 2:
+                kept.append(i)
+                per_parent[own[i]] += 1
+                if len(kept) == beam:
+                    break
+        idx = np.asarray(kept, int)
+        # claim what each kept hypothesis explained two steps back (all at once: one projection per view)
+        parents = [hyps[own[i]] for i in idx]
+        grown = [k for k, h in enumerate(parents) if len(h[0]) >= 3]
+        claims = [h[4] for h in parents]
+        if grown:
+            f = np.linspace(0, 1, 5)[:, None]
+            P = np.vstack([parents[k][0][-3] + f * (parents[k][0][-2] - parents[k][0][-3]) for k in grown])
+            new_claims = {k: [] for k in grown}
+            for v, ev in enumerate(evidence):
+                near = ev.tree.query_ball_point(ev.camera.project(P), 4.0)
+                for j, k in enumerate(grown):
+                    c = parents[k][4][v].copy()
+                    for lst in near[5 * j:5 * j + 5]:
+                        c[lst] = True
+                    new_claims[k].append(c)
+            for k in grown:
+                claims[k] = new_claims[k]
+        hyps = [(parents[j][0] + [pts[i]], float(score[i]), int(tail[i]), dirs[i], claims[j]) for j, i in enumerate(idx)]
         if not hyps:
             break
     finished.extend(h[:3] for h in hyps)
