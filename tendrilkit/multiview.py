@@ -209,7 +209,7 @@ def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm
         if big > 1.0:
             step *= 1.0 / big
         X = X + step
-        if big < 1e-3:
+        if big < 5e-3:
             break
     return X
 
@@ -272,25 +272,33 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     return np.asarray(X + ext, float)
 
 
-def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.5) -> np.ndarray:
-    """The curve up to its last node that two views see on skeleton pixels the curve had not explained yet."""
+def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.5, radius_px: float = 4.0
+          ) -> np.ndarray:
+    """The curve up to its last node that two views see on skeleton pixels the curve had not explained yet.
+
+    A node's nearest skeleton pixel is explained already when the projection of the curve at least
+    ``lag_mm`` before the node passed within ``radius_px`` of it.
+    """
+    from scipy.spatial import cKDTree
+
     s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
     d, seen, near, bg = point_costs(evidence, X, nearest=True)
     on = seen & (d <= ON_PX)
     on[:, 1:] &= advance(evidence, X[:-1], X[1:])
     on &= ~bg.any(axis=0)  # a view showing the board there contradicts the node
-    claims = None
-    last, j = 2, 0
-    for i in range(len(X)):
-        while j < i and s[j + 1] <= s[i] - lag_mm:  # claim what lies lag_mm behind node i
-            claims = claim(evidence, claims, X[j] + np.linspace(0, 1, 4)[:, None] * (X[j + 1] - X[j]))
-            j += 1
-        new = on[:, i].copy()
-        if claims is not None:
-            for v, c in enumerate(claims):
-                new[v] &= not (near[v, i] >= 0 and c[near[v, i]])
-        if new.sum() >= 2:
-            last = i
+    n_dense = max(int(np.ceil(s[-1] / 0.25)) + 1, 2)
+    dense = resample_by_arclength(X, n_dense)
+    s_dense = np.linspace(0.0, s[-1], n_dense)
+    for v, ev in enumerate(evidence):
+        ok = on[v] & (near[v] >= 0)
+        if not ok.any():
+            continue
+        tree = cKDTree(ev.camera.project(dense))
+        for i, lst in zip(np.flatnonzero(ok), tree.query_ball_point(ev.skeleton_xy[near[v, ok]], radius_px)):
+            if lst and s_dense[min(lst)] <= s[i] - lag_mm:
+                on[v, i] = False
+    good = np.flatnonzero(on.sum(axis=0) >= 2)
+    last = int(good[-1]) if len(good) else 2
     return X[:max(last + 1, 3)]
 
 
