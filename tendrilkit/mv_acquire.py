@@ -206,7 +206,9 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     max_length_mm : float
     max_unseen_steps : int
         Consecutive steps that fewer than two views see (keep-out box,
-        occlusion) before a hypothesis ends.
+        occlusion) before a hypothesis ends; three times as many steps
+        that the views see on pixels the curve explained already (passes
+        running over each other in two views).
 
     Returns
     -------
@@ -218,9 +220,9 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     seeds = _seeds(evidence, B, n_seeds)
     if len(seeds) == 0:
         return np.vstack([B, B])  # nothing any two views agree on
-    # a hypothesis: (nodes list, score, unseen tail)
+    # a hypothesis: (nodes list, score, unconfirmed tail, last direction, claims, blind tail)
     none = [np.zeros(len(ev.skeleton_xy), bool) for ev in evidence]
-    hyps = [([B], 0.0, 0, d, none) for d in seeds]
+    hyps = [([B], 0.0, 0, d, none, 0) for d in seeds]
     finished: list[tuple[list, float, int]] = []
     look = np.array([2.0, 3.0, 4.0])
     cone = _local_cone(cone_deg, 3)
@@ -266,7 +268,11 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
                 dd = np.min(np.linalg.norm(pts[sel][:, None, :] - old[None], axis=2), axis=1)
                 cost[sel] += np.where(dd < 1.2, 5.0, 0.0)
         tail = np.where(confirmed, 0, np.array([h[2] for h in hyps])[own] + 1)
-        ok = (cost <= STOP_PX) & (tail <= max_unseen_steps) & ~contradicted
+        # steps no two views see (keep-out box, occlusion): at most max_unseen_steps in a row; steps the views
+        # see on pixels the curve explained already (passes over each other in two views): three times more
+        blind_tail = np.where(confirmed | vis, 0, np.array([h[5] for h in hyps])[own] + 1)
+        ok = ((cost <= STOP_PX) & (blind_tail <= max_unseen_steps) & (tail <= 3 * max_unseen_steps)
+              & ~contradicted)
         score = np.array([h[1] for h in hyps])[own] + cost - NEUTRAL_PX
         has = np.bincount(own[ok], minlength=len(hyps)) > 0
         finished.extend(hyps[h][:3] for h in np.flatnonzero(~has))
@@ -302,7 +308,8 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
                     new_claims[k].append(c)
             for k in grown:
                 claims[k] = new_claims[k]
-        hyps = [(parents[j][0] + [pts[i]], float(score[i]), int(tail[i]), dirs[i], claims[j]) for j, i in enumerate(idx)]
+        hyps = [(parents[j][0] + [pts[i]], float(score[i]), int(tail[i]), dirs[i], claims[j], int(blind_tail[i]))
+                for j, i in enumerate(idx)]
         if not hyps:
             break
     finished.extend(h[:3] for h in hyps)
