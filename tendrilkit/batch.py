@@ -56,6 +56,7 @@ class ExperimentOutcome:
     frames_ok: int = 0
     frames_failed: int = 0
     message: str = ""
+    frames_doubtful: int = 0
 
 
 def experiment_notebooks() -> list[Path]:
@@ -167,8 +168,9 @@ def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentO
         stamp = out / ".done"
         fp = fingerprint(path, exp_dict)
         if not force and stamp.is_file() and stamp.read_text().strip() == fp:
-            ok, failed = _frame_counts(out / "results")
-            return ExperimentOutcome(name, str(path), "skipped", time.perf_counter() - t0, ok, failed, "finished earlier")
+            ok, doubtful, failed = _frame_counts(out / "results")
+            return ExperimentOutcome(name, str(path), "skipped", time.perf_counter() - t0, ok, failed, "finished earlier",
+                                     doubtful)
         if stamp.exists():
             stamp.unlink()
         out.mkdir(parents=True, exist_ok=True)
@@ -181,9 +183,10 @@ def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentO
             execute_notebook(nb, out / nb.name, params, cwd=notebooks_dir())
         write_json(provenance(exp_dict, path), out / "provenance.json")
         write_text(fp + "\n", stamp)
-        ok, failed = _frame_counts(out / "results")
-        msg = f"{failed} frame(s) failed" if failed else ""
-        return ExperimentOutcome(name, str(path), "done", time.perf_counter() - t0, ok, failed, msg)
+        ok, doubtful, failed = _frame_counts(out / "results")
+        msg = ", ".join(m for m in (f"{doubtful} frame(s) doubtful" if doubtful else "",
+                                    f"{failed} frame(s) failed" if failed else "") if m)
+        return ExperimentOutcome(name, str(path), "done", time.perf_counter() - t0, ok, failed, msg, doubtful)
     except ExperimentError as e:
         return ExperimentOutcome(name, str(path), "failed", time.perf_counter() - t0, message=str(e))
     except Exception as e:  # one experiment's failure must not stop the others
@@ -201,14 +204,15 @@ def _stderr_to(path: Path) -> None:
         os.dup2(f.fileno(), 2)
 
 
-def _frame_counts(results: Path) -> tuple[int, int]:
+def _frame_counts(results: Path) -> tuple[int, int, int]:
+    """Frames ``ok``, ``doubtful`` and ``failed`` in a results folder."""
     import pandas as pd
 
     f = results / "frames.csv"
     if not f.is_file():
-        return 0, 0
-    df = pd.read_csv(f)
-    return int((df["status"] == "ok").sum()), int((df["status"] != "ok").sum())
+        return 0, 0, 0
+    st = pd.read_csv(f)["status"]
+    return int((st == "ok").sum()), int((st == "doubtful").sum()), int((~st.isin(["ok", "doubtful"])).sum())
 
 
 def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path) -> ExperimentOutcome | None:
@@ -241,9 +245,10 @@ def _compare_in_worker(src: str, out: str, params: dict) -> None:
 
 
 def format_summary(outcomes: list[ExperimentOutcome]) -> str:
-    rows = [("experiment", "status", "frames ok", "failed", "time", "message")]
+    rows = [("experiment", "status", "frames ok", "doubtful", "failed", "time", "message")]
     for o in outcomes:
-        rows.append((o.name, o.status, str(o.frames_ok), str(o.frames_failed), f"{o.seconds:.0f} s", o.message))
+        rows.append((o.name, o.status, str(o.frames_ok), str(o.frames_doubtful), str(o.frames_failed),
+                     f"{o.seconds:.0f} s", o.message))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]) - 1)]
     lines = ["  ".join(c.ljust(w) for c, w in zip(r[:-1], widths)) + "  " + r[-1] for r in rows]
     return "\n".join(lines)

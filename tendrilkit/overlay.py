@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 import pandas as pd
 
-__all__ = ["ViewOverlay", "frame_overlays", "contact_frames", "draw_overlay_bgr", "STATUS_BGR"]
+__all__ = ["ViewOverlay", "frame_overlays", "contact_frames", "worst_frames", "draw_overlay_bgr", "STATUS_BGR"]
 
 #: Colour of each status in the video frames (BGR).
 STATUS_BGR = {"ok": (60, 170, 60), "doubtful": (0, 140, 255), "failed": (40, 40, 220)}
@@ -133,6 +133,13 @@ def contact_frames(frames: pd.DataFrame, *, max_doubtful: int = 8, n_ok: int = 4
         idx = np.unique(np.rint(np.linspace(0, len(ok) - 1, min(int(n_ok), len(ok)))).astype(int))
         pick = ok[idx].tolist()
     return sorted(set(pick) | set(d["frame"].astype(int).tolist()))
+
+
+def worst_frames(frames: pd.DataFrame, n: int = 3) -> list[int]:
+    """The ``n`` reconstructed frames with the lowest precision or coverage over the views (ties: earlier first)."""
+    f = frames[frames["status"] != "failed"].reset_index(drop=True)
+    f = f.assign(_b=_badness(f)).sort_values(["_b", "frame"], kind="stable")
+    return f["frame"].astype(int).head(max(int(n), 0)).tolist()
 
 
 def _poly(img: np.ndarray, xy: np.ndarray | None, colour, scale: float, thickness: int) -> None:

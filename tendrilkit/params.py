@@ -303,10 +303,13 @@ class Verification(_Strict):
     ``doubtful``."""
 
     tolerance_px: PositiveFloat = 2.0
-    min_on_tendril_frac: float = Field(0.9, ge=0, le=1)
-    max_off_tendril_px: PositiveFloat = 15.0
+    min_on_tendril_frac: float = Field(0.95, ge=0, le=1)
+    max_off_tendril_px: PositiveFloat = 5.0
+    max_skeleton_mean_px: PositiveFloat = 1.0
     coverage_tolerance_px: PositiveFloat = 4.0
     min_coverage_frac: float = Field(0.75, ge=0, le=1)
+    max_tip_continuation_px: PositiveFloat = 20.0
+    min_base_on_tendril_frac: float = Field(0.5, ge=0, le=1)
     max_base_px: PositiveFloat = 25.0
     max_length_change_pct: NonNegFloat = 5.0
     length_rate_pct_per_min: NonNegFloat = 1.0

@@ -35,6 +35,8 @@
                              (JSON ``[[branch, angle_deg], ...]``), ``chosen, method``
    ``calibration_markers.csv``  :attr:`tendrilkit.calibration.CalibrationResult.markers`
    ``cameras.json``          the calibrated rig (EXPERIMENT_FORMAT.md)
+   ``qc_contact_sheet.png``  doubtful frames and a sample of ok ones, the reconstruction
+                             drawn on every view (:func:`tendrilkit.qc.write_contact_sheet`)
    ``frames/``               one JSON file per finished frame (resuming, below)
    ========================  ==========================================================
 
@@ -227,7 +229,11 @@ def quality_columns(n_views: int) -> list[str]:
     (distance of the projected centreline to view i's skeleton, entire
     tendril), ``tri_err_px_v<i>`` (mean reprojection error of the matched
     points at triangulation), ``pwc_r2``, ``pwc_sse_mm2``, ``pwc_rmse_mm``,
-    ``pwc_segments_kappa``, ``pwc_segments_tau``, ``n_crossings_v<i>``.
+    ``pwc_segments_kappa``, ``pwc_segments_tau``, ``n_crossings_v<i>``; then
+    the checks of :mod:`tendrilkit.verify`: ``views_checked``,
+    ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s`` and per view
+    ``on_tendril_frac_v<i>``, ``off_tendril_max_px_v<i>``,
+    ``skeleton_mean_px_v<i>``, ``coverage_frac_v<i>``, ``base_px_v<i>``.
     """
     cols = ["views_used", "n_matched", "base_extended", "length_mm"]
     for v in range(1, n_views + 1):

@@ -128,7 +128,8 @@ def _frame_colors(n: int, cmap: str = "viridis") -> list:
 
 # ------------------------------------------------------------------ sequence figures
 @_styled
-def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | None = None) -> Figure:
+def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | None = None,
+                      frames: pd.DataFrame | None = None) -> Figure:
     """Breakpoints of the curvature (top) and torsion (bottom) laws over frames (paper Figure 7).
 
     Parameters
@@ -137,6 +138,8 @@ def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | No
         :func:`tendrilkit.sequence.split_points` (``frame, kind, s_mm, s_norm``, optional ``point``).
     y : {"s_norm", "s_mm", "point"}
         Position along the tendril shown on the vertical axis.
+    frames : DataFrame, optional
+        ``frames.csv``: doubtful (orange, hatched) and failed (grey) frames shaded.
     """
     _check(split, ("frame", "kind", y), "split")
     fig = Figure(figsize=(6.4, 5.0), layout="constrained")
@@ -149,6 +152,7 @@ def plot_split_points(split: pd.DataFrame, *, y: str = "s_norm", title: str | No
         ax.set_title(f"{name} split points")
         if y == "s_norm":
             ax.set_ylim(0, 1)
+        _status_bands(ax, frames, x_time=False)
     axes[-1].set_xlabel("frame")
     if title:
         fig.suptitle(title)
@@ -525,7 +529,8 @@ def plot_quality_over_time(frames: pd.DataFrame, *, thresholds=None, title: str 
     frames : DataFrame
         ``frames.csv``: ``frame, time_s, status`` and the columns of
         :mod:`tendrilkit.verify` (``on_tendril_frac_v<i>``,
-        ``coverage_frac_v<i>``, ``base_px_v<i>``, ``length_change_pct``).
+        ``skeleton_mean_px_v<i>``, ``coverage_frac_v<i>``, ``base_px_v<i>``,
+        ``length_change_pct``).
     thresholds : tendrilkit.verify.Thresholds, optional
         Draws the limits (dashed).
     """
@@ -534,10 +539,11 @@ def plot_quality_over_time(frames: pd.DataFrame, *, thresholds=None, title: str 
     x, xlabel = _time_axis(f)
     views = sorted(int(c.rsplit("_v", 1)[1]) for c in f.columns if c.startswith("on_tendril_frac_v"))
     panels = [("on_tendril_frac_v{}", "precision (on tendril)", "min_on_tendril_frac", 1.0),
+              ("skeleton_mean_px_v{}", "off the middle (px)", "max_skeleton_mean_px", None),
               ("coverage_frac_v{}", "coverage", "min_coverage_frac", 1.0),
               ("base_px_v{}", "base to mark (px)", "max_base_px", None)]
-    fig = Figure(figsize=(7.5, 7.0), layout="constrained")
-    axes = fig.subplots(4, 1, sharex=True)
+    fig = Figure(figsize=(7.5, 8.5), layout="constrained")
+    axes = fig.subplots(5, 1, sharex=True)
     for ax, (pat, ylabel, key, _) in zip(axes, panels):
         for v in views:
             col = pat.format(v)
@@ -546,7 +552,7 @@ def plot_quality_over_time(frames: pd.DataFrame, *, thresholds=None, title: str 
         if thresholds is not None:
             ax.axhline(getattr(thresholds, key), color="black", ls="--", lw=0.7, label="limit")
         ax.set_ylabel(ylabel)
-    ax = axes[3]
+    ax = axes[4]
     if "length_change_pct" in f.columns:
         ax.plot(x, f["length_change_pct"].to_numpy(float), ".-", color="black", ms=3, lw=0.8,
                 label="length change (%)")

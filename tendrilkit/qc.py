@@ -24,7 +24,7 @@ import pandas as pd
 
 from tendrilkit.overlay import contact_frames, draw_overlay_bgr, frame_overlays
 
-__all__ = ["CONTACT_SHEET", "write_contact_sheet", "overlay_video_frames", "run_overlay"]
+__all__ = ["CONTACT_SHEET", "frame_views", "write_contact_sheet", "overlay_video_frames", "run_overlay"]
 
 #: File name of the contact sheet in a results folder.
 CONTACT_SHEET = "qc_contact_sheet.png"
@@ -49,6 +49,33 @@ def _read(sources, frame: int) -> list:
         except FrameError:
             out.append(None)
     return out
+
+
+def frame_views(exp, results, frame: int, *, pad_px: int = 20) -> list:
+    """The views of one frame of a finished run, cropped, with its centreline and PWC projected.
+
+    Parameters
+    ----------
+    exp : tendrilkit.params.Experiment
+    results : tendrilkit.io.Results
+        :func:`tendrilkit.io.read_results` of the run (``cameras``, ``curves``, ``pwc_curves``).
+    frame : int
+
+    Returns
+    -------
+    list of tendrilkit.overlay.ViewOverlay
+        For :func:`tendrilkit.plotting.plot_frame_overlay`.
+    """
+    from tendrilkit.io import open_views
+
+    sources = open_views(list(exp.videos))
+    try:
+        images = _read(sources, frame)
+    finally:
+        for s in sources:
+            s.close()
+    return frame_overlays(images, results.cameras, exp.views, _curve(results.curves, frame),
+                          _curve(results.pwc_curves, frame), pad_px=pad_px)
 
 
 def write_contact_sheet(exp, cameras: list, frames: pd.DataFrame, curves: pd.DataFrame | None,

@@ -130,3 +130,56 @@ def test_plotly_html_is_byte_identical(seq, tmp_path):
     assert b'id="tip"' in b1[0] and b"cdn.plot.ly" not in b1[0][:2000]
     with pytest.raises(ValueError, match="static export"):
         io.save_figure(pl.plot_tip_trajectory_3d_interactive(seq["traj"]), tmp_path / "tip", formats=("svg",))
+
+
+def _qc_frames():
+    n = 8
+    f = pd.DataFrame({"frame": np.arange(n), "time_s": np.arange(n) * 15.0,
+                      "status": ["ok", "ok", "doubtful", "ok", "failed", "ok", "ok", "ok"], "message": ""})
+    for v in (1, 2, 3):
+        f[f"on_tendril_frac_v{v}"] = np.where(f.status == "doubtful", 0.6, 1.0)
+        f[f"coverage_frac_v{v}"] = 0.99
+        f[f"base_px_v{v}"] = 0.5
+    f["length_change_pct"] = 0.1
+    f.loc[f.status == "failed", [c for c in f.columns if c.endswith(("_v1", "_v2", "_v3"))]] = np.nan
+    return f
+
+
+def test_quality_over_time_shades_doubtful_and_failed_frames():
+    from tendrilkit.verify import Thresholds
+
+    f = _qc_frames()
+    fig = pl.plot_quality_over_time(f, thresholds=Thresholds(), title="qc")
+    ax = fig.axes[0]
+    spans = [p for p in ax.patches if p.get_label() in ("doubtful frame", "failed frame")]
+    assert sorted(p.get_label() for p in spans) == ["doubtful frame", "failed frame"]
+    assert fig._suptitle.get_text() == "qc: 6 ok, 1 doubtful, 1 failed"
+
+
+def test_shape_change_is_not_bridged_over_excluded_frames():
+    curves, _ = make_sequence(n_frames=8, noise_mm=0.1, seed=2, n=30)
+    f = _qc_frames()
+    with pytest.warns(UserWarning):
+        change = sq.shape_change(curves, frames=f)
+    fig = pl.plot_shape_change(change, frames=f)
+    ax = fig.axes[0]
+    y = [ln for ln in ax.lines if ln.get_label().startswith("shape change")][0].get_ydata()
+    assert len(y) == 6 + 2 and np.isnan(y).sum() == 2          # a gap at frame 2 and one at frame 4
+    assert {p.get_label() for p in ax.patches} >= {"doubtful frame", "failed frame"}
+    assert isinstance(pl.plot_split_points(pd.DataFrame({"frame": [0, 1], "kind": ["kappa", "tau"],
+                                                         "s_norm": [0.2, 0.5]}), frames=f), Figure)
+
+
+def test_contact_sheet_and_frame_overlay():
+    from tendrilkit.overlay import ViewOverlay, contact_frames, draw_overlay_bgr
+
+    crop = np.full((60, 80, 3), 230, np.uint8)
+    xy = np.c_[np.linspace(5, 70, 20), np.linspace(5, 50, 20)]
+    views = [ViewOverlay(crop, np.array([100, 50]), xy, xy + 1, np.array([5.0, 5.0])) for _ in range(3)]
+    fig = pl.plot_contact_sheet([(3, "ok", "", views), (7, "doubtful", "precision: view 2 has 41 % (limit 95 %)", views)])
+    assert len(fig.axes) == 6
+    assert isinstance(pl.plot_frame_overlay(views, status="doubtful", title="frame 7"), Figure)
+    f = _qc_frames()
+    assert contact_frames(f, max_doubtful=8, n_ok=3) == [0, 2, 3, 7]  # ok frames 0, 1, 3, 5, 6, 7: first, middle, last
+    img = draw_overlay_bgr(views, status="doubtful", label="frame 7", height_px=120)
+    assert img.shape[0] == 120 and img.shape[1] % 2 == 0 and img.dtype == np.uint8

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-CHECKS = ("precision:", "off tendril:", "coverage:", "base:", "fit:")
+CHECKS = ("precision:", "off tendril:", "centre:", "coverage:", "tip:", "base:", "fit:")
 
 
 def _fake_continuation(img: np.ndarray, proj_xy: np.ndarray, *, start: float = 0.45) -> np.ndarray:

@@ -1,0 +1,131 @@
+"""Re-verify finished random-scene runs offline and count outcomes for the current thresholds.
+
+    .venv/bin/python benchmarks/verify_thresholds.py WORK_DIR [--out FIGURES.csv]
+
+``WORK_DIR`` holds ``<seed>/`` folders made by ``benchmarks/bench_verify.py``
+(experiment, ground truth, ``results/``) or ``random-<seed>/`` folders made by
+``benchmarks/bench_generalize.py`` (``scene/``, ``result-<method>/``). For every reconstructed frame the
+image figures are recomputed with the current :mod:`tendrilkit.verify`
+(the curves are not recomputed: a threshold study costs seconds per seed,
+not a reconstruction), the temporal checks applied, and the frame compared
+with the truth. Prints the counts of :func:`bench_verify.summarise` and, per
+figure, its range on right frames (mean error <= 0.5 mm) and on wrong ones
+(> 1.5 mm), to choose the limits from. Seeds >= 10000 are refused.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_verify import summarise  # noqa: E402
+
+from tendrilkit.evidence import view_evidence  # noqa: E402
+from tendrilkit.io import open_views, read_cameras  # noqa: E402
+from tendrilkit.params import load_experiment  # noqa: E402
+from tendrilkit.pipeline import _options, accuracy_against_truth  # noqa: E402
+from tendrilkit.verify import Thresholds, image_check_messages, temporal_checks, verify_curve  # noqa: E402
+
+
+def _layout(d: Path):
+    """(seed, experiment file, results folder, ground-truth folder) of a bench_verify or bench_generalize folder."""
+    if d.name.isdigit():
+        return int(d.name), d / "experiment.yaml", d / "results", d / "ground_truth"
+    if d.name.startswith("random-") and d.name[7:].isdigit():
+        res = sorted(d.glob("result-*"))
+        return int(d.name[7:]), d / "scene" / "experiment.yaml", (res[0] if res else d / "missing"), d / "scene" / "ground_truth"
+    return None
+
+
+def reverify(seed_dir: Path, th: Thresholds) -> pd.DataFrame:
+    seed, exp_path, res, gt = _layout(seed_dir)
+    exp = load_experiment(exp_path)
+    frames = pd.read_csv(res / "frames.csv")
+    curves = pd.read_csv(res / "curves.csv")
+    cams = read_cameras(res / "cameras.json")
+    seg_opts, _ = _options(exp)
+    acc = accuracy_against_truth(curves, pd.read_csv(gt / "gt_curves.csv"))
+    srcs = open_views(list(exp.videos))
+    rows, pts = [], []
+    try:
+        for r in frames.itertuples():
+            f = int(r.frame)
+            g = curves[curves.frame == f].sort_values("point")
+            if r.status == "failed" or g.empty:
+                rows.append({"frame": f, "time_s": r.time_s, "status": "failed", "message": r.message})
+                pts.append(None)
+                continue
+            P = g[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
+            ev = [view_evidence(s.read(f), roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, **seg_opts)
+                  for s, m in zip(srcs, exp.views)]
+            q = verify_curve(P, cams, ev, tolerance_px=th.tolerance_px, coverage_tolerance_px=th.coverage_tolerance_px)
+            q["pwc_r2"] = r.pwc_r2 if np.isfinite(r.pwc_r2) else None
+            msgs = image_check_messages(q, len(cams), th)
+            rows.append({"frame": f, "time_s": r.time_s, "status": "doubtful" if msgs else "ok",
+                         "message": "; ".join(msgs), **q})
+            pts.append(P)
+    finally:
+        for s in srcs:
+            s.close()
+    t = pd.DataFrame(rows)
+    figs, tmsg = temporal_checks(t.frame.tolist(), t.time_s.tolist(), pts, (t.status == "ok").tolist(), th)
+    for i, (fg, m) in enumerate(zip(figs, tmsg)):
+        for k, v in fg.items():
+            t.loc[i, k] = v
+        if m and t.loc[i, "status"] != "failed":
+            t.loc[i, "status"] = "doubtful"
+            t.loc[i, "message"] = "; ".join([x for x in [t.loc[i, "message"]] if x] + m)
+    t = t.merge(acc, on="frame", how="left")
+    t.insert(0, "seed", seed)
+    return t
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("work", type=Path)
+    ap.add_argument("--out", type=Path, default=None)
+    a = ap.parse_args()
+    th = Thresholds()
+    parts = []
+    dirs = sorted((lay, d) for d in a.work.iterdir() if (lay := _layout(d)) is not None)
+    for lay, d in dirs:
+        if lay[0] >= 10000:
+            sys.exit("seeds >= 10000 are reserved for the final generalisation benchmark")
+        if not (lay[2] / "frames.csv").is_file() or not (lay[2] / "curves.csv").is_file():
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            parts.append(reverify(d, th))
+    t = pd.concat(parts, ignore_index=True)
+    if a.out:
+        t.to_csv(a.out, index=False)
+    print(f"{len(parts)} seeds")
+    for k, v in summarise(t).items():
+        print(f"{k}: {v}")
+    rec = t[t.status != "failed"]
+    right, wrong = rec[rec.mean_mm <= 0.5], rec[rec.mean_mm > 1.5]
+    for stem, worst in (("on_tendril_frac", "min"), ("off_tendril_max_px", "max"), ("skeleton_mean_px", "max"),
+                        ("coverage_frac", "min"), ("tip_continuation_px", "max"), ("base_on_tendril_frac", "min"),
+                        ("base_px", "max")):
+        cols = [c for c in t.columns if c.startswith(stem + "_v")]
+        agg = ((lambda df: df[cols].astype(float).min(axis=1)) if worst == "min"
+               else (lambda df: df[cols].astype(float).max(axis=1)))
+        r, w = agg(right).astype(float), agg(wrong).astype(float)
+        print(f"{stem:>20} ({worst} over views): right {np.nanpercentile(r, [0, 1, 5, 50, 95, 99, 100]).round(3) if len(r) else '-'}"
+              f"  wrong {np.nanpercentile(w, [0, 5, 50, 95, 100]).round(3) if len(w) else '-'}")
+    silent = t[(t.status == "ok") & (t.mean_mm > 1.5)]
+    if len(silent):
+        print("silent failures:")
+        print(silent[["seed", "frame", "mean_mm", "max_mm"] + [c for c in t.columns if c.startswith(("on_tendril", "skeleton_mean", "coverage", "off_tendril"))]].to_string())
+
+
+if __name__ == "__main__":
+    main()
