@@ -1,7 +1,7 @@
 """Generalisation benchmark: today's method on random scenes like real recordings.
 
     .venv/bin/python benchmarks/bench_generalize.py --seeds 0:40 [--frames 6] [--workers 2]
-        [--scene random] [--out DIR]
+        [--scene random] [--method chain|multiview] [--out DIR]
 
 For every seed: writes the random scene (``python -m tendrilkit phantom
 --scene random --seed N``, :mod:`tendrilkit.scenes`), reconstructs it with
@@ -40,7 +40,8 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 
-def one_scene(seed: int, scene: str, n_frames: int, out: str) -> tuple[int, pd.DataFrame | None, str, float, float]:
+def one_scene(seed: int, scene: str, n_frames: int, out: str, method: str | None = None
+              ) -> tuple[int, pd.DataFrame | None, str, float, float]:
     """Generate, reconstruct and score one scene; returns (seed, scores or None, error, wall s, cpu s)."""
     import os
 
@@ -61,11 +62,13 @@ def one_scene(seed: int, scene: str, n_frames: int, out: str) -> tuple[int, pd.D
     except PhantomError as e:
         return seed, None, f"not generated: {e}", time.perf_counter() - w0, time.process_time() - c0
     try:
+        res = folder / ("result" if method is None else f"result-{method}")
         with open(folder / "reconstruct.log", "w") as log, contextlib.redirect_stdout(log), \
                 warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            run_reconstruct(exp, folder / "result", workers=1, progress=False)
-        scores = score_result(folder / "result", folder / "scene", scene=f"{scene}-{seed}")
+            run_reconstruct(exp, res, workers=1, progress=False,
+                            overrides=None if method is None else {"reconstruction": {"method": method}})
+        scores = score_result(res, folder / "scene", scene=f"{scene}-{seed}")
     except ExperimentError as e:  # the whole run failed (e.g. calibration): every frame failed
         from tendrilkit.phantom import read_ground_truth
 
@@ -86,6 +89,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="random, a preset of tendrilkit.scene_factors.PRESETS, several separated by commas, "
                         "or 'alone' (every single-factor preset)")
     p.add_argument("--out", default=None, help="keep scenes, results and tables here")
+    p.add_argument("--method", default=None, choices=["chain", "multiview"],
+                   help="reconstruction.method (default: the experiment file's)")
     a = p.parse_args(argv)
     start, stop = (int(x) for x in a.seeds.split(":"))
     out = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="bench_generalize_"))
@@ -105,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"--scene: unknown {', '.join(bad)}; expected random, alone or {', '.join(PRESETS)}")
     jobs = [(scene, s) for scene in scenes for s in range(start, stop)]
     with ProcessPoolExecutor(max_workers=a.workers) as pool:
-        futs = [pool.submit(one_scene, s, scene, a.frames, str(out)) for scene, s in jobs]
+        futs = [pool.submit(one_scene, s, scene, a.frames, str(out), a.method) for scene, s in jobs]
         for (scene, _), f in zip(jobs, futs):
             seed, scores, err, wall, c = f.result()
             cpu += c

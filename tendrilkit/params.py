@@ -9,7 +9,7 @@ by :mod:`tendrilkit.safe_yaml`.
 
 Required keys are exactly those of EXPERIMENT_FORMAT.md. The optional sections
 ``segmentation``, ``skeleton``, ``ordering``, ``correspondence``,
-``triangulation``, ``smoothing``, ``fit`` and ``calibration`` hold tendrilkit's
+``reconstruction``, ``triangulation``, ``smoothing``, ``fit`` and ``calibration`` hold tendrilkit's
 own choices; each key has a documented default (see the classes below).
 """
 
@@ -247,6 +247,24 @@ class Correspondence(_Strict):
     depth_smoothing: Weight = 100.0
 
 
+class Reconstruction(_Strict):
+    """How the 3D centreline is made (:mod:`tendrilkit.multiview`).
+
+    ``method``: ``chain`` (default: each view segmented and ordered on its
+    own, the 2D curves matched by ``correspondence.method`` and triangulated)
+    or ``multiview`` (one 3D curve from the base fitted to every view's
+    evidence at once, tracked from frame to frame, acquired afresh from the
+    base when tracking is lost); ``chunk_frames`` (multiview): processed
+    frames per chunk: each chunk starts by acquiring the curve, then tracks
+    it, so results do not depend on the number of workers; ``segment_mm``
+    (multiview): node spacing of the 3D curve, mm.
+    """
+
+    method: Literal["chain", "multiview"] = "chain"
+    chunk_frames: int = Field(30, ge=1)
+    segment_mm: float = Field(1.0, gt=0.1, le=10.0)
+
+
 class Triangulation(_Strict):
     """N-view triangulation (:mod:`tendrilkit.triangulation`).
 
@@ -394,6 +412,7 @@ class Experiment(_Strict):
     skeleton: Skeleton = Field(default_factory=Skeleton)
     ordering: Ordering = Field(default_factory=Ordering)
     correspondence: Correspondence = Field(default_factory=Correspondence)
+    reconstruction: Reconstruction = Field(default_factory=Reconstruction)
     triangulation: Triangulation = Field(default_factory=Triangulation)
     smoothing: Smoothing = Field(default_factory=Smoothing)
     fit: Fit = Field(default_factory=Fit)

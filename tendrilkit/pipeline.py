@@ -69,6 +69,15 @@ Tracking and workers
     inputs and are kept. The results are therefore identical, byte for byte,
     whatever the number of workers.
 
+    With ``reconstruction.method: multiview`` the tracking state is the
+    previous frame's 3D curve (:mod:`tendrilkit.multiview`; none after a
+    frame that is not ``ok``). The frames are cut into fixed chunks of
+    ``reconstruction.chunk_frames`` processed frames, independent of the
+    number of workers; each chunk starts by acquiring the curve from the
+    base, then tracks it frame by frame, so the results are identical
+    whatever the number of workers (a resumed run starts a chunk's remaining
+    frames from the curve of the last finished one).
+
 Resuming
     Every finished frame is written atomically to
     ``DIR/frames/frame_000123.json`` with a fingerprint of the run (resolved
@@ -301,7 +310,7 @@ def _base_from_marks(exp, cameras: list[Camera], points_mm: np.ndarray) -> np.nd
 
 def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], exp, *, frame: int = 0,
                       prev_centroids: list | None = None, read_errors: list[str | None] | None = None,
-                      fit: bool = True) -> FrameResult:
+                      fit: bool = True, previous_mm: np.ndarray | None = None) -> FrameResult:
     """Reconstruct one frame from its views; failures become a ``failed`` result.
 
     Parameters
@@ -322,11 +331,17 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         Why a view's image is None.
     fit : bool
         Run the piece-wise clothoid fit.
+    previous_mm : (k, 3) float array, optional
+        ``reconstruction.method: multiview`` only: the previous processed
+        frame's curve (tracking); None: the curve is acquired from the base.
 
     Returns
     -------
     FrameResult
     """
+    if exp.reconstruction.method == "multiview":
+        return _multiview_frame(images, cameras, exp, frame=frame, previous_mm=previous_mm, read_errors=read_errors,
+                                fit=fit)
     V = len(cameras)
     prev = list(prev_centroids) if prev_centroids is not None else [None] * V
     read_errors = list(read_errors) if read_errors is not None else [None] * V
@@ -421,15 +436,6 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         q["base_extended"] = q_base
         q["n_matched"] = int(good.sum())
         q["length_mm"] = float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
-        # a (nearly) straight centreline has no normal: its torsion is undefined, whatever the fit says
-        chord = points[-1] - points[0]
-        if np.linalg.norm(chord) > 0:
-            rel = points - points[0]
-            chord = chord / np.linalg.norm(chord)
-            dev = float(np.linalg.norm(rel - np.outer(rel @ chord, chord), axis=1).max())
-            if dev <= _STRAIGHT_FRACTION * q["length_mm"]:
-                notes.append(f"nearly straight (at most {dev:.2f} mm from its chord over {q['length_mm']:.1f} mm): "
-                             f"torsion undefined")
         for row in table.itertuples():
             if row.section == "entire":
                 q[f"reproj_mean_px_v{row.view}"] = float(row.mean_px)
@@ -440,23 +446,7 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
             e = e[np.isfinite(e)]
             q[f"tri_err_px_v{v + 1}"] = float(e.mean()) if e.size else None
             q[f"n_crossings_v{v + 1}"] = crossings[v]
-        pwc, pwc_segments, pwc_row = None, [], None
-        if fit:  # a failed fit leaves the reconstruction standing: the frame stays ok, without pwc
-            t0 = time.perf_counter()
-            try:
-                pwc, pwc_segments, pwc_row = _fit(points, exp, frame, t_s)
-            except (FrameError, *_NUMERICAL_ERRORS) as e:
-                pwc, pwc_segments = None, []
-                pwc_row = {"frame": frame, "time_s": t_s, "status": "failed", "message": f"{type(e).__name__}: {e}"}
-            timings["pwc"] = time.perf_counter() - t0
-            if pwc is None:
-                notes.append(f"piece-wise clothoid fit failed: {pwc_row.get('message', '')}")
-            else:
-                q["pwc_r2"] = float(pwc_row["r2_entire"])
-                q["pwc_sse_mm2"] = float(pwc_row["sse_entire_mm2"])
-                q["pwc_rmse_mm"] = float(pwc_row["rmse_mm"])
-                q["pwc_segments_kappa"] = int(pwc_row["n_kappa"])
-                q["pwc_segments_tau"] = int(pwc_row["n_tau"])
+        pwc, pwc_segments, pwc_row = _shape_and_fit(points, q, notes, exp, frame, t_s, fit, timings)
         reproj_rows = [{k_: (v_.item() if hasattr(v_, "item") else v_) for k_, v_ in r.items()}
                        for r in table.to_dict("records")]
         t0 = time.perf_counter()
@@ -486,6 +476,108 @@ def _verify(points: np.ndarray, images: list, cameras: list[Camera], exp, seg_op
     q.update(verify_curve(points, cameras, evidence, tolerance_px=th.tolerance_px,
                           coverage_tolerance_px=th.coverage_tolerance_px))
     return image_check_messages(q, len(cameras), th)
+
+
+def _shape_and_fit(points: np.ndarray, q: dict, notes: list, exp, frame: int, t_s: float, fit: bool,
+                   timings: dict):
+    """The straightness note and the piece-wise clothoid fit of a centreline (fills ``q`` and ``notes``)."""
+    # a (nearly) straight centreline has no normal: its torsion is undefined, whatever the fit says
+    chord = points[-1] - points[0]
+    if np.linalg.norm(chord) > 0:
+        rel = points - points[0]
+        chord = chord / np.linalg.norm(chord)
+        dev = float(np.linalg.norm(rel - np.outer(rel @ chord, chord), axis=1).max())
+        if dev <= _STRAIGHT_FRACTION * q["length_mm"]:
+            notes.append(f"nearly straight (at most {dev:.2f} mm from its chord over {q['length_mm']:.1f} mm): "
+                         f"torsion undefined")
+    pwc, pwc_segments, pwc_row = None, [], None
+    if fit:  # a failed fit leaves the reconstruction standing: the frame stays ok, without pwc
+        t0 = time.perf_counter()
+        try:
+            pwc, pwc_segments, pwc_row = _fit(points, exp, frame, t_s)
+        except (FrameError, *_NUMERICAL_ERRORS) as e:
+            pwc, pwc_segments = None, []
+            pwc_row = {"frame": frame, "time_s": t_s, "status": "failed", "message": f"{type(e).__name__}: {e}"}
+        timings["pwc"] = time.perf_counter() - t0
+        if pwc is None:
+            notes.append(f"piece-wise clothoid fit failed: {pwc_row.get('message', '')}")
+        else:
+            q["pwc_r2"] = float(pwc_row["r2_entire"])
+            q["pwc_sse_mm2"] = float(pwc_row["sse_entire_mm2"])
+            q["pwc_rmse_mm"] = float(pwc_row["rmse_mm"])
+            q["pwc_segments_kappa"] = int(pwc_row["n_kappa"])
+            q["pwc_segments_tau"] = int(pwc_row["n_tau"])
+    return pwc, pwc_segments, pwc_row
+
+
+def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous_mm, read_errors, fit: bool
+                     ) -> FrameResult:
+    """:func:`reconstruct_frame` by ``reconstruction.method: multiview`` (:mod:`tendrilkit.multiview`)."""
+    from tendrilkit.evidence import view_evidence
+    from tendrilkit.multiview import base_point_from_marks, distance_table, reconstruct_multiview
+    from tendrilkit.mv_evidence import skeleton_evidence
+    from tendrilkit.verify import Thresholds, image_check_messages, verify_curve
+
+    V = len(cameras)
+    read_errors = list(read_errors) if read_errors is not None else [None] * V
+    seg_opts, _ = _options(exp)
+    t_s = frame / exp.fps
+    timings: dict[str, float] = {}
+    notes: list[str] = []
+    views: list = [None] * V  # tendrilkit.evidence per view (also what the verification reads)
+    evidence: list = [None] * V
+    t0 = time.perf_counter()
+    for v in range(V):
+        if images[v] is None:
+            notes.append(f"view {v + 1}: {read_errors[v] or 'no image'}")
+            continue
+        m = exp.views[v]
+        try:
+            views[v] = view_evidence(images[v], roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, **seg_opts)
+            evidence[v] = skeleton_evidence(views[v], cameras[v])
+        except FrameError as e:
+            notes.append(f"view {v + 1}: {type(e).__name__}: {e}")
+        except _NUMERICAL_ERRORS as e:
+            notes.append(f"view {v + 1}: unexpected {type(e).__name__} in the evidence: {e}")
+    timings["evidence"] = time.perf_counter() - t0
+    used = [v for v in range(V) if evidence[v] is not None]
+    try:
+        if len(used) < 2:
+            raise DegenerateCurveError("fewer than two views have evidence of the tendril")
+        t0 = time.perf_counter()
+        B = base_point_from_marks([m.base_point for m in exp.views], cameras, max_px=exp.correspondence.max_distance_px)
+        mv = reconstruct_multiview([evidence[v] for v in used], B, previous_mm=previous_mm,
+                                   segment_mm=exp.reconstruction.segment_mm)
+        timings["multiview"] = time.perf_counter() - t0
+        if mv.note:
+            notes.append(mv.note)
+        points = resample_curve(mv.nodes_mm, exp.points)
+        q: dict = {c: None for c in quality_columns(V)}
+        q["views_used"] = len(used)
+        q["base_extended"] = True
+        q["length_mm"] = float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
+        rows = distance_table(points, evidence)
+        for row in rows:
+            if row["section"] == "entire":
+                for k_ in ("mean", "std", "max"):
+                    q[f"reproj_{k_}_px_v{row['view']}"] = row[f"{k_}_px"]
+        pwc, pwc_segments, pwc_row = _shape_and_fit(points, q, notes, exp, frame, t_s, fit, timings)
+        t0 = time.perf_counter()
+        th = Thresholds.from_params(exp.verification)
+        q.update(verify_curve(points, cameras, views, tolerance_px=th.tolerance_px,
+                              coverage_tolerance_px=th.coverage_tolerance_px))
+        checks = image_check_messages(q, V, th)
+        timings["verify"] = time.perf_counter() - t0
+    except FrameError as e:
+        return FrameResult(frame=frame, time_s=t_s, status="failed", message="; ".join(notes + [f"{type(e).__name__}: {e}"]),
+                           timings=timings)
+    except _NUMERICAL_ERRORS as e:
+        return FrameResult(frame=frame, time_s=t_s, status="failed",
+                           message="; ".join(notes + [f"unexpected {type(e).__name__}: {e}"]), timings=timings)
+    return FrameResult(frame=frame, time_s=t_s, status="doubtful" if checks else "ok", message="; ".join(checks + notes),
+                       points_mm=points, pwc_mm=pwc, quality=q, reprojection=_plain(rows), timings=timings,
+                       pwc_segments=_plain(pwc_segments), pwc_metrics=_plain([pwc_row] if pwc_row else []),
+                       checks=checks)
 
 
 def _plain(rows: list[dict]) -> list[dict]:
@@ -801,9 +893,17 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
             runs[-1].append(f)
         else:
             runs.append([f])
-    chunks = [c for r in runs for c in _chunks(r, workers)]
+    multiview = exp.reconstruction.method == "multiview"
+    if multiview:  # fixed chunks (acquired afresh at each start): the same results for any number of workers
+        size = exp.reconstruction.chunk_frames
+        chunks = [[f for f in r if pos[f] // size == k] for r in runs for k in sorted({pos[f] // size for f in r})]
+    else:
+        chunks = [c for r in runs for c in _chunks(r, workers)]
 
-    def state_before(f: int) -> list:
+    def state_before(f: int):
+        if multiview:  # the previous frame's curve within the chunk (done frames: a resumed run)
+            i = pos[f]
+            return None if i % exp.reconstruction.chunk_frames == 0 else _next_curve(done[frames[i - 1]])
         st: list = [None] * V
         for g in frames[: pos[f]]:
             st = _next_state(st, done[g])
@@ -823,10 +923,13 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         else:
             ctx = mp.get_context("spawn")
         with ctx.Pool(workers, initializer=_worker_init) as pool, _Sources(exp) as sources:
-            jobs = pool.imap(_run_chunk, [(c, [None] * V, exp, cameras, fit) for c in chunks])
+            if multiview:
+                jobs = pool.imap(_run_chunk, [(c, state_before(c[0]), exp, cameras, fit) for c in chunks])
+            else:
+                jobs = pool.imap(_run_chunk, [(c, [None] * V, exp, cameras, fit) for c in chunks])
             for chunk, results in zip(chunks, jobs):
-                state = state_before(chunk[0])
-                if not _speculation_holds(state, results[0], exp, sources):
+                state = state_before(chunk[0]) if not multiview else None
+                if not multiview and not _speculation_holds(state, results[0], exp, sources):
                     # recompute from the true state until both chains carry the same tracking state:
                     # from there on the speculative results had the same inputs
                     spec_states, st = [], [None] * V
@@ -942,16 +1045,30 @@ def _fit_defaults(points_mm: np.ndarray) -> None:
     fit_piecewise_clothoid(points_mm)
 
 
+def _next_curve(res: FrameResult) -> np.ndarray | None:
+    """Multiview tracking state after a frame: its curve if it is ``ok``, else None (acquire)."""
+    return res.points_mm if res.status == "ok" else None
+
+
 def _iter_chunk(frames, state, exp, cameras, fit):
-    """Process consecutive frames from a tracking state, yielding each frame as it finishes."""
+    """Process consecutive frames from a tracking state, yielding each frame as it finishes.
+
+    The state is the previous frame's centroids per view (chain) or curve (multiview).
+    """
     from tendrilkit.io import open_views
 
+    multiview = exp.reconstruction.method == "multiview"
     sources = open_views(list(exp.videos))
     try:
         for f in frames:
             images, errors = _read_views(sources, f)
-            res = reconstruct_frame(images, cameras, exp, frame=f, prev_centroids=state, read_errors=errors, fit=fit)
-            state = _next_state(state, res)
+            if multiview:
+                res = reconstruct_frame(images, cameras, exp, frame=f, previous_mm=state, read_errors=errors, fit=fit)
+                state = _next_curve(res)
+            else:
+                res = reconstruct_frame(images, cameras, exp, frame=f, prev_centroids=state, read_errors=errors,
+                                        fit=fit)
+                state = _next_state(state, res)
             yield res
     finally:
         for s in sources:

@@ -870,6 +870,57 @@ def plot_marks(image_bgr: np.ndarray, *, roi: Sequence[float] | None, keep_out: 
     return fig
 
 
+@_styled
+def plot_multiview_decision(evidence: Sequence, result, *, truth_mm: np.ndarray | None = None,
+                            title: str | None = None) -> Figure:
+    """How ``reconstruction.method: multiview`` decided a frame: every view's evidence and the 3D curves tried.
+
+    Parameters
+    ----------
+    evidence : list of tendrilkit.mv_evidence.SkeletonEvidence
+        The views' evidence (foreground grey, skeleton black).
+    result : tendrilkit.multiview.MultiviewResult
+        Made with ``keep_candidates=True``: each candidate curve (tracked
+        from the previous frame: orange dashed; acquired from the base: blue
+        dotted) and the curve kept (cyan) are projected into every view; the
+        titles give each view's precision and coverage of the kept curve (a
+        view whose skeleton crosses itself is ambiguous alone; the curve is
+        the one all views explain).
+    truth_mm : (n, 3) float array, optional
+        The true centreline (phantoms), green.
+    """
+    n = len(evidence)
+    fig = Figure(figsize=(4.2 * n, 4.6), layout="constrained")
+    styles = {"tracked": dict(color="tab:orange", ls="--", lw=1.0), "acquired": dict(color="tab:blue", ls=":", lw=1.2)}
+    for v, ev in enumerate(evidence):
+        ax = fig.add_subplot(1, n, v + 1)
+        h, w = ev.foreground.shape
+        x0, y0 = ev.offset_xy
+        ax.imshow(np.where(ev.foreground, 0.75, 1.0), cmap="gray", vmin=0, vmax=1, interpolation="nearest",
+                  extent=(x0 - 0.5, x0 + w - 0.5, y0 + h - 0.5, y0 - 0.5))
+        sk = ev.skeleton_xy
+        ax.plot(sk[:, 0], sk[:, 1], ",", color="black")
+        for c in result.candidates:
+            u = ev.camera.project(c["nodes_mm"])
+            ax.plot(u[:, 0], u[:, 1], label=f"{c['mode']} (score {c['score']:.2f})", **styles.get(c["mode"], {}))
+        u = ev.camera.project(result.nodes_mm)
+        ax.plot(u[:, 0], u[:, 1], color="cyan", lw=1.6, alpha=0.8, label=f"kept: {result.mode}")
+        ax.plot(u[:1, 0], u[:1, 1], "*", color="yellow", mec="black", ms=10)
+        if truth_mm is not None:
+            t = ev.camera.project(np.asarray(truth_mm, float))
+            ax.plot(t[:, 0], t[:, 1], color="green", lw=0.8, label="truth")
+        ax.set_xlim(x0 - 0.5, x0 + w - 0.5)
+        ax.set_ylim(y0 + h - 0.5, y0 - 0.5)
+        ax.set_aspect("equal")
+        ax.grid(False)
+        ax.set_title(f"view {v + 1}: precision {result.precision[v]:.2f}, coverage {result.coverage[v]:.2f}")
+        if v == 0:
+            ax.legend(loc="lower left", frameon=True)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
 # ------------------------------------------------------------------ quality control (tendrilkit.verify)
 STATUS_COLORS = {"ok": OKABE_ITO["green"], "doubtful": OKABE_ITO["orange"], "failed": OKABE_ITO["vermillion"]}
 

@@ -1,0 +1,464 @@
+"""Multi-view tracked reconstruction: one 3D curve that every view agrees on, frame after frame.
+
+``reconstruction: {method: multiview}`` (the other method, ``chain``, orders
+each view on its own and then matches and triangulates the 2D curves).
+
+Model
+    The centreline is a chain of nodes :math:`X_0 \\dots X_M` (world mm)
+    about ``segment_mm`` apart, :math:`X_0` at the base point triangulated
+    from the marks.
+
+Objective (:func:`refine_curve`)
+    Gauss-Newton on
+
+    .. math::
+
+        \\sum_v \\sum_i w_{vi}\\, D_v(\\pi_v(X_i))^2
+        + w_l^2 \\sum_i (\\lVert X_{i+1} - X_i \\rVert - \\ell)^2
+        + w_b^2 \\sum_i \\lVert X_{i-1} - 2 X_i + X_{i+1} \\rVert^2
+        + w_0^2 \\lVert X_0 - B \\rVert^2
+
+    with :math:`D_v` the distance (pixels, bilinear) to view ``v``'s skeleton
+    (:mod:`tendrilkit.mv_evidence`), :math:`w_{vi}` Huber weights, zero where
+    the view does not see the node (keep-out box, outside its ROI) or the
+    node is farther than a cap from any skeleton (occluded or merged there:
+    that part rests on the other views). The bending term interpolates what
+    no view sees (the first millimetres in the keep-out box); it barely
+    biases a smooth curve (its normal equations act as a fourth difference).
+
+Coverage (:func:`adjust_tip`)
+    The tip is moved outward, 0.5 mm at a time, while two views or more see
+    the extension on their skeletons, and back while the tip is not on the
+    skeleton of at least two views: the curve explains the tendril's pixels
+    from the base outward and can neither shrink nor run on.
+
+Tracking (:func:`reconstruct_multiview`)
+    A frame starts from the previous frame's curve (identity carried in 3D).
+    The result is checked on every view: precision (nodes on the skeleton)
+    and coverage (skeleton pixels of the touched components explained). When
+    there is no previous curve, or the check fails, the curve is acquired
+    from the base (:func:`tendrilkit.mv_acquire.grow_curve`) and the better
+    of the two is kept.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+from scipy.linalg import solveh_banded
+
+from tendrilkit.camera import Camera
+from tendrilkit.correspondence import resample_by_arclength
+from tendrilkit.exceptions import DegenerateCurveError, TendrilLostError
+from tendrilkit.mv_acquire import ON_PX, advance, claim, cone_directions, grow_curve, point_costs
+from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
+from tendrilkit.triangulation import triangulate
+
+__all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "reconstruct_multiview",
+           "base_point_from_marks", "distance_table"]
+
+
+
+@dataclass(frozen=True, eq=False)
+class MultiviewResult:
+    """The multi-view curve of one frame.
+
+    Attributes
+    ----------
+    nodes_mm : (m, 3) float array
+        The curve's nodes, base first, about ``segment_mm`` apart, world mm.
+    mode : str
+        ``tracked`` (from the previous frame's curve) or ``acquired``.
+    precision : (V,) float array
+        Per view, fraction of the nodes the view sees that lie within
+        ``ON_PX`` of its skeleton (NaN: the view sees none).
+    coverage : (V,) float array
+        Per view, fraction of the skeleton pixels of the components the
+        projection touches that lie within 3 px of the projected curve.
+    note : str
+        Why the frame was acquired afresh, if it was.
+    candidates : list of dict
+        The curves considered (``mode``, ``precision``, ``coverage``,
+        ``score``, ``nodes_mm``), for the notebooks' figures.
+    """
+
+    nodes_mm: np.ndarray
+    mode: str
+    precision: np.ndarray
+    coverage: np.ndarray
+    note: str = ""
+    candidates: list = field(default_factory=list)
+
+
+def base_point_from_marks(base_points_xy: list, cameras: list[Camera], *, max_px: float) -> np.ndarray:
+    """The base point (3,) mm triangulated from every view's ``base_point`` mark.
+
+    Raises
+    ------
+    DegenerateCurveError
+        The marks do not triangulate to one point within ``max_px``.
+    """
+    tri = triangulate(np.array([[p] for p in base_points_xy], float), cameras)
+    B = tri.points_mm[0]
+    if not np.all(np.isfinite(B)) or np.nanmax(tri.reproj_err_px) > max_px:
+        raise DegenerateCurveError(f"the base_point marks do not agree (reprojection "
+                                   f"{np.nanmax(tri.reproj_err_px):.1f} px > {max_px} px)")
+    return B
+
+
+def _proj_jac(cam: Camera, X: np.ndarray, h: float = 1e-3):
+    u = cam.project(X)
+    J = np.empty((len(X), 2, 3))
+    for a in range(3):
+        Xh = X.copy()
+        Xh[:, a] += h
+        J[:, :, a] = (cam.project(Xh) - u) / h
+    return u, J
+
+
+def _bending_blocks(n: int) -> np.ndarray:
+    """(D2^T D2) of the second difference on ``n`` nodes as banded upper rows (3, n) (bandwidth 2)."""
+    D = np.zeros((n, n))
+    for i in range(1, n - 1):
+        D[i - 1:i + 2, i - 1:i + 2] += np.outer([1, -2, 1], [1, -2, 1])
+    return np.stack([np.r_[np.zeros(2), np.diagonal(D, 2)], np.r_[0.0, np.diagonal(D, 1)], np.diagonal(D)])
+
+
+def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm: np.ndarray, segment_mm: float,
+                 iterations: int = 20, bend_weight: float = 20.0, length_weight: float = 30.0,
+                 base_weight: float = 3.0, huber_px: float = 1.5, cap_px: tuple[float, float] = (25.0, 8.0)
+                 ) -> np.ndarray:
+    """Gauss-Newton fit of the node chain to every view's distance field (see the module's Objective).
+
+    Parameters
+    ----------
+    X0_mm : (m, 3) float array
+        Start nodes, base first.
+    evidence : list of SkeletonEvidence
+    base_mm : (3,) float array
+    segment_mm : float
+        Rest length of a segment, mm.
+    iterations : int
+    bend_weight, length_weight, base_weight : float
+        :math:`w_b, w_l, w_0`, pixels per mm.
+    huber_px : float
+        Huber threshold of the image residuals.
+    cap_px : (float, float)
+        Nodes farther than the cap from a view's skeleton are ignored in
+        that view; the cap shrinks from the first value to the second.
+
+    Returns
+    -------
+    (m, 3) float array
+    """
+    X = np.array(X0_mm, float)
+    n = len(X)
+    if n < 3:
+        return X
+    N = 3 * n
+    bend = _bending_blocks(n) * bend_weight ** 2
+    B = np.asarray(base_mm, float)
+    for it in range(iterations):
+        cap = max(cap_px[1], cap_px[0] * 0.75 ** it)
+        Hd = np.zeros((n, 3, 3))
+        g = np.zeros((n, 3))
+        for ev in evidence:
+            u, J = _proj_jac(ev.camera, X)
+            d, gd, seen = skeleton_distance(ev, u, outside_px=1e3)
+            w = np.where(d <= huber_px, 1.0, huber_px / np.maximum(d, 1e-9)) * (seen & (d <= cap))
+            row = np.einsum("ka,kai->ki", gd, J)
+            Hd += w[:, None, None] * np.einsum("ki,kj->kij", row, row)
+            g += (w * d)[:, None] * row
+        # base anchor
+        Hd[0] += base_weight ** 2 * np.eye(3)
+        g[0] += base_weight ** 2 * (X[0] - B)
+        # segment lengths
+        e = np.diff(X, axis=0)
+        L = np.linalg.norm(e, axis=1)
+        t = e / np.maximum(L, 1e-9)[:, None]
+        r = L - segment_mm
+        tt = length_weight ** 2 * np.einsum("ki,kj->kij", t, t)
+        Hd[:-1] += tt
+        Hd[1:] += tt
+        g[:-1] -= length_weight ** 2 * r[:, None] * t
+        g[1:] += length_weight ** 2 * r[:, None] * t
+        # banded (upper) normal matrix: bandwidth 8 = 2 nodes of 3 coordinates + 2
+        ab = np.zeros((9, N))
+        for a in range(3):
+            for b in range(a, 3):
+                ab[8 - (b - a), 3 * np.arange(n) + b] += Hd[:, a, b]
+            for b in range(3):  # the length blocks between node i and i+1: -tt
+                off = 3 + b - a
+                ab[8 - off, 3 * np.arange(1, n) + b] -= tt[:, a, b]
+        for k in range(3):  # bending: (D2^T D2) kron I3, node offsets 0, 1, 2 -> scalar offsets 0, 3, 6
+            ab[8 - 3 * k, :] += np.repeat(bend[2 - k], 3)
+        g += (bend[2][:, None] * X)
+        g[:-1] += bend[1][1:, None] * X[1:]
+        g[1:] += bend[1][1:, None] * X[:-1]
+        g[:-2] += bend[0][2:, None] * X[2:]
+        g[2:] += bend[0][2:, None] * X[:-2]
+        ab[8] += 1e-3 * ab[8].max() * 1e-3 + 1e-6
+        ab[8] *= 1.0 + 1e-3
+        try:
+            step = -solveh_banded(ab, g.ravel(), check_finite=False).reshape(n, 3)
+        except np.linalg.LinAlgError:
+            break
+        big = np.max(np.linalg.norm(step, axis=1))
+        if big > 1.0:
+            step *= 1.0 / big
+        X = X + step
+        if big < 5e-3:
+            break
+    return X
+
+
+def _support(evidence, P):
+    d, seen = point_costs(evidence, P)
+    on = seen & (d <= ON_PX)
+    return d, seen, on
+
+
+def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: float = 0.5,
+               max_extend_mm: float = 60.0) -> np.ndarray:
+    """Move the tip to where the views' evidence ends (extend, then trim), base kept.
+
+    Parameters
+    ----------
+    X_mm : (m, 3) float array
+        Nodes, base first.
+    evidence : list of SkeletonEvidence
+    step_mm : float
+    max_extend_mm : float
+
+    Returns
+    -------
+    (k, 3) float array
+        Nodes ending at the new tip (spacing of the input up to the tip;
+        the caller resamples).
+    """
+    X = [np.asarray(p, float) for p in _trim(np.asarray(X_mm, float), evidence)]
+    ext = []
+    tip = X[-1]
+    t = X[-1] - X[max(len(X) - 1 - max(int(round(2.0 / max(np.linalg.norm(X[-1] - X[-2]), 1e-6))), 1), 0)]
+    t = t / max(np.linalg.norm(t), 1e-9)
+    # what the curve explains already, but its last 3 mm: the extension must explain new pixels
+    Xa = np.asarray(X)
+    s_ = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(Xa, axis=0), axis=1))]
+    body = Xa[s_ <= s_[-1] - 3.0]
+    claims = claim(evidence, None, _densify(body, 0.25)) if len(body) >= 2 else None
+    lag = int(round(3.0 / step_mm))
+    for _ in range(int(max_extend_mm / step_mm)):
+        dirs = cone_directions(t, 30.0, 3)
+        P = tip + step_mm * dirs
+        d, seen, near, bg = point_costs(evidence, P, nearest=True)
+        on = seen & (d <= ON_PX) & ~bg.any(axis=0)
+        if claims is not None:
+            for v, c in enumerate(claims):
+                on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
+        on &= advance(evidence, np.repeat(tip[None], len(P), axis=0), P)
+        ok = on.sum(axis=0) >= 2
+        if not ok.any():
+            break
+        cost = np.where(ok, (d * seen).sum(0) / np.maximum(seen.sum(0), 1), np.inf)
+        i = int(np.argmin(cost))
+        tip = P[i]
+        t = 0.7 * t + 0.3 * dirs[i]
+        t /= np.linalg.norm(t)
+        ext.append(tip)
+        if len(ext) > lag:
+            claims = claim(evidence, claims, np.asarray(ext[-lag - 2:-lag]))
+    return np.asarray(X + ext, float)
+
+
+def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.5, radius_px: float = 4.0
+          ) -> np.ndarray:
+    """The curve up to its last node that two views see on skeleton pixels the curve had not explained yet.
+
+    A node's nearest skeleton pixel is explained already when the projection of the curve at least
+    ``lag_mm`` before the node passed within ``radius_px`` of it.
+    """
+    from scipy.spatial import cKDTree
+
+    s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
+    d, seen, near, bg = point_costs(evidence, X, nearest=True)
+    on = seen & (d <= ON_PX)
+    on[:, 1:] &= advance(evidence, X[:-1], X[1:])
+    on &= ~bg.any(axis=0)  # a view showing the board there contradicts the node
+    n_dense = max(int(np.ceil(s[-1] / 0.25)) + 1, 2)
+    dense = resample_by_arclength(X, n_dense)
+    s_dense = np.linspace(0.0, s[-1], n_dense)
+    for v, ev in enumerate(evidence):
+        ok = on[v] & (near[v] >= 0)
+        if not ok.any():
+            continue
+        tree = cKDTree(ev.camera.project(dense))
+        for i, lst in zip(np.flatnonzero(ok), tree.query_ball_point(ev.skeleton_xy[near[v, ok]], radius_px)):
+            if lst and s_dense[min(lst)] <= s[i] - lag_mm:
+                on[v, i] = False
+    good = np.flatnonzero(on.sum(axis=0) >= 2)
+    last = int(good[-1]) if len(good) else 2
+    return X[:max(last + 1, 3)]
+
+
+def _densify(X: np.ndarray, spacing_mm: float) -> np.ndarray:
+    L = float(np.linalg.norm(np.diff(X, axis=0), axis=1).sum())
+    return resample_by_arclength(X, max(int(np.ceil(L / spacing_mm)) + 1, 2))
+
+
+def _resample(X: np.ndarray, segment_mm: float) -> np.ndarray:
+    L = float(np.linalg.norm(np.diff(X, axis=0), axis=1).sum())
+    n = max(int(round(L / segment_mm)) + 1, 3)
+    return resample_by_arclength(X, n)
+
+
+def _length(X: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(X, axis=0), axis=1).sum())
+
+
+def _segment(X: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(X, axis=0), axis=1).mean())
+
+
+def curve_support(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, tol_px: float = 3.0):
+    """Precision and coverage per view of a curve (see :class:`MultiviewResult`).
+
+    Returns
+    -------
+    precision, coverage : (V,) float arrays
+    """
+    Xd = resample_by_arclength(X_mm, max(int(np.linalg.norm(np.diff(X_mm, axis=0), axis=1).sum() / 0.5), 4))
+    d, seen = point_costs(evidence, Xd)
+    prec = np.full(len(evidence), np.nan)
+    cov = np.full(len(evidence), np.nan)
+    for v, ev in enumerate(evidence):
+        if seen[v].sum() >= 3:
+            prec[v] = float(np.mean(d[v][seen[v]] <= tol_px))
+        u = ev.camera.project(Xd) - ev.offset_xy
+        drawn = np.zeros(ev.skeleton.shape, np.uint8)
+        pts = np.round(u[np.all(np.isfinite(u), axis=1)] * 4).astype(np.int32)
+        cv2.polylines(drawn, [pts], False, 1, int(2 * tol_px + 1), cv2.LINE_8, 2)
+        skel = ev.skeleton.astype(np.uint8)
+        n, lab = cv2.connectedComponents(skel, connectivity=8)
+        near = (drawn > 0) & (skel > 0)
+        touched = np.unique(lab[near])
+        touched = touched[touched > 0]
+        if len(touched) == 0:
+            cov[v] = 0.0 if seen[v].any() else np.nan
+            continue
+        comp = np.isin(lab, touched) & ev.seen
+        cov[v] = float(np.count_nonzero(near & ev.seen) / max(np.count_nonzero(comp), 1))
+    return prec, cov
+
+
+def _score(prec: np.ndarray, cov: np.ndarray) -> float:
+    """Mean over the views that see the curve of precision x coverage."""
+    s = prec * cov
+    s = s[np.isfinite(s)]
+    return float(s.mean()) if s.size else 0.0
+
+
+def _fit(X0, evidence, B, segment_mm):
+    X = refine_curve(_resample(X0, segment_mm), evidence, base_mm=B, segment_mm=segment_mm)
+    X = adjust_tip(X, evidence)
+    X = _resample(X, segment_mm)
+    X = refine_curve(X, evidence, base_mm=B, segment_mm=_segment(X), cap_px=(8.0, 6.0), iterations=10, huber_px=3.0)
+    return X
+
+
+def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, previous_mm: np.ndarray | None = None,
+                          segment_mm: float = 1.0, min_score: float = 0.9, max_shrink: float = 0.08,
+                          keep_candidates: bool = False) -> MultiviewResult:
+    """The 3D curve of one frame from every view's evidence, tracked or acquired.
+
+    Parameters
+    ----------
+    evidence : list of SkeletonEvidence
+        Every usable view (at least two).
+    base_mm : (3,) float array
+        The base point, world mm.
+    previous_mm : (k, 3) float array, optional
+        The previous processed frame's curve, base first (tracking); None:
+        acquire.
+    segment_mm : float
+        Node spacing, mm.
+    max_shrink : float
+        A tracked curve shorter than the previous one by more than this
+        fraction is lost too (a tendril grows; it does not shrink by 8 %
+        between processed frames).
+    min_score : float
+        A tracked curve whose precision x coverage (mean over the views)
+        is below this, or below this less 0.1 in one view, is lost: the frame is acquired afresh too and the better
+        curve kept.
+    keep_candidates : bool
+        Keep every candidate's nodes in the result (figures).
+
+    Returns
+    -------
+    MultiviewResult
+
+    Raises
+    ------
+    TendrilLostError
+        Fewer than two views of evidence, or no curve that two views explain.
+    """
+    if len(evidence) < 2:
+        raise TendrilLostError(f"multiview needs the evidence of two views or more, got {len(evidence)}")
+    B = np.asarray(base_mm, float)
+    cands = []
+    note = ""
+    if previous_mm is not None and len(previous_mm) >= 3:
+        P = np.asarray(previous_mm, float)
+        P = P - P[0] + B  # the base does not move
+        X = _fit(P, evidence, B, segment_mm)
+        prec, cov = curve_support(X, evidence)
+        cands.append({"mode": "tracked", "nodes_mm": X, "precision": prec, "coverage": cov, "score": _score(prec, cov)})
+        worst = float(np.nanmin(prec * cov)) if np.any(np.isfinite(prec * cov)) else 0.0
+        shrink = _length(X) / max(_length(P), 1e-9)
+        if cands[-1]["score"] < min_score or worst < min_score - 0.1:
+            note = (f"tracking lost (precision x coverage {cands[-1]['score']:.2f}, worst view {worst:.2f}; "
+                    f"limits {min_score}, {min_score - 0.1:.1f}): acquired afresh")
+        elif shrink < 1.0 - max_shrink:
+            note = f"tracking lost (length {100 * (shrink - 1):.0f} % from the previous frame): acquired afresh"
+    if not cands or note:
+        G = grow_curve(evidence, B)
+        if len(G) < 3:
+            if not cands:
+                raise TendrilLostError("no curve from the base that two views explain")
+        else:
+            X = _fit(G, evidence, B, segment_mm)
+            prec, cov = curve_support(X, evidence)
+            cands.append({"mode": "acquired", "nodes_mm": X, "precision": prec, "coverage": cov,
+                          "score": _score(prec, cov)})
+    best = max(cands, key=lambda c: (round(c["score"], 3), _length(c["nodes_mm"])))  # ties: the longer, then tracked
+    length = float(np.linalg.norm(np.diff(best["nodes_mm"], axis=0), axis=1).sum())
+    if length < 5 * segment_mm:
+        raise TendrilLostError(f"the curve that two views explain is only {length:.1f} mm long")
+    keep = cands if keep_candidates else []
+    return MultiviewResult(nodes_mm=best["nodes_mm"], mode=best["mode"], precision=best["precision"],
+                           coverage=best["coverage"], note=note if best["mode"] == "acquired" else "", candidates=keep)
+
+
+def distance_table(points_mm: np.ndarray, evidence: list[SkeletonEvidence | None]) -> list[dict]:
+    """Table 1 rows against each view's skeleton pixels (views without evidence skipped).
+
+    Returns rows ``view, section, mean_px, std_px, max_px, n_points`` as
+    :func:`tendrilkit.triangulation.reprojection_table`, the distance being
+    that of each projected point to the nearest skeleton pixel of the view
+    (points the view does not see are left out).
+    """
+    X = np.asarray(points_mm, float)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))])
+    sec = {"base": s <= 0.25 * s[-1], "tip": s >= 0.75 * s[-1], "entire": np.ones(len(X), bool)}
+    rows = []
+    for v, ev in enumerate(evidence):
+        if ev is None:
+            continue
+        d, _, seen = skeleton_distance(ev, ev.camera.project(X))
+        for name in ("base", "tip", "entire"):
+            dd = d[sec[name] & seen]
+            rows.append({"view": v + 1, "section": name, "mean_px": float(dd.mean()) if dd.size else None,
+                         "std_px": float(dd.std()) if dd.size else None,
+                         "max_px": float(dd.max()) if dd.size else None, "n_points": int(dd.size)})
+    return rows

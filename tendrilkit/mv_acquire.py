@@ -1,0 +1,323 @@
+"""Acquisition of the tendril's 3D curve from the base outward, scored on every view at once.
+
+Used by :mod:`tendrilkit.multiview` on the first frame of a chunk and when
+tracking is lost. No view's 2D ordering is used: the curve is grown in 3D from
+the base point (triangulated from the marks) by a beam search,
+
+1. *seeds*: directions on a sphere around the base; each is scored by the
+   evidence of every view at 1-14 mm along it (the keep-out box hides the
+   first millimetres in every view); the best few, at least 15 degrees
+   apart, start a hypothesis each;
+2. *growth*: every hypothesis is extended by a step of ``step_mm`` in the
+   directions of a cone around its last direction; a step's cost is the mean
+   over the views that see its end of the distance (pixels) of the
+   projection to that view's skeleton, or a neutral cost where fewer than two
+   views see it (then the evidence a few steps further on the same direction
+   counts); bending and coming back within 1.2 mm of itself are penalised;
+3. the ``beam`` best hypotheses (score = sum of step costs minus a reward per
+   step, tips apart from each other) go on; a hypothesis with no acceptable
+   step ends; the best-scoring one (the longest curve that the views explain)
+   is the tendril.
+
+A stem stub between the ROI's edge and the keep-out box, or a leaf, ends
+after a few millimetres and loses against the tendril; a crossing in one view
+is decided by the others.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
+
+__all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance"]
+
+#: A point's distance to a view's skeleton is capped at this (pixels).
+CAP_PX = 10.0
+#: The cost of a step no two views see (pixels).
+NEUTRAL_PX = 2.5
+#: A point within this of a view's skeleton is on it (pixels).
+ON_PX = 2.5
+#: A step costing more than this is not taken (pixels).
+STOP_PX = 4.0
+
+
+def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: float = CAP_PX, nearest: bool = False):
+    """Distance to each view's skeleton of world points, and whether the view sees them.
+
+    Parameters
+    ----------
+    evidence : list of SkeletonEvidence
+    P_mm : (n, 3) float array
+    cap_px : float
+
+    Returns
+    -------
+    d : (V, n) float array
+        Capped distance, pixels.
+    seen : (V, n) bool array
+    nearest : (V, n) int array
+        With ``nearest``: the row of each view's ``skeleton_xy`` nearest the projection (-1: none).
+    background : (V, n) bool array
+        With ``nearest``: the view sees the place and shows the board there (it contradicts the point).
+    """
+    P = np.asarray(P_mm, float).reshape(-1, 3)
+    d = np.empty((len(evidence), len(P)))
+    seen = np.empty((len(evidence), len(P)), bool)
+    near = np.empty((len(evidence), len(P)), int)
+    bg = np.empty((len(evidence), len(P)), bool)
+    for v, ev in enumerate(evidence):
+        dv, _, sv, near[v], bg[v] = skeleton_distance(ev, ev.camera.project(P), outside_px=cap_px, index=True)
+        d[v] = np.minimum(dv, cap_px)
+        seen[v] = sv
+    return (d, seen, near, bg) if nearest else (d, seen)
+
+
+def advance(evidence: list[SkeletonEvidence], A_mm: np.ndarray, B_mm: np.ndarray, *, fraction: float = 0.3) -> np.ndarray:
+    """(V, n) whether the step from A to B (n, 3) moves in each image by ``fraction`` of its length seen face-on.
+
+    A step along a view's line of sight moves its projection little: that view
+    cannot confirm it (a curve running in depth where no view can see it).
+    """
+    A = np.asarray(A_mm, float).reshape(-1, 3)
+    Bp = np.asarray(B_mm, float).reshape(-1, 3)
+    L = np.linalg.norm(Bp - A, axis=1)
+    out = np.empty((len(evidence), len(A)), bool)
+    for v, ev in enumerate(evidence):
+        cam = ev.camera
+        z = Bp @ cam.R[2] + cam.t_mm[2]
+        px = np.linalg.norm(cam.project(Bp) - cam.project(A), axis=1)
+        out[v] = px >= fraction * L * cam.K[0, 0] / np.maximum(z, 1e-9)
+    return out
+
+
+def _mean_seen(d: np.ndarray, seen: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    n = seen.sum(axis=0)
+    m = np.where(n > 0, (d * seen).sum(axis=0) / np.maximum(n, 1), NEUTRAL_PX)
+    return m, n
+
+
+def cone_directions(axis: np.ndarray, max_deg: float, rings: int = 4) -> np.ndarray:
+    """Unit vectors (m, 3) on a cone of half-angle ``max_deg`` around ``axis`` (the axis first)."""
+    a = np.asarray(axis, float)
+    a = a / np.linalg.norm(a)
+    p = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    p /= np.linalg.norm(p)
+    q = np.cross(a, p)
+    out = [a]
+    for k in range(1, rings + 1):
+        th = np.radians(max_deg * k / rings)
+        n_az = max(6, int(round(2 * np.pi * np.sin(th) / np.radians(max_deg / rings))))
+        az = 2 * np.pi * (np.arange(n_az) + 0.5 * (k % 2)) / n_az
+        out.append(np.cos(th) * a + np.sin(th) * (np.cos(az)[:, None] * p + np.sin(az)[:, None] * q))
+    return np.vstack(out)
+
+
+def _local_cone(max_deg: float, rings: int = 4) -> np.ndarray:
+    return cone_directions(np.array([0.0, 0.0, 1.0]), max_deg, rings)
+
+
+def _frames(axes: np.ndarray) -> np.ndarray:
+    """Rotations (h, 3, 3) taking +z to each unit axis (h, 3)."""
+    a = axes / np.linalg.norm(axes, axis=1, keepdims=True)
+    ref = np.where(np.abs(a[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    p = np.cross(a, ref)
+    p /= np.linalg.norm(p, axis=1, keepdims=True)
+    q = np.cross(a, p)
+    return np.stack([p, q, a], axis=2)
+
+
+def claim(evidence: list[SkeletonEvidence], claims: list[np.ndarray] | None, P_mm: np.ndarray, *,
+          radius_px: float = 4.0) -> list[np.ndarray]:
+    """Skeleton pixels a curve explains: per view, a bool per row of ``skeleton_xy``.
+
+    Parameters
+    ----------
+    evidence : list of SkeletonEvidence
+    claims : list of (k_v,) bool arrays or None
+        Pixels already claimed (copied, not changed); None: none.
+    P_mm : (n, 3) float array
+        Points of the curve, dense enough (spacing under ``radius_px`` in the images).
+    radius_px : float
+
+    Returns
+    -------
+    list of (k_v,) bool arrays
+    """
+    if claims is None:
+        claims = [np.zeros(len(ev.skeleton_xy), bool) for ev in evidence]
+    out = []
+    P = np.asarray(P_mm, float).reshape(-1, 3)
+    for ev, c in zip(evidence, claims):
+        c = c.copy()
+        u = ev.camera.project(P)
+        for idx in ev.tree.query_ball_point(u, radius_px):
+            c[idx] = True
+        out.append(c)
+    return out
+
+
+def _sphere(n: int) -> np.ndarray:
+    i = np.arange(n) + 0.5
+    phi = np.arccos(1 - 2 * i / n)
+    th = np.pi * (1 + 5 ** 0.5) * i
+    return np.c_[np.cos(th) * np.sin(phi), np.sin(th) * np.sin(phi), np.cos(phi)]
+
+
+def _seeds(evidence, base_mm, n_seeds: int) -> np.ndarray:
+    dirs = _sphere(400)
+    r = np.arange(1.0, 15.0)
+    P = base_mm + (dirs[:, None, :] * r[None, :, None]).reshape(-1, 3)
+    d, seen = point_costs(evidence, P)
+    m, n = _mean_seen(d, seen)
+    c = np.where(n >= 2, m, NEUTRAL_PX).reshape(len(dirs), len(r)) - NEUTRAL_PX
+    score = c.sum(axis=1)
+    order = np.argsort(score, kind="stable")
+    chosen: list[int] = []
+    for i in order:
+        if score[i] >= 0:
+            break
+        if all(dirs[i] @ dirs[j] < np.cos(np.radians(15)) for j in chosen):
+            chosen.append(int(i))
+        if len(chosen) == n_seeds:
+            break
+    return dirs[chosen]
+
+
+def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm: float = 2.0, beam: int = 8,
+               n_seeds: int = 6, cone_deg: float = 40.0, max_length_mm: float = 400.0,
+               max_unseen_steps: int = 6) -> np.ndarray:
+    """Grow the tendril's 3D curve from the base by a beam search on every view's evidence.
+
+    Parameters
+    ----------
+    evidence : list of SkeletonEvidence
+        Every usable view (two or more).
+    base_mm : (3,) float array
+        The base point, world mm.
+    step_mm : float
+        Length of a growth step, mm.
+    beam : int
+        Hypotheses kept after every step.
+    n_seeds : int
+        Starting directions.
+    cone_deg : float
+        Largest turn per step, degrees.
+    max_length_mm : float
+    max_unseen_steps : int
+        Consecutive steps that fewer than two views see (keep-out box,
+        occlusion) before a hypothesis ends; three times as many steps
+        that the views see on pixels the curve explained already (passes
+        running over each other in two views).
+
+    Returns
+    -------
+    (m, 3) float array
+        The best hypothesis's nodes, ``step_mm`` apart, base first (at least
+        the base and one step; trailing unseen steps removed).
+    """
+    B = np.asarray(base_mm, float)
+    seeds = _seeds(evidence, B, n_seeds)
+    if len(seeds) == 0:
+        return np.vstack([B, B])  # nothing any two views agree on
+    # a hypothesis: (nodes list, score, unconfirmed tail, last direction, claims, blind tail)
+    none = [np.zeros(len(ev.skeleton_xy), bool) for ev in evidence]
+    hyps = [([B], 0.0, 0, d, none, 0) for d in seeds]
+    finished: list[tuple[list, float, int]] = []
+    look = np.array([2.0, 3.0, 4.0])
+    cone = _local_cone(cone_deg, 3)
+    narrow = _local_cone(20.0, 2)
+    for _ in range(int(max_length_mm / step_mm)):
+        first = len(hyps[0][0]) == 1
+        local = narrow if first else cone
+        lasts = np.array([h[3] for h in hyps])
+        dirs = np.einsum("hij,cj->hci", _frames(lasts), local).reshape(-1, 3)
+        own = np.repeat(np.arange(len(hyps)), len(local))
+        tips_h = np.array([h[0][-1] for h in hyps])
+        pts = tips_h[own] + step_mm * dirs
+        N = len(pts)
+        mids = pts - 0.5 * step_mm * dirs
+        d, seen, near, bg = point_costs(evidence, np.vstack([pts, mids]), nearest=True)
+        m, n = _mean_seen(d, seen)
+        m_end, n_end = m[:N], n[:N]
+        m_mid, n_mid = m[N:], n[N:]
+        vis = (n_end >= 2) & (n_mid >= 2)
+        # new evidence: on a view's skeleton at a pixel this hypothesis has not explained already
+        claimed = np.zeros((len(evidence), N), bool)
+        for v in range(len(evidence)):
+            cl = np.array([h[4][v] for h in hyps])  # (H, n_skeleton_v)
+            i = near[v, :N]
+            claimed[v] = (i >= 0) & cl[own, np.maximum(i, 0)]
+        new = seen[:, :N] & (d[:, :N] <= ON_PX) & ~claimed & advance(evidence, tips_h[own], pts)
+        contradicted = bg[:, :N].any(axis=0) | bg[:, N:].any(axis=0)
+        confirmed = vis & (new.sum(axis=0) >= 2) & ~contradicted
+        cost = np.where(confirmed, 0.5 * (m_end + m_mid), np.maximum(0.5 * (m_end + m_mid), NEUTRAL_PX))
+        blind = ~vis
+        if blind.any():  # fewer than two views see it: the evidence further along the direction
+            ahead = pts[blind][:, None, :] + step_mm * (look[None, :, None] - 1) * dirs[blind][:, None, :]
+            da, sa = point_costs(evidence, ahead.reshape(-1, 3))
+            ma, na = _mean_seen(da, sa)
+            cost[blind] = 0.5 * (NEUTRAL_PX + np.where(na >= 2, ma, NEUTRAL_PX).reshape(-1, len(look)).mean(axis=1))
+        if not first:  # bending
+            turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1)))
+            cost = cost + 0.5 * (turn / cone_deg) ** 2
+        for h, (nodes, *_) in enumerate(hyps):  # self-avoidance
+            if len(nodes) > 6:
+                old = np.asarray(nodes[:-5])
+                sel = slice(h * len(local), (h + 1) * len(local))
+                dd = np.min(np.linalg.norm(pts[sel][:, None, :] - old[None], axis=2), axis=1)
+                cost[sel] += np.where(dd < 1.2, 5.0, 0.0)
+        tail = np.where(confirmed, 0, np.array([h[2] for h in hyps])[own] + 1)
+        # steps no two views see (keep-out box, occlusion): at most max_unseen_steps in a row; steps the views
+        # see on pixels the curve explained already (passes over each other in two views): three times more
+        blind_tail = np.where(confirmed | vis, 0, np.array([h[5] for h in hyps])[own] + 1)
+        ok = ((cost <= STOP_PX) & (blind_tail <= max_unseen_steps) & (tail <= 3 * max_unseen_steps)
+              & ~contradicted)
+        score = np.array([h[1] for h in hyps])[own] + cost - NEUTRAL_PX
+        has = np.bincount(own[ok], minlength=len(hyps)) > 0
+        finished.extend(hyps[h][:3] for h in np.flatnonzero(~has))
+        idx = np.flatnonzero(ok)
+        idx = idx[np.argsort(score[idx], kind="stable")]
+        # diversity: one hypothesis per cell of 1.5 steps (the best), at most two children per parent,
+        # so that the branches of a crossing both stay in the beam
+        cell = np.floor(pts[idx] / (1.5 * step_mm)).astype(np.int64)
+        _, first_in_cell = np.unique(cell, axis=0, return_index=True)
+        idx = idx[np.sort(first_in_cell)]
+        kept, per_parent = [], np.zeros(len(hyps), int)
+        for i in idx:
+            if per_parent[own[i]] < 2:
+                kept.append(i)
+                per_parent[own[i]] += 1
+                if len(kept) == beam:
+                    break
+        idx = np.asarray(kept, int)
+        # claim what each kept hypothesis explained two steps back (all at once: one projection per view)
+        parents = [hyps[own[i]] for i in idx]
+        grown = [k for k, h in enumerate(parents) if len(h[0]) >= 3]
+        claims = [h[4] for h in parents]
+        if grown:
+            f = np.linspace(0, 1, 5)[:, None]
+            P = np.vstack([parents[k][0][-3] + f * (parents[k][0][-2] - parents[k][0][-3]) for k in grown])
+            new_claims = {k: [] for k in grown}
+            for v, ev in enumerate(evidence):
+                near = ev.tree.query_ball_point(ev.camera.project(P), 4.0)
+                for j, k in enumerate(grown):
+                    c = parents[k][4][v].copy()
+                    for lst in near[5 * j:5 * j + 5]:
+                        c[lst] = True
+                    new_claims[k].append(c)
+            for k in grown:
+                claims[k] = new_claims[k]
+        hyps = [(parents[j][0] + [pts[i]], float(score[i]), int(tail[i]), dirs[i], claims[j], int(blind_tail[i]))
+                for j, i in enumerate(idx)]
+        if not hyps:
+            break
+    finished.extend(h[:3] for h in hyps)
+
+    def trimmed(h):
+        nodes, score, tail = h
+        keep = len(nodes) - tail
+        return nodes[:max(keep, 2)], score
+
+    best = min((trimmed(h) for h in finished), key=lambda t: t[1])
+    return np.asarray(best[0], float)
