@@ -208,12 +208,20 @@ def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentO
         _stderr_to(out / "batch.log")
         from tendrilkit.pipeline import run_reconstruct
 
+        _log(f"{exp.name}: reconstructing {path.name}")
+        t = time.perf_counter()
         run_reconstruct(path, out / "results", workers=1, progress=False)
+        ok, doubtful, failed = _frame_counts(out / "results")
+        _log(f"{exp.name}: reconstructed, {ok + doubtful + failed} frames: {ok} ok, {doubtful} doubtful, "
+             f"{failed} failed ({time.perf_counter() - t:.0f} s)")
         params = {"experiment_path": str(path), "results_dir": str(out / "results"), "figures_dir": str(out / "figures")}
         for nb in experiment_notebooks():
+            t = time.perf_counter()
             execute_notebook(nb, out / nb.name, params, cwd=notebooks_dir(), static_dir=out.parent / "_static")
+            _log(f"{exp.name}: {nb.name} executed ({time.perf_counter() - t:.0f} s)")
         write_json(provenance(exp_dict, path), out / "provenance.json")
         _finish_pages(out, exp.name)
+        _clean_log(out / "batch.log")
         write_text(fp + "\n", stamp)
         ok, doubtful, failed = _frame_counts(out / "results")
         msg = ", ".join(m for m in (f"{doubtful} frame(s) doubtful" if doubtful else "",
@@ -243,6 +251,30 @@ def _stderr_to(path: Path) -> None:
     sys.stderr.flush()
     with open(path, "w", encoding="utf-8") as f:
         os.dup2(f.fileno(), 2)
+
+
+#: what every Jupyter kernel prints at start (jupyter_client's TCP transport): noise in batch.log
+_KERNEL_NOISE = ("Kernel is running over TCP without encryption",)
+
+
+def _log(line: str) -> None:
+    """One line of a batch worker's log (its stderr is ``reports/<name>/batch.log``)."""
+    print(line, file=sys.stderr, flush=True)
+
+
+def _clean_log(path: Path) -> None:
+    """Drop the kernels' start-up chatter from a finished experiment's ``batch.log``; keep everything else."""
+    sys.stderr.flush()
+    try:
+        lines = path.read_text(encoding="utf-8", errors="replace").splitlines(keepends=True)
+    except OSError:
+        return
+    kept = [ln for ln in lines if not any(n in ln for n in _KERNEL_NOISE)]
+    if len(kept) != len(lines):
+        with open(path, "r+", encoding="utf-8") as f:  # the same file (our stderr points at it): rewrite in place
+            f.write("".join(kept))
+            f.truncate()
+        os.lseek(2, 0, os.SEEK_END)
 
 
 def _frame_counts(results: Path) -> tuple[int, int, int]:
@@ -284,7 +316,9 @@ def _compare_in_worker(src: str, out: str, params: dict) -> None:
     _stderr_to(Path(out) / "batch.log")
     execute_notebook(Path(src), Path(out) / Path(src).name, params, cwd=Path(src).parent,
                      static_dir=Path(out).parent / "_static")
+    _log(f"comparison: {Path(src).name} executed")
     _finish_pages(Path(out), "Comparison of the stimulation sites")
+    _clean_log(Path(out) / "batch.log")
 
 
 def format_summary(outcomes: list[ExperimentOutcome]) -> str:

@@ -85,6 +85,9 @@ def test_batch_runs_resumes_reports_failures_and_is_byte_stable(setup):
     assert (rep / "tables" / "README.md").is_file()
     page = (rep / "00_test.html").read_text()
     assert str(root) not in page and "https://cdnjs" not in page
+    log = (rep / "batch.log").read_text()  # what the run did, not the kernels' start-up chatter
+    assert "phantom-S2: reconstructed," in log and "00_test.ipynb executed" in log
+    assert "without encryption" not in log
     first = _digest(rep)
 
     again = _batch([exp, "--reports", reports], nbs)
