@@ -257,7 +257,7 @@ def _figures_html(folder: Path, prefix: str = "figures/") -> str:
         others = " · ".join(_link(prefix + png.with_suffix(s).name, s[1:].upper())
                             for s in (".pdf", ".svg") if png.with_suffix(s).is_file())
         items.append(f'<div class="fig"><a href="{html.escape(prefix + png.name)}"><img src="{html.escape(prefix + png.name)}" '
-                     f'alt="{html.escape(png.stem)}"></a><br>{html.escape(png.stem)} ({others})</div>')
+                     f'alt="{html.escape(png.stem)}"></a><br>{html.escape(png.stem)}{f" ({others})" if others else ""}</div>')
     for h in sorted(folder.glob("*.html")):
         items.append(f'<div class="fig">{_link(prefix + h.name, h.stem + " (interactive)")}</div>')
     return f'<div class="figs">{"".join(items)}</div>' if items else "<p>No figures.</p>"
