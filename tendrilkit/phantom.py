@@ -1536,20 +1536,26 @@ def phantom_params_yaml(site: str, *, n_frames: int | None = None, seed: int = 0
         f"videos: [{videos}]",
         f"fps: {_fmt(ph.fps)}",
         "reference_view: 2",
-        "cameras:",
+        *rig_and_marks_yaml(ph.cameras, ph.views, marker_id=WORLD_MARKER_ID, marker_mm=WORLD_MARKER_MM),
     ]
-    for v, cam in enumerate(ph.cameras):
+    return "\n".join(lines) + "\n"
+
+
+def rig_and_marks_yaml(cameras: list[Camera], views: list[dict], *, marker_id: int, marker_mm: float) -> list[str]:
+    """The ``cameras:``, ``marker:``, ``views:`` and ``points:`` lines of a phantom's experiment file."""
+    lines = ["cameras:"]
+    for v, cam in enumerate(cameras):
         K = cam.K
         dist = ", ".join(_fmt(x) for x in cam.dist)
         lines.append(f"  - {{view: {v + 1}, fx: {_fmt(K[0, 0])}, fy: {_fmt(K[1, 1])}, cx: {_fmt(K[0, 2])}, "
                      f"cy: {_fmt(K[1, 2])}, dist: [{dist}]}}")
-    lines.append(f"marker: {{dictionary: {DICTIONARY}, id: {WORLD_MARKER_ID}, length_mm: {_fmt(WORLD_MARKER_MM)}}}")
+    lines.append(f"marker: {{dictionary: {DICTIONARY}, id: {marker_id}, length_mm: {_fmt(marker_mm)}}}")
     lines.append("views:")
-    for m in ph.views:
+    for m in views:
         lines.append(f"  - {{view: {m['view']}, roi: {list(m['roi'])}, keep_out: {list(m['keep_out'])}, "
                      f"base_point: {list(m['base_point'])}}}")
     lines.append("points: 200")
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def _stamp(site: str, seed: int, n_frames: int, opts: dict) -> dict:
@@ -1611,7 +1617,9 @@ def write_ground_truth(phantom: Phantom, folder: str | Path) -> Path:
     return folder
 
 
-def _write_video(ph: Phantom, view: int, path: Path) -> None:
+def _write_video(ph: Phantom, view: int, path: Path, render=None) -> None:
+    """One view's video (mp4v at the container fps), each frame drawn by ``render(ph, frame, view)``."""
+    render = render_view if render is None else render
     tmp = path.with_name(f".{path.stem}.partial{path.suffix}")
     cam = ph.cameras[view]
     writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), float(ph.options["container_fps"]),
@@ -1620,7 +1628,7 @@ def _write_video(ph: Phantom, view: int, path: Path) -> None:
         raise PhantomError(f"{path}: OpenCV cannot write an mp4v video here")
     try:
         for f in range(ph.n_frames):
-            writer.write(render_view(ph, f, view))
+            writer.write(render(ph, f, view))
     finally:
         writer.release()
     tmp.replace(path)

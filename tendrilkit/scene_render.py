@@ -181,35 +181,9 @@ def scene_params_yaml(ph: ScenePhantom) -> str:
         f"videos: [{', '.join(f'view{v + 1}.mp4' for v in range(len(ph.cameras)))}]",
         f"fps: {fmt(ph.fps)}",
         "reference_view: 2",
-        "cameras:",
+        *P.rig_and_marks_yaml(ph.cameras, ph.views, marker_id=world.id, marker_mm=world.length_mm),
     ]
-    for v, cam in enumerate(ph.cameras):
-        K = cam.K
-        dist = ", ".join(fmt(x) for x in cam.dist)
-        lines.append(f"  - {{view: {v + 1}, fx: {fmt(K[0, 0])}, fy: {fmt(K[1, 1])}, cx: {fmt(K[0, 2])}, "
-                     f"cy: {fmt(K[1, 2])}, dist: [{dist}]}}")
-    lines.append(f"marker: {{dictionary: {P.DICTIONARY}, id: {world.id}, length_mm: {fmt(world.length_mm)}}}")
-    lines.append("views:")
-    for m in ph.views:
-        lines.append(f"  - {{view: {m['view']}, roi: {list(m['roi'])}, keep_out: {list(m['keep_out'])}, "
-                     f"base_point: {list(m['base_point'])}}}")
-    lines.append("points: 200")
     return "\n".join(lines) + "\n"
-
-
-def _write_video(ph: ScenePhantom, view: int, path: Path) -> None:
-    tmp = path.with_name(f".{path.stem}.partial{path.suffix}")
-    cam = ph.cameras[view]
-    writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), float(ph.options["container_fps"]),
-                             (cam.width, cam.height))
-    if not writer.isOpened():
-        raise P.PhantomError(f"{path}: OpenCV cannot write an mp4v video here")
-    try:
-        for f in range(ph.n_frames):
-            writer.write(render_scene_view(ph, f, view))
-    finally:
-        writer.release()
-    tmp.replace(path)
 
 
 def write_scene_experiment(out_dir: str | Path, *, seed: int, scene: str = "random",
@@ -243,7 +217,7 @@ def write_scene_experiment(out_dir: str | Path, *, seed: int, scene: str = "rand
         stamp_path.unlink()
     ph = make_scene(seed, scene=scene, n_frames=n)
     for v in range(len(ph.cameras)):
-        _write_video(ph, v, out / f"view{v + 1}.mp4")
+        P._write_video(ph, v, out / f"view{v + 1}.mp4", render=render_scene_view)
     P.write_ground_truth(ph, out / "ground_truth")
     write_json(scene_meta(ph), out / "ground_truth" / "gt_meta.json")
     write_text(scene_params_yaml(ph), out / "experiment.yaml")
