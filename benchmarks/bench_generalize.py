@@ -22,6 +22,13 @@ Baseline, measured 2026-11-29 at commit 1107466 (scene version 1), seeds
 Overall: 11.1 % of frames within 0.5 mm mean, 11.1 % within 2 mm max,
 13.7 % base and tip within 2 mm, 11.1 % all three; 26.9 % failed;
 136 frames (58.1 %) silent failures (``ok``, mean > 1.5 mm).
+
+After verification (ok/doubtful/failed) and with the multi-view method as an
+option, measured 2026-11-29 at commit 3d78311, same seeds and frames:
+chain (default): same curves, 0 silent failures, 3 of the 26 frames within
+0.5 mm mean flagged doubtful (11.5 %); multiview (``--method multiview``):
+15.4 % all three, 29.9 % within 0.5 mm mean, 20.9 % failed, 0 silent
+failures, 40 of the 70 frames within 0.5 mm mean flagged doubtful.
 """
 
 from __future__ import annotations
