@@ -37,6 +37,19 @@ from tendrilkit.pipeline import reconstruct_frame  # noqa: E402
 REPEATS = 7
 
 
+def time_frame(images, cams, exp, *, previous_mm=None, clock=time.perf_counter, repeats: int = REPEATS):
+    """Reconstruct frame 1 ``repeats`` times after a warm-up: (seconds per run, the last result, stage seconds per run)."""
+    reconstruct_frame(images, cams, exp, frame=1, previous_mm=previous_mm)  # warm-up: compiled kernels, caches
+    totals, stages = [], {}
+    for _ in range(repeats):
+        t0 = clock()
+        r = reconstruct_frame(images, cams, exp, frame=1, previous_mm=previous_mm)
+        totals.append(clock() - t0)
+        for k, v in r.timings.items():
+            stages.setdefault(k, []).append(v)
+    return totals, r, stages
+
+
 def synthetic_frame():
     """Three 1080p views of a curled 3D tube (9 px wide) through the IJCV25 rig; cameras; experiment."""
     s = np.linspace(0, 1, 3000)
@@ -80,28 +93,15 @@ def main(argv: list[str]) -> None:
         print(f"  reading the 3 frames: {t_read * 1e3:.1f} ms (not counted below)")
     for method in ("epipolar", "frechet"):
         e = exp.model_copy(update={"correspondence": exp.correspondence.model_copy(update={"method": method})})
-        reconstruct_frame(images, cams, e, frame=1)  # warm-up: compiled kernels, caches
-        totals, stages = [], {}
-        for _ in range(REPEATS):
-            t0 = time.perf_counter()
-            r = reconstruct_frame(images, cams, e, frame=1)
-            totals.append(time.perf_counter() - t0)
-            for k, v in r.timings.items():
-                stages.setdefault(k, []).append(v)
+        totals, r, stages = time_frame(images, cams, e)
         split = ", ".join(f"{k} {np.median(v) * 1e3:.1f}" for k, v in stages.items())
         tot = np.median(totals)
         print(f"  {method:8s}: {tot * 1e3:6.1f} ms per frame [{'ok' if tot <= 0.2 else 'OVER'} vs 200 ms] "
               f"({r.status}{': ' + r.message if r.message else ''}); stages ms: {split}")
     e = exp.model_copy(update={"reconstruction": exp.reconstruction.model_copy(update={"method": "multiview"})})
-    first = reconstruct_frame(images, cams, e, frame=1)  # warm-up, and the curve the tracked frames start from
+    first = reconstruct_frame(images, cams, e, frame=1)  # the curve the tracked frames start from
     for mode, prev in (("acquired", None), ("tracked", first.points_mm)):
-        totals, stages = [], {}
-        for _ in range(REPEATS):
-            t0 = time.perf_counter()
-            r = reconstruct_frame(images, cams, e, frame=1, previous_mm=prev)
-            totals.append(time.perf_counter() - t0)
-            for k, v in r.timings.items():
-                stages.setdefault(k, []).append(v)
+        totals, r, stages = time_frame(images, cams, e, previous_mm=prev)
         split = ", ".join(f"{k} {np.median(v) * 1e3:.1f}" for k, v in stages.items())
         tot = np.median(totals)
         print(f"  multiview {mode:8s}: median {tot * 1e3:6.1f} ms, worst {max(totals) * 1e3:6.1f} ms per frame "

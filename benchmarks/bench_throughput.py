@@ -45,7 +45,10 @@ import types  # noqa: E402
 import tendrilkit.pipeline as _pipeline  # noqa: E402
 from tendrilkit.camera import Camera  # noqa: E402
 from tendrilkit.phantom import render_tube_views  # noqa: E402
-from tendrilkit.pipeline import _iter_chunk, _warm_up, reconstruct_frame  # noqa: E402
+from tendrilkit.pipeline import _iter_chunk, _warm_up  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_reconstruct import time_frame as _time_frames  # noqa: E402  (one timing loop for both benchmarks)
 
 # the pipeline's per-stage timings in CPU seconds of this process (one core), not wall
 # seconds, which a shared machine inflates: a benchmark-only substitution
@@ -151,14 +154,8 @@ def turned_cameras(cams: list[Camera], n_views: int, centre: np.ndarray) -> list
 
 
 def time_frame(images, cams, exp) -> tuple[float, str, dict]:
-    reconstruct_frame(images, cams, exp, frame=1)   # warm-up
-    totals, stages = [], {}
-    for _ in range(REPEATS):
-        t0 = time.process_time()
-        r = reconstruct_frame(images, cams, exp, frame=1)
-        totals.append(time.process_time() - t0)
-        for k, v in r.timings.items():
-            stages.setdefault(k, []).append(v)
+    """CPU seconds per frame (median), its status, and the median of each stage."""
+    totals, r, stages = _time_frames(images, cams, exp, clock=time.process_time, repeats=REPEATS)
     return float(np.median(totals)), r.status, {k: float(np.median(v)) for k, v in stages.items()}
 
 
