@@ -121,8 +121,8 @@ class Camera:
         v = K[1, 1] * y + K[1, 2]
         return np.stack([u, v], axis=1)
 
-    def project_jacobian(self, points_world: np.ndarray, *, distort: bool = False,
-                         step_mm: float = 1e-3) -> tuple[np.ndarray, np.ndarray]:
+    def project_jacobian(self, points_world: np.ndarray, *, distort: bool = False, step_mm: float = 1e-3,
+                         along: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Pixels (n, 2) of world points (n, 3) mm and their Jacobians (n, 2, 3), px per mm.
 
         With ``distort=False`` (default) the ideal pinhole pixels (undistorted
@@ -136,6 +136,9 @@ class Camera:
 
         with ``distort=True`` the observed pixels (:meth:`project`) and the
         forward differences of :meth:`project` with steps of ``step_mm``.
+        With ``along`` (n, 3), world directions (pinhole only): the
+        derivatives (n, 2) of the pixels along them, px per unit of
+        ``along``, instead of the Jacobians.
 
         Examples
         --------
@@ -146,6 +149,8 @@ class Camera:
                [ 0., 10.,  0.]]))
         """
         X = _as_points(points_world, 3, "points_world")
+        if distort and along is not None:
+            raise ValueError("along is for the pinhole projection (distort=False) only")
         if distort:
             u = self.project(X)
             J = np.empty((len(X), 2, 3))
@@ -159,6 +164,13 @@ class Camera:
         x, y = Xc[:, 0] / z, Xc[:, 1] / z
         K = self.K
         u = np.stack([K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]], axis=1)
+        if along is not None:
+            dXc = _as_points(along, 3, "along") @ self.R.T
+            if dXc.shape != X.shape:
+                raise ValueError(f"along must have shape {X.shape}, got {dXc.shape}")
+            dx = (dXc[:, 0] - x * dXc[:, 2]) / z
+            dy = (dXc[:, 1] - y * dXc[:, 2]) / z
+            return u, np.stack([K[0, 0] * dx + K[0, 1] * dy, K[1, 1] * dy], axis=1)
         dn = np.zeros((len(X), 2, 3))  # d(x, y)/dXc
         dn[:, 0, 0] = 1 / z
         dn[:, 0, 2] = -x / z

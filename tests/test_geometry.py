@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.interpolate import PchipInterpolator
+from scipy.linalg import solveh_banded
 from scipy.spatial.transform import Rotation
 
 from tendrilkit.camera import Camera, look_at
@@ -19,6 +20,7 @@ from tendrilkit.geometry import (
     resample_polyline,
     rigid_fit,
     section_masks,
+    whittaker_smooth,
 )
 
 
@@ -73,6 +75,21 @@ def test_own_pchip_is_scipys_pchip(seed):
     y = np.cumsum(rng.normal(size=(n, 3)), axis=0)
     ui = np.linspace(0.0, u[-1], 97)
     np.testing.assert_allclose(pchip_interpolate(u, y, ui), PchipInterpolator(u, y, axis=0)(ui), rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_own_whittaker_solver_is_scipys_banded_cholesky(seed):
+    """The compiled pentadiagonal Cholesky equals scipy.linalg.solveh_banded to rounding (kept for the last bits)."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(3, 200))
+    lam = float(10 ** rng.uniform(-1, 6))
+    w = rng.uniform(0.0, 2.0, n)
+    y = rng.normal(size=(n, 3))
+    D = np.diff(np.eye(n), 2, axis=0)
+    A = np.diag(w) + lam * D.T @ D
+    ab = np.stack([np.r_[0.0, 0.0, np.diagonal(A, 2)], np.r_[0.0, np.diagonal(A, 1)], np.diagonal(A)])
+    np.testing.assert_allclose(whittaker_smooth(y, lam=lam, weights=w), solveh_banded(ab, w[:, None] * y),
+                               rtol=1e-9, atol=1e-9 * np.abs(y).max())
 
 
 def test_point_at_index():
@@ -160,6 +177,12 @@ def test_project_jacobian_matches_differences():
         Xh = X.copy()
         Xh[:, a] += h
         np.testing.assert_allclose(J[:, :, a], (cam.project(Xh, distort=False) - u) / h, rtol=1e-4, atol=1e-4)
+    a = np.random.default_rng(1).normal(size=(7, 3))
+    u_a, du = cam.project_jacobian(X, along=a)
+    np.testing.assert_array_equal(u_a, u)
+    np.testing.assert_allclose(du, np.einsum("kab,kb->ka", J, a), rtol=1e-10, atol=1e-10)
+    with pytest.raises(ValueError, match="along"):
+        cam.project_jacobian(X, distort=True, along=a)
     ud, Jd = cam.project_jacobian(X, distort=True)
     np.testing.assert_allclose(ud, cam.project(X))
     assert 0 < np.abs(Jd - J).max() < 0.2 * np.abs(J).max()  # the distortion changes the Jacobian a little
