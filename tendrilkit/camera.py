@@ -19,14 +19,15 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from tendrilkit.geometry import check_points
+
 
 def _as_points(points: np.ndarray, dim: int, name: str) -> np.ndarray:
+    """(n, dim) float array of ``points`` (one point may come as (dim,)); NaN allowed."""
     arr = np.asarray(points, dtype=float)
     if arr.ndim == 1 and arr.shape[0] == dim:
         arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != dim:
-        raise ValueError(f"{name} must have shape (n, {dim}), got {arr.shape}")
-    return arr
+    return check_points(arr, dim=dim, name=name, finite=False)
 
 
 @dataclass(frozen=True, eq=False)

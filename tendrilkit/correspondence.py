@@ -76,7 +76,15 @@ from numba import njit
 
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import CorrespondenceError
-from tendrilkit.geometry import arc_length, marker_corners, nearest_on_polyline, point_at_index, resample_polyline, whittaker_smooth
+from tendrilkit.geometry import (
+    arc_length,
+    check_points,
+    marker_corners,
+    nearest_on_polyline,
+    point_at_index,
+    resample_polyline,
+    whittaker_smooth,
+)
 
 __all__ = [
     "discrete_frechet",
@@ -86,16 +94,6 @@ __all__ = [
     "epipolar_distance",
     "match_epipolar",
 ]
-
-
-# -------------------------------------------------------------------- inputs
-def _check_curve(points_xy, name: str) -> np.ndarray:
-    arr = np.asarray(points_xy, dtype=float)
-    if arr.ndim != 2 or arr.shape[1] != 2:
-        raise ValueError(f"{name} must have shape (n, 2), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite (no NaN or inf)")
-    return arr
 
 
 # ------------------------------------------------------------ discrete Fréchet
@@ -404,7 +402,7 @@ def _beyond_ends(t: np.ndarray, dist: np.ndarray, m: int, tol_px: float = 1.0) -
 
 
 def _check_inputs(centerlines_xy, cameras, reference, k):
-    curves = [_check_curve(c, f"centerlines_xy[{v}]") for v, c in enumerate(centerlines_xy)]
+    curves = [check_points(c, dim=2, name=f"centerlines_xy[{v}]") for v, c in enumerate(centerlines_xy)]
     cams = list(cameras)
     if len(curves) < 2:
         raise ValueError(f"centerlines_xy must hold at least 2 views, got {len(curves)}")

@@ -63,7 +63,7 @@ import numpy as np
 from numba import njit
 
 from tendrilkit.exceptions import DegenerateCurveError
-from tendrilkit.geometry import arc_length, resample_polyline, whittaker_smooth
+from tendrilkit.geometry import arc_length, check_points, resample_polyline, whittaker_smooth
 
 __all__ = [
     "FrenetFrames",
@@ -74,15 +74,6 @@ __all__ = [
     "noise_sigma_mm",
     "auto_smoothing_length_mm",
 ]
-
-
-def _check_points(points_mm: np.ndarray, name: str = "points_mm") -> np.ndarray:
-    arr = np.asarray(points_mm, dtype=float)
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"{name} must have shape (n, 3), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got {int((~np.isfinite(arr)).any(axis=1).sum())} rows with NaN or inf")
-    return arr
 
 
 def resample_curve(points_mm: np.ndarray, n: int | None = None, *, min_points: int = 5) -> np.ndarray:
@@ -107,7 +98,8 @@ def resample_curve(points_mm: np.ndarray, n: int | None = None, *, min_points: i
     DegenerateCurveError
         Fewer than ``min_points`` distinct points, or zero length.
     """
-    return resample_polyline(_check_points(points_mm), n, method="pchip", min_points=min_points, repeat_tol=1e-9)
+    pts = check_points(points_mm, dim=3, name="points_mm")
+    return resample_polyline(pts, n, method="pchip", min_points=min_points, repeat_tol=1e-9)
 
 
 def whittaker_lambda(length_mm: float, spacing_mm: float) -> float:
@@ -218,7 +210,7 @@ def noise_sigma_mm(points_mm: np.ndarray) -> float:
     standard deviation :math:`\\sigma` gives variance :math:`20\\sigma^2`):
     :math:`\\hat\\sigma = 1.4826\\,\\mathrm{median}|\\Delta^3 x| / \\sqrt{20}`.
     """
-    data = _check_points(points_mm)
+    data = check_points(points_mm, dim=3, name="points_mm")
     step = np.linalg.norm(np.diff(data, axis=0), axis=1)
     if data.shape[0]:
         data = data[np.concatenate([[True], step > 1e-9 * max(step.sum(), 1e-300)])]

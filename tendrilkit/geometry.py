@@ -37,6 +37,7 @@ from numba import njit
 from tendrilkit.exceptions import DegenerateCurveError
 
 __all__ = [
+    "check_points",
     "arc_length",
     "resample_polyline",
     "point_at_index",
@@ -51,13 +52,59 @@ __all__ = [
 ]
 
 
-def _check_polyline(points: np.ndarray, name: str, min_rows: int = 0) -> np.ndarray:
+def check_points(points: np.ndarray, *, dim: int | None = None, name: str = "points", min_rows: int = 0,
+                 finite: bool = True) -> np.ndarray:
+    """``points`` as a float array (n, d), checked at a public boundary.
+
+    Parameters
+    ----------
+    points : array_like
+        The points.
+    dim : int, optional, keyword-only
+        Required number of columns ``d`` (default: any).
+    name : str, keyword-only
+        The argument's name, for the message.
+    min_rows : int, keyword-only
+        Fewest rows ``n``.
+    finite : bool, keyword-only
+        Refuse NaN and inf.
+
+    Returns
+    -------
+    (n, d) float array
+
+    Raises
+    ------
+    ValueError
+        Naming the argument, what was expected and what came.
+
+    Examples
+    --------
+    >>> check_points([[0, 1, 2]], dim=3).dtype
+    dtype('float64')
+    >>> check_points(np.zeros((4, 2)), dim=3, name="points_mm")
+    Traceback (most recent call last):
+    ...
+    ValueError: points_mm must have shape (n, 3), got (4, 2)
+    """
     arr = np.asarray(points, dtype=float)
-    if arr.ndim != 2 or arr.shape[0] < min_rows:
-        raise ValueError(f"{name} must have shape (n >= {min_rows}, d), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    if arr.ndim != 2 or (dim is not None and arr.shape[1] != dim) or arr.shape[0] < min_rows:
+        rows = "n" if min_rows == 0 else f"n >= {min_rows}"
+        raise ValueError(f"{name} must have shape ({rows}, {'d' if dim is None else dim}), got {arr.shape}")
+    if finite and not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite, got {int((~np.isfinite(arr)).any(axis=1).sum())} rows with NaN or inf")
     return arr
+
+
+def _polyline_pair(points: np.ndarray, polyline: np.ndarray, min_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    P = np.ascontiguousarray(points, dtype=float)
+    Q = np.ascontiguousarray(polyline, dtype=float)
+    if P.ndim != 2 or Q.ndim != 2 or P.shape[1] != Q.shape[1] or len(Q) < min_vertices:
+        raise ValueError(f"points and polyline must have shapes (n, d) and (m >= {min_vertices}, d), "
+                         f"got {P.shape} and {Q.shape}")
+    if not np.all(np.isfinite(Q)):
+        raise ValueError("polyline must be finite (no NaN or inf); NaN is allowed in points only")
+    return P, Q
 
 
 # ----------------------------------------------------------------- arc length
@@ -194,7 +241,7 @@ def resample_polyline(points: np.ndarray, n: int | None = None, *, step: float |
     """
     if method not in ("linear", "pchip"):
         raise ValueError(f"method must be 'linear' or 'pchip', got {method!r}")
-    pts = _check_polyline(points, "points")
+    pts = check_points(points)
     if n is not None and int(n) < min_points:
         raise ValueError(f"n must be at least {min_points}, got {n}")
     if step is not None and not step > 0:
@@ -451,12 +498,7 @@ def nearest_on_polyline(points: np.ndarray, polyline: np.ndarray, *, start: np.n
     >>> r.t, r.point, r.distance, r.normal
     (array([0.5]), array([[5., 0.]]), array([2.]), array([[-0.,  1.]]))
     """
-    P = np.ascontiguousarray(points, dtype=float)
-    Q = np.ascontiguousarray(polyline, dtype=float)
-    if P.ndim != 2 or Q.ndim != 2 or P.shape[1] != Q.shape[1] or len(Q) < 2:
-        raise ValueError(f"points and polyline must have shapes (n, d) and (m >= 2, d), got {P.shape} and {Q.shape}")
-    if not np.all(np.isfinite(Q)):
-        raise ValueError("polyline must be finite (no NaN or inf); NaN is allowed in points only")
+    P, Q = _polyline_pair(points, polyline, 2)
     if window is None:
         t0, w = np.zeros(len(P)), -1
     else:
@@ -479,12 +521,7 @@ def point_to_polyline_distance(points: np.ndarray, polyline: np.ndarray) -> np.n
     >>> point_to_polyline_distance(np.array([[5.0, 2.0]]), np.array([[0.0, 0.0], [10.0, 0.0]]))
     array([2.])
     """
-    P = np.ascontiguousarray(points, dtype=float)
-    Q = np.ascontiguousarray(polyline, dtype=float)
-    if P.ndim != 2 or Q.ndim != 2 or P.shape[1] != Q.shape[1] or len(Q) < 1:
-        raise ValueError(f"points and polyline must have shapes (n, d) and (m >= 1, d), got {P.shape} and {Q.shape}")
-    if not np.all(np.isfinite(Q)):
-        raise ValueError("polyline must be finite (no NaN or inf); NaN is allowed in points only")
+    P, Q = _polyline_pair(points, polyline, 1)
     if len(Q) == 1:
         return np.linalg.norm(P - Q[0], axis=1)
     return nearest_on_polyline(P, Q).distance

@@ -67,6 +67,15 @@ def _check_views(points_xy, cameras) -> tuple[np.ndarray, list[Camera]]:
     return x, cams
 
 
+def _newton_steps(H: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """Batched Gauss-Newton steps :math:`-H^{-1} g`, (k, 3), of normal matrices (k, 3, 3) and gradients (k, 3).
+
+    A non-finite step (a singular point) is 0; a singular batch raises ``LinAlgError``.
+    """
+    step = np.linalg.solve(H, -g[..., None])[..., 0]
+    return np.where(np.isfinite(step), step, 0.0)
+
+
 def triangulate(points_xy: np.ndarray, cameras: list[Camera], *, refine: bool = True,
                 iterations: int = 5) -> Triangulated:
     """Triangulate matched points seen by two or more views.
@@ -150,10 +159,9 @@ def triangulate(points_xy: np.ndarray, cameras: list[Camera], *, refine: bool = 
                 g += np.einsum("kai,ka->ki", Jm, r)
             H += 1e-9 * np.trace(H, axis1=1, axis2=2)[:, None, None] * np.eye(3)
             try:
-                step = np.linalg.solve(H, -g[..., None])[..., 0]
+                step = _newton_steps(H, g)
             except np.linalg.LinAlgError:
                 break
-            step = np.where(np.isfinite(step), step, 0.0)
             Xo = Xo + step
             if np.max(np.abs(step)) < 1e-9:
                 break
@@ -243,8 +251,7 @@ def refine_to_curves(points_mm: np.ndarray, curves_xy: list[np.ndarray | None], 
             H += w[:, None, None] * np.einsum("ki,kj->kij", Jn, Jn)
             g += (w * r)[:, None] * Jn
         H += (0.05 * np.trace(H, axis1=1, axis2=2) / 3 + 1e-12)[:, None, None] * np.eye(3)
-        step = np.linalg.solve(H, -g[..., None])[..., 0]
-        step = np.where(np.isfinite(step), step, 0.0)
+        step = _newton_steps(H, g)
         Xo = Xo + step
         if np.max(np.abs(step)) < 1e-6:
             break
