@@ -8,7 +8,8 @@ their input):
 - :func:`arc_length`: cumulative arc length of a polyline;
 - :func:`resample_polyline`: uniform resampling in arc length, by count
   and/or by step, linear or PCHIP;
-- :func:`point_at_index`: points of a polyline at fractional vertex indices;
+- :func:`point_at_index`, :func:`point_at_arc_length`: points of a polyline
+  at fractional vertex indices or at given (or normalised) arc lengths;
 - :func:`whittaker_smooth`: the second-order Whittaker smoother of samples
   along a curve (coordinates, depths), optionally weighted;
 - :func:`nearest_on_polyline`, :func:`point_to_polyline_distance`: the
@@ -41,6 +42,7 @@ __all__ = [
     "arc_length",
     "resample_polyline",
     "point_at_index",
+    "point_at_arc_length",
     "NearestOnPolyline",
     "nearest_on_polyline",
     "point_to_polyline_distance",
@@ -263,9 +265,53 @@ def resample_polyline(points: np.ndarray, n: int | None = None, *, step: float |
     if method == "pchip":
         out = pchip_interpolate(s, pts, si)
     else:
-        out = np.stack([np.interp(si, s, pts[:, c]) for c in range(pts.shape[1])], axis=1)
+        out = _interp_columns(si, s, pts)
     out[0], out[-1] = pts[0], pts[-1]
     return out
+
+
+def _interp_columns(si: np.ndarray, s: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    return np.stack([np.interp(si, s, pts[:, c]) for c in range(pts.shape[1])], axis=1)
+
+
+def point_at_arc_length(points: np.ndarray, s_query: np.ndarray, *, normalised: bool = False) -> np.ndarray:
+    """Points of a polyline at given arc lengths (linear along the polyline).
+
+    Parameters
+    ----------
+    points : (m, d) float array
+        Ordered points, finite, m >= 2.
+    s_query : (q,) float array
+        Arc lengths from the first point (unit of ``points``), or with
+        ``normalised`` fractions of the length (0: first point, 1: last);
+        clipped to the polyline.
+    normalised : bool, keyword-only
+
+    Returns
+    -------
+    (q, d) float array
+
+    Raises
+    ------
+    DegenerateCurveError
+        The polyline has zero length.
+
+    Examples
+    --------
+    >>> point_at_arc_length(np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]]), np.array([0.0, 0.25, 0.75]), normalised=True)
+    array([[0., 0.],
+           [2., 0.],
+           [4., 2.]])
+    """
+    pts = check_points(points, name="points", min_rows=2)
+    s = arc_length(pts)
+    if not s[-1] > 0:
+        raise DegenerateCurveError("curve has zero length (all points coincide)")
+    keep = np.concatenate([[True], np.diff(s) > 0])
+    s, pts = s[keep], pts[keep]
+    if normalised:
+        s = s / s[-1]
+    return _interp_columns(np.asarray(s_query, dtype=float), s, pts)
 
 
 def point_at_index(points: np.ndarray, t: np.ndarray) -> np.ndarray:

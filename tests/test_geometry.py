@@ -15,6 +15,7 @@ from tendrilkit.geometry import (
     marker_corners,
     nearest_on_polyline,
     pchip_interpolate,
+    point_at_arc_length,
     point_at_index,
     point_to_polyline_distance,
     resample_polyline,
@@ -97,6 +98,16 @@ def test_point_at_index():
     out = point_at_index(Q, np.array([0.0, 0.5, 1.5, 2.0, 7.0, np.nan]))
     np.testing.assert_allclose(out[:5], [[0, 0], [1, 0], [2, 1], [2, 2], [2, 2]])
     assert np.isnan(out[5]).all()
+
+
+def test_point_at_arc_length():
+    Q = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 0.0], [2.0, 2.0]])  # a repeated vertex
+    np.testing.assert_allclose(point_at_arc_length(Q, np.array([0.0, 1.0, 3.0, 9.0])), [[0, 0], [1, 0], [2, 1], [2, 2]])
+    np.testing.assert_allclose(point_at_arc_length(Q, np.array([0.5]), normalised=True), [[2, 0]])
+    with pytest.raises(DegenerateCurveError):
+        point_at_arc_length(np.zeros((3, 3)), np.array([0.5]))
+    with pytest.raises(ValueError, match="points"):
+        point_at_arc_length(np.zeros((1, 3)), np.array([0.5]))
 
 
 def test_point_to_polyline_distance():
