@@ -122,7 +122,8 @@ def arc_length(points: np.ndarray) -> np.ndarray:
     -------
     (n,) float array
         ``s[0] = 0``, ``s[i]`` the length of the polyline up to point ``i``
-        (same unit as ``points``).
+        (same unit as ``points``); a NaN row makes every later value NaN
+        (no check: callers validate their curves).
 
     Examples
     --------
@@ -609,6 +610,8 @@ def rigid_fit(P, Q):  # pragma: no cover - compiled
     """
     if P.ndim != 2 or P.shape[1] != 3 or P.shape != Q.shape or P.shape[0] < 1:
         raise ValueError("P and Q must have the same shape (n >= 1, 3)")
+    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(Q))):
+        raise ValueError("P and Q must be finite (no NaN or inf)")
     n = P.shape[0]
     mp = np.zeros(3)
     mq = np.zeros(3)

@@ -53,7 +53,8 @@ CASES_2D = {k: v[:, :2] for k, v in CASES_3D.items()}
 
 # functions whose contract lets NaN through (a NaN input point is a missing observation:
 # its own output row is NaN, the others stay finite)
-NAN_IN_NAN_OUT = {"project", "undistort_points", "triangulate", "point_to_polyline_distance(points)"}
+NAN_IN_NAN_OUT = {"project", "undistort_points", "triangulate", "point_to_polyline_distance(points)",
+                  "nearest_on_polyline(points)"}
 
 
 def _views(x):
@@ -71,6 +72,8 @@ FUNCTIONS_2D = {
     "point_to_polyline_distance(points)": lambda x: geo.point_to_polyline_distance(x, HELIX[:, :2]),
     "point_to_polyline_distance(polyline)": lambda x: geo.point_to_polyline_distance(HELIX[:, :2], x),
     "reprojection_table": lambda x: tr.reprojection_table(HELIX, [x, x, x], CAMS),
+    "nearest_on_polyline(points)": lambda x: geo.nearest_on_polyline(x, HELIX[:, :2]),
+    "nearest_on_polyline(polyline)": lambda x: geo.nearest_on_polyline(HELIX[:, :2], x),
 }
 
 _I3 = np.eye(3)
@@ -87,6 +90,10 @@ FUNCTIONS_3D = {
     "fit_piecewise_clothoid": lambda X: pwc.fit_piecewise_clothoid(X),
     "register_rigid": lambda X: pwc.register_rigid(X, X + 1.0),
     "resample_normalised": lambda X: sq.resample_normalised(X, np.linspace(0, 1, 5)),
+    "resample_polyline(pchip)": lambda X: geo.resample_polyline(X, 20, method="pchip"),
+    "point_at_arc_length": lambda X: geo.point_at_arc_length(X, np.linspace(0, 1, 5), normalised=True),
+    "rigid_fit": lambda X: geo.rigid_fit(X, X + 1.0),
+    "marker_corners(length=x)": lambda X: geo.marker_corners(float(X[0, 0]) if len(X) else np.nan),
 }
 
 
