@@ -26,7 +26,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from tendrilkit.pwc import fit_piecewise_clothoid, grid_search_penalties  # noqa: E402
-from tests.pwc_truth import mean_distance_mm, random_pwc_curve  # noqa: E402
+from tendrilkit.pwc.datasets import mean_distance_mm, random_pwc_curve  # noqa: E402
 
 
 def main() -> None:

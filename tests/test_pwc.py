@@ -25,7 +25,7 @@ from tendrilkit.pwc import (
     register_rigid,
     segment_penalty,
 )
-from tests.pwc_truth import mean_distance_mm, random_pwc_curve
+from tendrilkit.pwc.datasets import mean_distance_mm, random_pwc_curve
 
 
 # ------------------------------------------------------------------ reference programme
