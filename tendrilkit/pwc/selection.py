@@ -146,11 +146,10 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
 
 
 def _weighted_median(y, w):
+    """The smallest ``y`` whose cumulative weight reaches half the total (0 without weight)."""
     if not w.sum() > 0:
         return 0.0
-    o = np.argsort(y)
-    c = np.cumsum(w[o])
-    return float(y[o][np.searchsorted(c, 0.5 * c[-1])])
+    return float(np.quantile(y, 0.5, weights=w, method="inverted_cdf"))
 
 
 class _DistinctLaws:
