@@ -13,37 +13,10 @@ import numpy as np
 from numba import njit
 
 from tendrilkit.frenet import _integrate, _orthonormal_frame
+from tendrilkit.geometry import rigid_fit, section_masks
 from tendrilkit.pwc.laws import PiecewiseLinearLaw
 
 __all__ = ["FitScores", "register_rigid", "rebuild_curve", "fit_scores"]
-
-
-@njit(cache=True)
-def _kabsch(P, Q):
-    """R, t minimising sum |R p + t - q|^2."""
-    n = P.shape[0]
-    mp = np.zeros(3)
-    mq = np.zeros(3)
-    for i in range(n):
-        for c in range(3):
-            mp[c] += P[i, c]
-            mq[c] += Q[i, c]
-    mp /= n
-    mq /= n
-    H = np.zeros((3, 3))
-    for i in range(n):
-        for a in range(3):
-            pa = P[i, a] - mp[a]
-            for c in range(3):
-                H[a, c] += pa * (Q[i, c] - mq[c])
-    U, S, Vt = np.linalg.svd(H)
-    d = np.linalg.det(Vt.T @ U.T)
-    D = np.eye(3)
-    if d < 0:
-        D[2, 2] = -1.0
-    R = Vt.T @ D @ U.T
-    t = mq - R @ mp
-    return R, t
 
 
 @njit(cache=True)
@@ -51,7 +24,7 @@ def _registered_sse(s, k_step, t_step, F0, p0, data):
     P, T, N, B = _integrate(s, k_step, t_step, F0, p0, False)
     if not np.all(np.isfinite(P)):
         return np.inf
-    R, t = _kabsch(P, data)
+    R, t = rigid_fit(P, data)
     sse = 0.0
     for i in range(P.shape[0]):
         for c in range(3):
@@ -93,7 +66,7 @@ def register_rigid(P: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray
         raise ValueError(f"P must have at least 3 points, got {P.shape[0]}")
     if not (np.all(np.isfinite(P)) and np.all(np.isfinite(Q))):
         raise ValueError("P and Q must be finite (no NaN or inf)")
-    return _kabsch(P, Q)
+    return rigid_fit(P, Q)
 
 
 def rebuild_curve(
@@ -130,7 +103,7 @@ def rebuild_curve(
     data = np.ascontiguousarray(data_mm, dtype=float)
     F0 = np.eye(3) if frame0 is None else _orthonormal_frame(*frame0)
     P, _, _, _ = _integrate(s, kappa_law.step_means(s), tau_law.step_means(s), F0, data[0].copy(), positions == "exact")
-    R, t = _kabsch(P, data)
+    R, t = rigid_fit(P, data)
     return P @ R.T + t, R, t
 
 
@@ -162,7 +135,6 @@ def fit_scores(fitted_mm: np.ndarray, data_mm: np.ndarray, s_mm: np.ndarray) -> 
                          f"got {f.shape}, {d.shape}, {s.shape}")
     if not (np.all(np.isfinite(f)) and np.all(np.isfinite(d)) and np.all(np.isfinite(s))):
         raise ValueError("fitted_mm, data_mm and s_mm must be finite (no NaN or inf)")
-    L = s[-1] - s[0]
     err = np.sum((f - d) ** 2, axis=1)
 
     def r2sse(mask):
@@ -170,10 +142,10 @@ def fit_scores(fitted_mm: np.ndarray, data_mm: np.ndarray, s_mm: np.ndarray) -> 
         sst = float(np.sum((d[mask] - d[mask].mean(axis=0)) ** 2))
         return (1.0 - sse / sst if sst > 0 else float("nan")), sse
 
-    everything = np.ones(s.size, bool)
-    r2e, ssee = r2sse(everything)
-    r2b, sseb = r2sse(s - s[0] <= 0.25 * L)
-    r2t, sset = r2sse(s - s[0] >= 0.75 * L)
+    quarter = section_masks(s)
+    r2e, ssee = r2sse(quarter["entire"])
+    r2b, sseb = r2sse(quarter["base"])
+    r2t, sset = r2sse(quarter["tip"])
     return FitScores(r2e, r2b, r2t, ssee, sseb, sset, float(np.sqrt(err.mean())), float(np.sqrt(err.max())))
 
 

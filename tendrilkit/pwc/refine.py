@@ -12,8 +12,8 @@ import numpy as np
 from numba import njit
 
 from tendrilkit.frenet import _integrate
+from tendrilkit.geometry import rigid_fit
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _pwl_step_means
-from tendrilkit.pwc.rebuild import _kabsch
 
 __all__: list[str] = []
 
@@ -146,7 +146,7 @@ def _lm_evaluate(s, kk, vk, kt, vt, data):
                             np.eye(3), np.zeros(3), False)
     if not np.all(np.isfinite(P)):
         return np.inf, P, T, B, np.eye(3), P.copy()
-    R, t = _kabsch(P, data)
+    R, t = rigid_fit(P, data)
     X = P @ R.T
     f = 0.0
     for j in range(X.shape[0]):
