@@ -180,14 +180,12 @@ def penalty_path(C: np.ndarray, *, kmax: int | None = None) -> PenaltyPath:
     """
     C = np.ascontiguousarray(C, dtype=float)
     n = C.shape[0] - 1
-    finite = np.isfinite(np.diag(C, 1)) if n > 0 else np.array([])
     # the largest feasible count: n // min_size, min_size read off the costs
     min_size = 1
     while min_size <= n and not np.isfinite(C[0, min_size]):
         min_size += 1
     if min_size > n:
         raise DegenerateCurveError(f"no segment of {n} samples is long enough")
-    del finite
     kcap = n // min_size
     kmax = kcap if kmax is None else max(1, min(int(kmax), kcap))
     G, back = _dp_counts(C, kmax)
