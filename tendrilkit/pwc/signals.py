@@ -23,6 +23,16 @@ KNOT_GAP_SAMPLES = 9
 
 @dataclass(frozen=True, eq=False)
 class _Prepared:
+    """One centreline's signals for the searches.
+
+    ``fr``: the Frenet frames (smoothed curve, kappa, tau, 1/mm); ``s`` (n,):
+    arc length, mm; ``data`` (n, 3): the input resampled, mm (what the scores
+    measure against); ``wk``, ``wt`` (n,): sample weights of curvature (1) and
+    torsion (kappa^2 where torsion is defined); ``Ck``, ``Ct`` (n + 1, n + 1):
+    interval costs (:func:`~tendrilkit.pwc.costs.line_costs`); ``free_knots``:
+    refinement moves the inner knots; ``min_gap_mm``: closest knots, mm.
+    """
+
     fr: FrenetFrames
     s: np.ndarray
     data: np.ndarray
@@ -35,6 +45,7 @@ class _Prepared:
 
 
 def _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points, free_knots=True):
+    """Smooth ``points_mm`` (n, 3) and cost both signals (options: :func:`~tendrilkit.pwc.fit_piecewise_clothoid`)."""
     if smoothing_length_mm is None:
         smoothing_length_mm = auto_smoothing_length_mm(points_mm)
     fr = frenet_frames(points_mm, smoothing_length_mm=smoothing_length_mm, n=n_points)
