@@ -25,8 +25,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from tendrilkit.pwc import fit_piecewise_clothoid, grid_search_penalties  # noqa: E402
-from tests.pwc_truth import mean_distance_mm, random_pwc_curve  # noqa: E402
+from tendrilkit.pwc import fit_piecewise_clothoid, grid_search_penalties, penalty_table  # noqa: E402
+from tendrilkit.pwc.datasets import mean_distance_mm, random_pwc_curve  # noqa: E402
 
 
 def main() -> None:
@@ -68,7 +68,6 @@ def main() -> None:
     try:  # Table 3 and the grid search on the phantom S3 (paper: frames 1, 100, 200 of S3)
         from tendrilkit.frenet import resample_curve
         from tendrilkit.phantom import make_phantom
-        from tendrilkit.pwc import penalty_table
 
         ph = make_phantom("S3")
         rng = np.random.default_rng(0)
@@ -78,11 +77,9 @@ def main() -> None:
             for row in penalty_table(X, [(0.001, 0.001), (0.01, 0.01), (0.1, 0.1)]):
                 print(f"  frame {f:3d} " + " ".join(f"{k}={v:.4g}" for k, v in row.items()))
             g = grid_search_penalties(X)
-            lv = g.levels[-1]
             print(f"  frame {f:3d} grid search: {len(g.levels)} level(s), penalties ({g.penalty_kappa:.4g}, "
                   f"{g.penalty_tau:.4g}), R2 {g.fit.r2:.5f}, SSE {g.fit.sse_mm2:.1f} mm2, converged {g.converged}; "
                   f"auto: R2 {fit_piecewise_clothoid(X).r2:.5f}")
-            del lv
     except ImportError:
         pass
 

@@ -677,10 +677,11 @@ def frame_fingerprint(exp, cameras: list[Camera], video_info: list[dict]) -> str
 
 
 def _code_digest() -> str:
-    """SHA-256 of tendrilkit's own source files: a changed algorithm recomputes the frames."""
+    """SHA-256 of tendrilkit's own source files, sub-packages included: a changed algorithm recomputes the frames."""
     h = hashlib.sha256()
-    for p in sorted(Path(__file__).resolve().parent.glob("*.py")):
-        h.update(p.name.encode())
+    root = Path(__file__).resolve().parent
+    for p in sorted(root.rglob("*.py")):
+        h.update(p.relative_to(root).as_posix().encode())
         h.update(p.read_bytes())
     return h.hexdigest()
 

@@ -12,7 +12,7 @@ import pytest
 
 from tendrilkit.exceptions import ExperimentError
 from tendrilkit.fitting import METRIC_COLUMNS, SEGMENT_COLUMNS, FitOptions, run_fit
-from tests.pwc_truth import mean_distance_mm, random_pwc_curve
+from tendrilkit.pwc.datasets import mean_distance_mm, random_pwc_curve
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import doctest
 import functools
+import importlib
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy.integrate import cumulative_trapezoid
+from scipy.interpolate import make_lsq_spline
 from scipy.spatial.transform import Rotation
 
 from tendrilkit.exceptions import DegenerateCurveError
@@ -25,7 +29,7 @@ from tendrilkit.pwc import (
     register_rigid,
     segment_penalty,
 )
-from tests.pwc_truth import mean_distance_mm, random_pwc_curve
+from tendrilkit.pwc.datasets import mean_distance_mm, random_pwc_curve
 
 
 # ------------------------------------------------------------------ reference programme
@@ -290,3 +294,69 @@ def test_phantom_centrelines(site):
     assert np.mean(r2 >= 0.999) >= 0.9, r2
     # S3's loop has 7 mm ramps, shorter than the knots' minimum spacing (9 samples): weaker
     assert np.mean(dist <= (0.3 if site != "S3" else 1.0)) >= 0.9, dist
+
+
+# ------------------------------------------------------------------ pinned to libraries, examples
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_registration_is_scipys_least_squares_rotation(seed):
+    """The compiled Kabsch fit (used inside the numba kernels) equals scipy's on noisy, inexact data."""
+    rng = np.random.default_rng(seed)
+    P = rng.normal(0, 30, (50, 3))
+    Q = P @ Rotation.random(random_state=seed).as_matrix().T + rng.normal(0, 5, 3) + rng.normal(0, 2.0, P.shape)
+    R, t = register_rigid(P, Q)
+    ref, _ = Rotation.align_vectors(Q - Q.mean(axis=0), P - P.mean(axis=0))
+    np.testing.assert_allclose(R, ref.as_matrix(), atol=1e-10)
+    np.testing.assert_allclose(t, Q.mean(axis=0) - R @ P.mean(axis=0), atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_step_means_are_the_exact_integral_of_the_law(seed):
+    """A law's mean over each step equals the trapezoidal integral on a grid holding every knot (exact)."""
+    rng = np.random.default_rng(seed)
+    L = 150.0
+    knots = np.r_[0.0, np.sort(rng.uniform(5, L - 5, int(rng.integers(0, 6)))), L]
+    law = PiecewiseLinearLaw(knots, rng.normal(0, 0.05, knots.size), "kappa")
+    s = np.r_[0.0, np.sort(rng.uniform(0, L, 80)), L]
+    grid = np.union1d(s, knots)
+    integral = cumulative_trapezoid(law(grid), grid, initial=0.0)[np.searchsorted(grid, s)]
+    np.testing.assert_allclose(law.step_means(s), np.diff(integral) / np.diff(s), rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_knot_refit_is_scipys_least_squares_linear_spline(seed):
+    """The weighted continuous refit at the surviving knots equals scipy's least-squares linear B-spline
+    (ours adds a ridge of 1e-6 on the second differences, for knots without weight)."""
+    rng = np.random.default_rng(seed)
+    s = np.linspace(0, 60, 121)
+    y = np.interp(s, [0, 25, 40, 60], [1.0, 3.0, -1.0, 0.0]) + rng.normal(0, 0.1, s.size)
+    w = rng.uniform(0.1, 2.0, s.size)
+    law = join_segments(s, y, np.array([0, 50, 80, 121]), weights=w)
+    k = law.knots_mm
+    ref = make_lsq_spline(s, y, np.r_[k[0], k, k[-1]], k=1, w=np.sqrt(w))
+    np.testing.assert_allclose(law.values, ref(k), atol=1e-8)
+
+
+@pytest.mark.parametrize("module", ["costs", "search", "laws", "rebuild", "fit", "grid", "datasets"])
+def test_docstring_examples_run(module):
+    mod = importlib.import_module(f"tendrilkit.pwc.{module}")
+    res = doctest.testmod(mod, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert res.attempted > 0
+    assert res.failed == 0
+
+
+def test_run_fingerprint_covers_sub_packages(tmp_path, monkeypatch):
+    """A changed file in a sub-package (tendrilkit/pwc/) changes the code digest, so resumed runs recompute."""
+    # the digest lives in pipeline (or runner, where the pipeline's run is its own module)
+    try:
+        owner = importlib.import_module("tendrilkit.runner")
+    except ImportError:
+        owner = importlib.import_module("tendrilkit.pipeline")
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "top.py").write_text("a = 1\n")
+    (tmp_path / "sub" / "deep.py").write_text("b = 1\n")
+    monkeypatch.setattr(owner, "__file__", str(tmp_path / "top.py"))
+    before = owner._code_digest()
+    (tmp_path / "sub" / "deep.py").write_text("b = 2\n")
+    assert owner._code_digest() != before

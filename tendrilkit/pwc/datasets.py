@@ -1,12 +1,20 @@
-"""Seeded piece-wise clothoid curves with their ground truth (tests and benchmarks)."""
+"""Seeded piece-wise clothoid curves returned with their ground truth (tests, benchmarks, notebooks).
+
+As ruptures' ``datasets``: a generator that takes a seed and returns the data
+with the truth it was made from. Seeds 0-9999 are for development; seeds from
+10000 are kept for the final benchmark.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from tendrilkit.frenet import integrate_frenet
+
+__all__ = ["TruthCurve", "random_pwc_curve", "mean_distance_mm"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,7 +42,14 @@ def _knots(rng, length, k, min_gap):
 
 
 def random_pwc_curve(seed: int, *, n: int = 200, noise_mm: float = 0.15) -> TruthCurve:
-    """120-200 mm, 2-5 segments per law, kappa 0.01-0.1 1/mm, |tau| <= 0.05 1/mm."""
+    """120-200 mm, 2-5 segments per law, kappa 0.01-0.1 1/mm, |tau| <= 0.05 1/mm.
+
+    Examples
+    --------
+    >>> truth = random_pwc_curve(3)
+    >>> truth.points_mm.shape, truth.kappa_knots[0].size - 1, truth.tau_knots[0].size - 1
+    ((200, 3), 2, 2)
+    """
     rng = np.random.default_rng(seed)
     length = rng.uniform(120, 200)
     kk = _knots(rng, length, int(rng.integers(2, 6)), 20.0)
@@ -52,7 +67,5 @@ def random_pwc_curve(seed: int, *, n: int = 200, noise_mm: float = 0.15) -> Trut
 
 def mean_distance_mm(points_mm: np.ndarray, dense_mm: np.ndarray) -> float:
     """Mean distance from each point to the dense true curve (nearest vertex)."""
-    from scipy.spatial import cKDTree
-
     d, _ = cKDTree(dense_mm).query(points_mm)
     return float(d.mean())

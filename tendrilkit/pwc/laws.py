@@ -1,0 +1,213 @@
+"""Continuous piece-wise linear laws of curvature or torsion: joins, overshoot merges, knot refit.
+
+Continuity (:mod:`tendrilkit.pwc` notes, :func:`join_segments`) and the law
+itself (:class:`PiecewiseLinearLaw`: a clothoid per piece), with the exact
+mean of a law over each integration step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from tendrilkit.pwc.costs import _check_signal
+
+__all__ = ["PiecewiseLinearLaw", "join_segments"]
+
+
+@dataclass(frozen=True, eq=False)
+class PiecewiseLinearLaw:
+    """A continuous piece-wise linear law along arc length (a clothoid per piece).
+
+    Attributes
+    ----------
+    knots_mm : (K + 1,) float array
+        Increasing arc lengths, first = 0 (base), last = the curve's length.
+    values : (K + 1,) float array
+        The law's values at the knots, 1/mm.
+    kind : str
+        ``"kappa"`` or ``"tau"``.
+    """
+
+    knots_mm: np.ndarray
+    values: np.ndarray
+    kind: str = ""
+
+    @property
+    def n_segments(self) -> int:
+        return int(self.knots_mm.size - 1)
+
+    def __call__(self, s_mm: np.ndarray) -> np.ndarray:
+        return np.interp(s_mm, self.knots_mm, self.values)
+
+    def step_means(self, s_mm: np.ndarray) -> np.ndarray:
+        """Exact mean of the law over each step ``[s_i, s_{i+1}]``, shape (n - 1,)."""
+        return _pwl_step_means(np.ascontiguousarray(s_mm, dtype=float), np.ascontiguousarray(self.knots_mm, dtype=float),
+                               np.ascontiguousarray(self.values, dtype=float))
+
+    def segments(self) -> list[tuple[float, float, float, float]]:
+        """``(s0_mm, s1_mm, value at s0, value at s1)`` per segment."""
+        k, v = self.knots_mm, self.values
+        return [(float(k[i]), float(k[i + 1]), float(v[i]), float(v[i + 1])) for i in range(k.size - 1)]
+
+
+def _hat_matrix(s: np.ndarray, knots: np.ndarray) -> np.ndarray:
+    """(n, K+1) matrix A with law(s) = A @ values (linear interpolation)."""
+    n, m = s.size, knots.size
+    A = np.zeros((n, m))
+    j = np.clip(np.searchsorted(knots, s, side="right") - 1, 0, m - 2)
+    t = (s - knots[j]) / (knots[j + 1] - knots[j])
+    t = np.clip(t, 0.0, 1.0)
+    rows = np.arange(n)
+    A[rows, j] = 1.0 - t
+    A[rows, j + 1] += t
+    return A
+
+
+class _Lines:
+    """Weighted least-squares line of any interval ``[a, c)`` in O(1) (prefix sums, centred s)."""
+
+    def __init__(self, s, y, w):
+        self.s0 = float(s.mean())
+        x = s - self.s0
+        self.span2 = float((s[-1] - s[0]) ** 2)
+        z = np.zeros(1)
+        self.W = np.concatenate([z, np.cumsum(w)])
+        self.X = np.concatenate([z, np.cumsum(w * x)])
+        self.Y = np.concatenate([z, np.cumsum(w * y)])
+        self.XX = np.concatenate([z, np.cumsum(w * x * x)])
+        self.XY = np.concatenate([z, np.cumsum(w * x * y)])
+
+    def __call__(self, a: int, c: int) -> tuple[float, float]:
+        """(slope, intercept) in the original arc length."""
+        sw = self.W[c] - self.W[a]
+        if sw <= 0:
+            return 0.0, 0.0
+        sx, sy = self.X[c] - self.X[a], self.Y[c] - self.Y[a]
+        mx, my = sx / sw, sy / sw
+        cxx = (self.XX[c] - self.XX[a]) - sx * mx
+        if cxx <= 1e-12 * sw * self.span2:
+            return 0.0, float(my)
+        slope = ((self.XY[c] - self.XY[a]) - sx * my) / cxx
+        return float(slope), float(my - slope * mx - slope * self.s0)
+
+
+def join_segments(
+    s_mm: np.ndarray,
+    y: np.ndarray,
+    bounds: np.ndarray,
+    *,
+    weights: np.ndarray | None = None,
+    kind: str = "",
+) -> PiecewiseLinearLaw:
+    """Make a segmentation continuous: joins, overshoot merges, knot refit.
+
+    Parameters
+    ----------
+    s_mm, y : (n,) float arrays
+        Arc length (mm) and signal (1/mm).
+    bounds : (K + 1,) int array
+        Sample boundaries of the segments (from :func:`segment_penalty`).
+    weights : (n,) float array, optional
+        Sample weights (torsion: curvature squared).
+    kind : str
+        Label stored on the law.
+
+    Returns
+    -------
+    PiecewiseLinearLaw
+        The best continuous piece-wise linear fit (weighted least squares)
+        whose knots are the joins that survive.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> s = np.linspace(0.0, 100.0, 101)
+    >>> y = np.interp(s, [0, 40, 100], [0.02, 0.08, 0.03])
+    >>> law = join_segments(s, y, np.array([0, 40, 101]), kind="kappa")
+    >>> law.knots_mm.round(3).tolist(), law.values.round(4).tolist()
+    ([0.0, 40.0, 100.0], [0.02, 0.08, 0.03])
+    >>> law(np.array([20.0, 70.0])).round(4).tolist()
+    [0.05, 0.055]
+    """
+    s, y, w = _check_signal(s_mm, y, weights)
+    b = [int(v) for v in np.asarray(bounds)]
+    if b[0] != 0 or b[-1] != s.size or any(b2 <= b1 for b1, b2 in zip(b[:-1], b[1:])):
+        raise ValueError(f"bounds must increase from 0 to {s.size}, got {b}")
+    h_min = float(np.min(np.diff(s)))
+    line = _Lines(s, y, w)
+    while True:
+        lines = [line(a, c) for a, c in zip(b[:-1], b[1:])]
+        knots = [float(s[0])]
+        bad = None
+        for i in range(len(lines) - 1):
+            (a1, c1), (a2, c2) = lines[i], lines[i + 1]
+            lo, hi = s[b[i]], s[b[i + 2] - 1]
+            if a1 == a2:
+                bad = i
+                break
+            x = (c2 - c1) / (a1 - a2)
+            if not (lo < x < hi) or x <= knots[-1] + 0.5 * h_min or x >= s[-1] - 0.5 * h_min:
+                bad = i
+                break
+            knots.append(float(x))
+        if bad is None:
+            break
+        del b[bad + 1]
+    knots.append(float(s[-1]))
+    kn = np.array(knots)
+    values = _refit_values(s, y, w, kn)
+    return PiecewiseLinearLaw(knots_mm=kn, values=values, kind=kind)
+
+
+def _refit_values(s, y, w, knots):
+    A = _hat_matrix(s, knots)
+    sq = np.sqrt(w)
+    Aw = A * sq[:, None]
+    # a whisper of ridge on the second differences keeps knots with no weight defined
+    m = knots.size
+    if m > 2:
+        D = np.diff(np.eye(m), 2, axis=0) * (1e-6 * np.sqrt(w.sum() / m))
+    else:
+        D = np.zeros((0, m))
+    lhs = np.vstack([Aw, D])
+    rhs = np.concatenate([y * sq, np.zeros(D.shape[0])])
+    sol, *_ = np.linalg.lstsq(lhs, rhs, rcond=None)
+    return sol
+
+
+@njit(cache=True)
+def _pwl_step_means(s, knots, values):
+    """Exact mean of a continuous piece-wise linear law over each step of ``s``."""
+    m = knots.shape[0]
+    Ik = np.zeros(m)
+    for j in range(m - 1):
+        Ik[j + 1] = Ik[j] + 0.5 * (knots[j + 1] - knots[j]) * (values[j] + values[j + 1])
+    n = s.shape[0]
+    I = np.empty(n)
+    j = 0
+    for i in range(n):
+        x = s[i]
+        while j < m - 2 and x > knots[j + 1]:
+            j += 1
+        x = min(max(x, knots[0]), knots[m - 1])
+        d = knots[j + 1] - knots[j]
+        v = values[j] + (values[j + 1] - values[j]) * (x - knots[j]) / d if d > 0 else values[j]
+        I[i] = Ik[j] + 0.5 * (x - knots[j]) * (values[j] + v)
+    out = np.empty(n - 1)
+    for i in range(n - 1):
+        out[i] = (I[i + 1] - I[i]) / (s[i + 1] - s[i])
+    return out
+
+
+def _insert_knot(law, x):
+    k = np.sort(np.concatenate([law.knots_mm, [x]]))
+    return PiecewiseLinearLaw(k, law(k), law.kind)
+
+
+def _merge_knots(a, b, min_gap):
+    """Union of two knot sets (same ends); knots of ``b`` closer than ``min_gap`` to one of ``a`` dropped."""
+    extra = [x for x in b[1:-1] if np.min(np.abs(a - x)) >= min_gap]
+    return np.sort(np.concatenate([a, extra])) if extra else a

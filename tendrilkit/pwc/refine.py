@@ -1,0 +1,336 @@
+"""Refinement of the laws on the registered 3D points: Levenberg-Marquardt and the knot score test.
+
+tendrilkit's addition to the paper (:mod:`tendrilkit.pwc` notes,
+"Refinement"): the knot values and inner knot positions fitted to the 3D
+points with an analytic, compiled Jacobian; and the score test that asks for
+one more knot where the residuals call for it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from tendrilkit.frenet import _integrate
+from tendrilkit.geometry import rigid_fit
+from tendrilkit.pwc.laws import PiecewiseLinearLaw, _pwl_step_means
+
+__all__: list[str] = []
+
+
+@njit(cache=True)
+def _lm_jacobian(s, P, T, B, R, X, Mk, Mt):
+    # Mk, Mt: (n-1, p) derivatives of the step means per parameter
+    """(3n, p + 6) Jacobian of the registered points (values, then rotation, translation).
+
+    One pass over the points, every parameter's two running sums updated per
+    step (rows of the Jacobian written contiguously).
+    """
+    n = P.shape[0]
+    nk = Mk.shape[1]
+    p = nk + Mt.shape[1]
+    J = np.zeros((3 * n, p + 6))
+    A = np.zeros((p, 3))
+    C = np.zeros((p, 3))
+    for j in range(1, n):
+        i = j - 1
+        h = s[j] - s[i]
+        bx = 0.5 * (B[i, 0] + B[j, 0])
+        by = 0.5 * (B[i, 1] + B[j, 1])
+        bz = 0.5 * (B[i, 2] + B[j, 2])
+        tx = 0.5 * (T[i, 0] + T[j, 0])
+        ty = 0.5 * (T[i, 1] + T[j, 1])
+        tz = 0.5 * (T[i, 2] + T[j, 2])
+        mx = 0.5 * (P[i, 0] + P[j, 0])
+        my = 0.5 * (P[i, 1] + P[j, 1])
+        mz = 0.5 * (P[i, 2] + P[j, 2])
+        px = P[j, 0]
+        py = P[j, 1]
+        pz = P[j, 2]
+        r0 = 3 * j
+        for q in range(p):
+            if q < nk:
+                c = h * Mk[i, q]
+                ax = c * bx
+                ay = c * by
+                az = c * bz
+            else:
+                c = h * Mt[i, q - nk]
+                ax = c * tx
+                ay = c * ty
+                az = c * tz
+            A[q, 0] += ax
+            A[q, 1] += ay
+            A[q, 2] += az
+            C[q, 0] += ay * mz - az * my
+            C[q, 1] += az * mx - ax * mz
+            C[q, 2] += ax * my - ay * mx
+        for q in range(p):
+            d0 = A[q, 1] * pz - A[q, 2] * py - C[q, 0]
+            d1 = A[q, 2] * px - A[q, 0] * pz - C[q, 1]
+            d2 = A[q, 0] * py - A[q, 1] * px - C[q, 2]
+            J[r0, q] = R[0, 0] * d0 + R[0, 1] * d1 + R[0, 2] * d2
+            J[r0 + 1, q] = R[1, 0] * d0 + R[1, 1] * d1 + R[1, 2] * d2
+            J[r0 + 2, q] = R[2, 0] * d0 + R[2, 1] * d1 + R[2, 2] * d2
+    m = np.zeros(3)
+    for j in range(n):
+        for c3 in range(3):
+            m[c3] += X[j, c3]
+    m /= n
+    for j in range(n):
+        x = X[j, 0] - m[0]
+        y = X[j, 1] - m[1]
+        z = X[j, 2] - m[2]
+        # small rotation w after R: d = w x X
+        J[3 * j + 0, p + 1] = z
+        J[3 * j + 0, p + 2] = -y
+        J[3 * j + 1, p + 0] = -z
+        J[3 * j + 1, p + 2] = x
+        J[3 * j + 2, p + 0] = y
+        J[3 * j + 2, p + 1] = -x
+        J[3 * j + 0, p + 3] = 1.0
+        J[3 * j + 1, p + 4] = 1.0
+        J[3 * j + 2, p + 5] = 1.0
+    return J
+
+
+@njit(cache=True)
+def _law_columns(s, knots, values, free_knots):
+    """(n-1, p) derivatives of the step means: per value, then per inner knot position."""
+    m = knots.shape[0]
+    n = s.shape[0]
+    p = m + (m - 2 if free_knots else 0)
+    G = np.zeros((n - 1, p))
+    I = np.empty(n)
+    for j in range(m):
+        # the step means of the hat of knot j (as _pwl_step_means of the unit vector, the same
+        # arithmetic): its integral is 0 up to knots[j-1] and constant from knots[j+1]
+        lo = knots[j - 1] if j > 0 else knots[0]
+        hi = knots[j + 1] if j < m - 1 else knots[m - 1]
+        i0 = 0 if j == 0 else 0.5 * (knots[j] - knots[j - 1]) * (0.0 + 1.0)
+        after = i0 + (0.5 * (knots[j + 1] - knots[j]) * (1.0 + 0.0) if j < m - 1 else 0.0)
+        for i in range(n):
+            x = s[i]
+            if x <= lo and j > 0:
+                I[i] = 0.0
+            elif x >= hi and j < m - 1:
+                I[i] = after
+            else:
+                x = min(max(x, knots[0]), knots[m - 1])
+                if j > 0 and x <= knots[j]:
+                    a = j - 1  # the rising half: values 0 -> 1
+                    d = knots[j] - knots[a]
+                    v = 0.0 + (1.0 - 0.0) * (x - knots[a]) / d if d > 0 else 0.0
+                    I[i] = 0.0 + 0.5 * (x - knots[a]) * (0.0 + v)
+                else:
+                    d = knots[j + 1] - knots[j] if j < m - 1 else 0.0
+                    v = 1.0 + (0.0 - 1.0) * (x - knots[j]) / d if d > 0 else 1.0
+                    I[i] = i0 + 0.5 * (x - knots[j]) * (1.0 + v)
+        for i in range(n - 1):
+            G[i, j] = (I[i + 1] - I[i]) / (s[i + 1] - s[i])
+    if free_knots:
+        for k in range(1, m - 1):
+            t0, t1, t2 = knots[k - 1], knots[k], knots[k + 1]
+            for i in range(n - 1):
+                x = 0.5 * (s[i] + s[i + 1])
+                if t0 < x <= t1:
+                    G[i, m + k - 1] = -(values[k] - values[k - 1]) * (x - t0) / (t1 - t0) ** 2
+                elif t1 < x < t2:
+                    G[i, m + k - 1] = -(values[k + 1] - values[k]) * (t2 - x) / (t2 - t1) ** 2
+    return G
+
+
+@njit(cache=True)
+def _lm_evaluate(s, kk, vk, kt, vt, data):
+    P, T, N, B = _integrate(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt),
+                            np.eye(3), np.zeros(3), False)
+    if not np.all(np.isfinite(P)):
+        return np.inf, P, T, B, np.eye(3), P.copy()
+    R, t = rigid_fit(P, data)
+    X = P @ R.T
+    f = 0.0
+    for j in range(X.shape[0]):
+        for c in range(3):
+            X[j, c] += t[c]
+            d = X[j, c] - data[j, c]
+            f += d * d
+    return f, P, T, B, R, X
+
+
+@njit(cache=True)
+def _unpack_nb(q, kk, kt, free_knots):
+    mk, mt = kk.shape[0], kt.shape[0]
+    kk2 = kk.copy()
+    kt2 = kt.copy()
+    vk = q[:mk].copy()
+    o = mk
+    if free_knots and mk > 2:
+        kk2[1:mk - 1] = q[o:o + mk - 2]
+        o += mk - 2
+    vt = q[o:o + mt].copy()
+    o += mt
+    if free_knots and mt > 2:
+        kt2[1:mt - 1] = q[o:o + mt - 2]
+    return kk2, vk, kt2, vt
+
+
+@njit(cache=True)
+def _min_gap_of(k):
+    g = np.inf
+    for i in range(k.shape[0] - 1):
+        g = min(g, k[i + 1] - k[i])
+    return g
+
+
+@njit(cache=True)
+def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
+    mk, mt = kk.shape[0], kt.shape[0]
+    ik = mk - 2 if (free_knots and mk > 2) else 0
+    it = mt - 2 if (free_knots and mt > 2) else 0
+    npar = mk + ik + mt + it
+    p = np.empty(npar)
+    p[:mk] = vk
+    p[mk:mk + ik] = kk[1:mk - 1][:ik]
+    p[mk + ik:mk + ik + mt] = vt
+    p[mk + ik + mt:] = kt[1:mt - 1][:it]
+    is_knot = np.zeros(npar, dtype=np.bool_)
+    is_knot[mk:mk + ik] = True
+    is_knot[mk + ik + mt:] = True
+    L = s[-1] - s[0]
+    max_value_step = 1.0 / L
+    max_knot_step = 0.1 * L
+    gap_k = max(min(min_gap, 0.5 * _min_gap_of(kk)), 1e-6 * L)
+    gap_t = max(min(min_gap, 0.5 * _min_gap_of(kt)), 1e-6 * L)
+    ck = _unpack_nb(p, kk, kt, free_knots)
+    f, P, T, B, R, X = _lm_evaluate(s, ck[0], ck[1], ck[2], ck[3], data)
+    mu = 1e-4
+    n = s.shape[0]
+    if not np.isfinite(f):
+        return ck[0], ck[1], ck[2], ck[3], f
+    r = np.empty(3 * n)
+    for _ in range(iterations):
+        Gk = _law_columns(s, ck[0], ck[1], free_knots)
+        Gt = _law_columns(s, ck[2], ck[3], free_knots)
+        J = _lm_jacobian(s, P, T, B, R, X, Gk, Gt)
+        for j in range(n):
+            for c in range(3):
+                r[3 * j + c] = X[j, c] - data[j, c]
+        g = J.T @ r
+        H = J.T @ J
+        m = H.shape[0]
+        tr = 0.0
+        for i in range(m):
+            tr += H[i, i]
+        improved = False
+        fq = f
+        q = p
+        cq = ck
+        Pq, Tq, Bq, Rq, Xq = P, T, B, R, X
+        if not np.all(np.isfinite(H)) or not np.all(np.isfinite(g)):
+            break
+        for _ in range(12):
+            if mu > 1e12:
+                break
+            A = H.copy()
+            for i in range(m):
+                A[i, i] += mu * (H[i, i] + 1e-12 * tr + 1e-300)
+            step = np.linalg.solve(A, -g)[:npar]
+            ok = True
+            for i in range(npar):
+                v = step[i]
+                if not np.isfinite(v):
+                    ok = False
+                elif is_knot[i]:
+                    if abs(v) > max_knot_step:
+                        ok = False
+                elif abs(v) > max_value_step:
+                    ok = False
+            if not ok:
+                mu *= 10.0
+                continue
+            q = p + step
+            cq = _unpack_nb(q, kk, kt, free_knots)
+            if _min_gap_of(cq[0]) < gap_k or _min_gap_of(cq[2]) < gap_t:
+                mu *= 10.0
+                continue
+            fq, Pq, Tq, Bq, Rq, Xq = _lm_evaluate(s, cq[0], cq[1], cq[2], cq[3], data)
+            if np.isfinite(fq) and fq < f:
+                improved = True
+                break
+            mu *= 10.0
+        if not improved:
+            break
+        rel = (f - fq) / max(f, 1e-300)
+        p, ck, P, T, B, R, X, f = q, cq, Pq, Tq, Bq, Rq, Xq, fq
+        mu = max(mu / 10.0, 1e-12)
+        if rel < rtol:
+            break
+    return ck[0], ck[1], ck[2], ck[3], f
+
+
+def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, iterations=40, rtol=1e-6):
+    """Levenberg-Marquardt on the knot values (and inner knot positions), compiled.
+
+    Residuals are the registered 3D errors. The Jacobian is analytic: a change
+    :math:`\\delta` of the curvature over step ``i`` rotates the rest of the
+    curve about :math:`B_i` through the step by :math:`h_i \\delta` (torsion:
+    about :math:`T_i`), so :math:`\\partial P_j = \\sum_{i<j} h_i \\delta_i
+    D_i \\times (P_j - P_i)`, two running sums; a parameter moves the step
+    means through :func:`_law_columns`. The rigid registration's six freedoms
+    are part of each step (variable projection). Each iteration changes a
+    value by at most 1/L and a knot by at most L/10 (the reach of the linear
+    model); knots stay ``min_gap`` mm apart.
+    """
+    f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    kk2, vk2, kt2, vt2, sse = _lm_core(f(s), f(data), f(kk), f(vk), f(kt), f(vt), bool(free_knots),
+                                       float(min_gap), int(iterations), float(rtol))
+    return (kk2, vk2, kt2, vt2), float(sse)
+
+
+def _refine_laws(prep, law_k, law_t, iterations=40, rtol=1e-6):
+    s = prep.s
+    (kk, vk, kt, vt), sse = _refine_laws_lm(
+        s, prep.data, law_k.knots_mm, law_k.values, law_t.knots_mm, law_t.values,
+        free_knots=prep.free_knots, min_gap=prep.min_gap_mm, iterations=iterations, rtol=rtol)
+    return PiecewiseLinearLaw(kk, vk, "kappa"), PiecewiseLinearLaw(kt, vt, "tau"), sse
+
+
+def _best_insertions(prep, lk, lt):
+    """Score test for one more knot: the best new knot position for each law.
+
+    At the refined fit, adding a knot at ``x`` adds the hinge :math:`(s - x)_+`
+    to the law's span; the first-order drop of the 3D SSE is
+    :math:`(c_\\perp^T r)^2 / |c_\\perp|^2` with :math:`c` the hinge's
+    Jacobian column made orthogonal to the current ones. Returns
+    ``(x_kappa, gain_kappa), (x_tau, gain_tau)`` (``None`` where no room).
+    """
+    s, data = prep.s, prep.data
+    f, P, T, B, R, X = _lm_evaluate(s, lk.knots_mm, lk.values, lt.knots_mm, lt.values, data)
+    Gk = _law_columns(s, lk.knots_mm, lk.values, prep.free_knots)
+    Gt = _law_columns(s, lt.knots_mm, lt.values, prep.free_knots)
+    J = _lm_jacobian(s, P, T, B, R, X, Gk, Gt)
+    # projection off the current columns by the (small) normal equations; column-scaled
+    scale = np.sqrt(np.einsum("ij,ij->j", J, J)) + 1e-300
+    Js = J / scale
+    H = Js.T @ Js
+    H[np.diag_indices_from(H)] += 1e-10
+    r = (X - data).ravel()
+    gap = prep.min_gap_mm
+    xs = np.arange(s[0] + gap, s[-1] - gap, max(gap / 2, (s[-1] - s[0]) / 200))
+    a, b = s[:-1, None], s[1:, None]
+    hinge = np.where(b <= xs, 0.0, np.where(a >= xs, 0.5 * (a + b) - xs, (b - xs) ** 2 / (2 * (b - a))))
+    none = np.zeros((s.size - 1, 0))
+    out = []
+    for law, cols in ((lk, (hinge, none)), (lt, (none, hinge))):
+        ok = np.min(np.abs(xs[:, None] - law.knots_mm[None, :]), axis=1) >= gap
+        if not ok.any():
+            out.append(None)
+            continue
+        C = _lm_jacobian(s, P, T, B, R, X, np.ascontiguousarray(cols[0][:, ok] if cols[0].shape[1] else cols[0]),
+                         np.ascontiguousarray(cols[1][:, ok] if cols[1].shape[1] else cols[1]))[:, : int(ok.sum())]
+        Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
+        num = (Cp.T @ r) ** 2
+        den = np.einsum("ij,ij->j", Cp, Cp) + 1e-300
+        j = int(np.argmax(num / den))
+        out.append((float(xs[ok][j]), float(num[j] / den[j])))
+    return out

@@ -1,0 +1,186 @@
+"""Automatic selection of the penalties: a forward search along both penalty paths.
+
+``selection="auto"`` of :func:`tendrilkit.pwc.fit_piecewise_clothoid`
+(:mod:`tendrilkit.pwc` notes, "Selection of the penalties"): the distinct
+continuous laws of the two paths, compared by BIC of the 3D residuals (or the
+paper's target R^2), each candidate refined from the current fit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tendrilkit.pwc.laws import PiecewiseLinearLaw, _insert_knot, _merge_knots, join_segments
+from tendrilkit.pwc.rebuild import _law_sse
+from tendrilkit.pwc.refine import _best_insertions, _refine_laws
+from tendrilkit.pwc.search import penalty_path
+
+__all__: list[str] = []
+
+
+def _mid_penalty(lo: float, hi: float) -> float:
+    if not np.isfinite(hi):
+        return float(max(lo, 0.0) * 2.0 if lo > 0 else 1.0)
+    if lo <= 0:
+        return float(hi / 2.0)
+    return float(np.sqrt(lo * hi))
+
+
+def _bic(sse: np.ndarray, n: int, k_kappa: np.ndarray, k_tau: np.ndarray) -> np.ndarray:
+    m = 3 * n
+    p = 2 * k_kappa + 2 * k_tau + 6
+    return m * np.log(np.maximum(sse, 1e-300) / m) + p * np.log(m)
+
+
+def _preferred(x, y, target_r2, criterion):
+    """Is scored candidate x preferred to y? Reaching target_r2 first; then BIC (or fewer segments)."""
+    okx, oky = x[3] >= target_r2, y[3] >= target_r2
+    if okx != oky:
+        return okx
+    if not okx:
+        return x[3] > y[3]
+    if criterion == "bic":
+        return x[4] < y[4]
+    return x[0].n_segments + x[1].n_segments < y[0].n_segments + y[1].n_segments
+
+
+def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead, insertions,
+                 quick_iterations, max_candidates):
+    """The automatic selection of :func:`fit_piecewise_clothoid` on prepared signals."""
+    s, fr = prep.s, prep.fr
+    path_k = penalty_path(prep.Ck, kmax=max_segments)
+    path_t = penalty_path(prep.Ct, kmax=max_segments)
+    # continuity may merge segments, so several path entries can give one law: keep each once
+    laws_k = _DistinctLaws(s, fr.kappa, prep.wk, path_k, "kappa")
+    laws_t = _DistinctLaws(s, fr.tau, prep.wt, path_t, "tau")
+    n = s.size
+    sst = float(np.sum((prep.data - prep.data.mean(axis=0)) ** 2))
+    rows: list[list[float]] = []
+    quick = (quick_iterations, 1e-4)
+
+    def scored(lk, lt, sse, row=None):
+        """(lk, lt, sse, r2, bic, row index), recorded in the candidates table."""
+        r2 = 1.0 - sse / sst
+        bic = float(_bic(np.array(sse), n, np.array(lk.n_segments), np.array(lt.n_segments)))
+        entry = [lk.n_segments, lt.n_segments, r2, sse, bic, 0.0]
+        if row is None:
+            rows.append(entry)
+            row = len(rows) - 1
+        else:
+            rows[row] = entry
+        return (lk, lt, sse, r2, bic, row)
+
+    def from_path(a, b, cur=None, move=None):
+        """Candidate (a, b) of the paths. Without refinement: the laws as they are.
+
+        With refinement, from the best of three starts: the path law, the
+        current refined law read at the path law's knots, and at the union of
+        both knot sets (which starts exactly from the current fit); the other
+        law (``move`` names the one that changes) keeps its current refined state.
+        """
+        if not refine:
+            return scored(laws_k[a], laws_t[b], _law_sse(prep, laws_k[a], laws_t[b]))
+        if cur is None:
+            # the path laws, or constants (median curvature; curvature-weighted median
+            # torsion, or none): noisy estimates can start the fit in a wrong basin
+            ends_k, ends_t = laws_k[a].knots_mm, laws_t[b].knots_mm
+            kc = PiecewiseLinearLaw(ends_k, np.full(ends_k.size, float(np.median(fr.kappa))), "kappa")
+            tc = PiecewiseLinearLaw(ends_t, np.full(ends_t.size, _weighted_median(fr.tau, prep.wt)), "tau")
+            t0 = PiecewiseLinearLaw(ends_t, np.zeros(ends_t.size), "tau")
+            starts = [(laws_k[a], laws_t[b]), (kc, tc), (kc, t0), (laws_k[a], t0)]
+        elif move == "k":
+            k_new, k_cur, t_cur = laws_k[a].knots_mm, cur[0], cur[1]
+            u = _merge_knots(k_new, k_cur.knots_mm, prep.min_gap_mm)
+            starts = [(laws_k[a], t_cur), (PiecewiseLinearLaw(k_new, k_cur(k_new), "kappa"), t_cur),
+                      (PiecewiseLinearLaw(u, k_cur(u), "kappa"), t_cur)]
+        else:
+            t_new, k_cur, t_cur = laws_t[b].knots_mm, cur[0], cur[1]
+            u = _merge_knots(t_new, t_cur.knots_mm, prep.min_gap_mm)
+            starts = [(k_cur, laws_t[b]), (k_cur, PiecewiseLinearLaw(t_new, t_cur(t_new), "tau")),
+                      (k_cur, PiecewiseLinearLaw(u, t_cur(u), "tau"))]
+        start_k, start_t = min(starts, key=lambda x: _law_sse(prep, x[0], x[1]))
+        return scored(*_refine_laws(prep, start_k, start_t, *quick))
+
+    def better(x, y):
+        return _preferred(x, y, target_r2, criterion)
+
+    # Forward search from one segment each: move to one of the next `lookahead`
+    # segmentations of either penalty path, or (refine and insertions) add the knot
+    # the score test asks for, while the criterion improves.
+    state = (0, 0)
+    cur = from_path(0, 0)
+    while not (criterion == "r2" and cur[3] >= target_r2) and len(rows) < max_candidates:
+        a0, b0 = state
+        tried = [((a0 + d, b0), from_path(a0 + d, b0, cur, "k"))
+                 for d in range(1, lookahead + 1) if laws_k.has(a0 + d)]
+        tried += [((a0, b0 + d), from_path(a0, b0 + d, cur, "t"))
+                  for d in range(1, lookahead + 1) if laws_t.has(b0 + d)]
+        if refine and insertions:
+            for which, found in zip("kt", _best_insertions(prep, cur[0], cur[1])):
+                law = cur[0] if which == "k" else cur[1]
+                if found is None or law.n_segments >= max_segments:
+                    continue
+                sk = _insert_knot(cur[0], found[0]) if which == "k" else cur[0]
+                st = _insert_knot(cur[1], found[0]) if which == "t" else cur[1]
+                tried.append(((a0, b0), scored(*_refine_laws(prep, sk, st, *quick))))
+        if not tried:
+            break
+        m, cand = tried[0]
+        for mm, cc in tried[1:]:
+            if better(cc, cand):
+                m, cand = mm, cc
+        if not better(cand, cur):
+            break
+        if refine:  # candidates are compared after a few iterations; the chosen one converges
+            cand = scored(*_refine_laws(prep, cand[0], cand[1]), row=cand[5])
+        state, cur = m, cand
+    a, b = state
+    lk, lt, irow = cur[0], cur[1], cur[5]
+    rows[irow][5] = 1.0
+    candidates = np.array(rows)
+    pa, pb = laws_k.idx[a], laws_t.idx[b]
+    rk = (path_k.penalty_lo[pa], path_k.penalty_hi[pa])
+    rt = (path_t.penalty_lo[pb], path_t.penalty_hi[pb])
+    return {"prep": prep, "lk": lk, "lt": lt, "bounds_k": path_k.bounds[pa], "bounds_t": path_t.bounds[pb],
+            "rk": rk, "rt": rt, "candidates": candidates, "best": cur}
+
+
+def _weighted_median(y, w):
+    """The smallest ``y`` whose cumulative weight reaches half the total (0 without weight)."""
+    if not w.sum() > 0:
+        return 0.0
+    return float(np.quantile(y, 0.5, weights=w, method="inverted_cdf"))
+
+
+class _DistinctLaws:
+    """The continuous laws of a penalty path, one per distinct knot set, made on demand.
+
+    The forward search looks at the first few entries of a path only; each law
+    costs a join and a refit, so they are made in path order as far as asked.
+    ``laws[a]`` is the ``a``-th distinct law, ``idx[a]`` its index in the path.
+    """
+
+    def __init__(self, s, y, w, path, kind):
+        self.s, self.y, self.w, self.path, self.kind = s, y, w, path, kind
+        self.idx: list[int] = []
+        self.laws: list[PiecewiseLinearLaw] = []
+        self._seen: set = set()
+        self._next = 0
+
+    def has(self, a: int) -> bool:
+        """Is there an ``a``-th distinct law (made if needed)?"""
+        while len(self.laws) <= a and self._next < len(self.path.bounds):
+            i = self._next
+            self._next += 1
+            law = join_segments(self.s, self.y, self.path.bounds[i], weights=self.w, kind=self.kind)
+            key = tuple(np.round(law.knots_mm, 9))
+            if key not in self._seen:
+                self._seen.add(key)
+                self.idx.append(i)
+                self.laws.append(law)
+        return a < len(self.laws)
+
+    def __getitem__(self, a: int) -> PiecewiseLinearLaw:
+        if not self.has(a):
+            raise IndexError(a)
+        return self.laws[a]

@@ -1,0 +1,64 @@
+"""A centreline's curvature and torsion prepared for the searches: frames, weights, cost tables.
+
+Shared by the automatic selection, the fixed penalties and the paper's grid
+search: one smoothing (:mod:`tendrilkit.frenet`), torsion weighted by
+curvature squared, the minimum segment size, and both signals' interval costs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from tendrilkit.frenet import FrenetFrames, auto_smoothing_length_mm, frenet_frames
+from tendrilkit.pwc.costs import line_costs
+
+__all__: list[str] = []
+
+
+#: Refined and inserted knots stay at least this many sample spacings apart.
+KNOT_GAP_SAMPLES = 9
+
+
+@dataclass(frozen=True, eq=False)
+class _Prepared:
+    """One centreline's signals for the searches.
+
+    ``fr``: the Frenet frames (smoothed curve, kappa, tau, 1/mm); ``s`` (n,):
+    arc length, mm; ``data`` (n, 3): the input resampled, mm (what the scores
+    measure against); ``wk``, ``wt`` (n,): sample weights of curvature (1) and
+    torsion (kappa^2 where torsion is defined); ``Ck``, ``Ct`` (n + 1, n + 1):
+    interval costs (:func:`~tendrilkit.pwc.costs.line_costs`); ``free_knots``:
+    refinement moves the inner knots; ``min_gap_mm``: closest knots, mm.
+    """
+
+    fr: FrenetFrames
+    s: np.ndarray
+    data: np.ndarray
+    wk: np.ndarray
+    wt: np.ndarray
+    Ck: np.ndarray
+    Ct: np.ndarray
+    free_knots: bool
+    min_gap_mm: float
+
+
+def _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points, free_knots=True):
+    """Smooth ``points_mm`` (n, 3) and cost both signals (options: :func:`~tendrilkit.pwc.fit_piecewise_clothoid`)."""
+    if smoothing_length_mm is None:
+        smoothing_length_mm = auto_smoothing_length_mm(points_mm)
+    fr = frenet_frames(points_mm, smoothing_length_mm=smoothing_length_mm, n=n_points)
+    s = fr.s_mm
+    n = s.size
+    h = s[-1] / (n - 1)
+    seg_mm = 0.5 * smoothing_length_mm if min_segment_mm is None else min_segment_mm
+    min_size = int(max(3, np.ceil(seg_mm / h)))
+    min_size = min(min_size, n)
+    wk = np.ones(n)
+    wt = fr.kappa ** 2 * fr.tau_defined
+    if not wt.sum() > 0:
+        wt = np.ones(n) * 1e-12
+    Ck = line_costs(s, fr.kappa, weights=wk, score=score, min_size=min_size)
+    Ct = line_costs(s, fr.tau, weights=wt, score=score, min_size=min_size)
+    return _Prepared(fr, s, np.ascontiguousarray(fr.data_mm), wk, wt, Ck, Ct, free_knots, float(KNOT_GAP_SAMPLES * h))
