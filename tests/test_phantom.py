@@ -189,3 +189,51 @@ def test_points_beyond_the_field_of_view_are_not_folded_into_the_image():
     assert np.isnan(_project_safe(cam, far)).all()
     inside = np.array([[50.0, 20.0, 400.0]])
     np.testing.assert_allclose(_project_safe(cam, inside), cam.project(inside))
+
+
+def test_phantom_is_read_only_and_its_layers_go_with_it():
+    """No global cache: a phantom's arrays cannot be changed by a reader, and its rendered layers die with it."""
+    import gc
+    import weakref
+
+    ph = P.make_phantom("S1", n_frames=2, seed=0)
+    for a in (ph.curves_mm, ph.projections_px, ph.s_mm, ph.time_s, ph.response, ph.kappa[0].values, ph.tau[1].values):
+        with pytest.raises(ValueError, match="read-only"):
+            a[..., 0] = 0.0
+    P.render_view(ph, 0, 1)
+    layers = static_layers(ph, 1)
+    with pytest.raises(ValueError, match="read-only"):
+        layers["blurred"][0, 0, 0] = 0.0
+    assert static_layers(ph, 1) is layers  # drawn once per view
+    ref = weakref.ref(ph)
+    del ph, layers
+    gc.collect()
+    assert ref() is None
+
+
+def test_true_centreline_agrees_with_the_methods_integrator():
+    """The ground truth's DOP853 solution and frenet.integrate_frenet (rotation steps on the law's step means)."""
+    from tendrilkit.frenet import integrate_frenet
+
+    ph = P.make_phantom("S3", n_frames=3, seed=0)
+    f, s, F0 = 2, ph.s_mm, ph.design.frame0
+    X, *_ = integrate_frenet(s, ph.kappa[f].step_means(s), ph.tau[f].step_means(s), F0[0], F0[1], F0[2],
+                             ph.curves_mm[f, 0], step_values=True, positions="exact")
+    # measured 0.75 micrometres over the 175 mm loop
+    assert np.linalg.norm(X - ph.curves_mm[f], axis=1).max() < 2e-3
+
+
+def test_solve_frenet_serret_checks_its_laws():
+    from tendrilkit.pwc import PiecewiseLinearLaw
+
+    a = PiecewiseLinearLaw(np.array([0.0, 10.0]), np.zeros(2))
+    b = PiecewiseLinearLaw(np.array([0.0, 5.0, 10.0]), np.zeros(3))
+    s = np.linspace(0, 10, 11)
+    with pytest.raises(ValueError, match="same breakpoints"):
+        P.solve_frenet_serret(s, [a, b], [a, a], np.zeros(3), np.eye(3))
+    with pytest.raises(ValueError, match="one law of each per frame"):
+        P.solve_frenet_serret(s, [a, a], [a], np.zeros(3), np.eye(3))
+    # a circle of radius 10 mm closes after 2 pi r
+    k = PiecewiseLinearLaw(np.array([0.0, 20 * np.pi]), np.full(2, 0.1))
+    X = P.solve_frenet_serret(np.linspace(0, 20 * np.pi, 401), [k], [a], np.zeros(3), np.eye(3))[0]
+    assert np.abs(X[-1]).max() < 1e-6 and abs(np.linalg.norm(X[100] - [0, 10, 0]) - 10) < 1e-6
