@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 
 from tendrilkit.camera import Camera
+from tendrilkit.geometry import marker_corners
 from tendrilkit.phantom.design import (_CLEAR_PX, _NODE_RADIUS_MM, _STEM_RADIUS_MM, SITES, WORLD_MARKER_ID,
                                        WORLD_MARKER_MM, Design)
 from tendrilkit.phantom.projection import _mm_per_px, _project_poly, _project_safe
@@ -30,12 +31,7 @@ class MarkerSpec:
 
     def corners_mm(self, scale: float = 1.0) -> np.ndarray:
         """Corners (4, 3) mm on the board (z = 0), OpenCV order, ``scale`` x side."""
-        h = 0.5 * self.length_mm * scale
-        local = np.array([[-h, h], [h, h], [h, -h], [-h, -h]])
-        a = math.radians(self.angle_deg)
-        R = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
-        xy = local @ R.T + self.centre_mm[None, :]
-        return np.hstack([xy, np.zeros((4, 1))])
+        return marker_corners(self.length_mm, centre_mm=self.centre_mm, angle_deg=self.angle_deg, scale=scale)
 
 
 @dataclass(frozen=True, eq=False)
