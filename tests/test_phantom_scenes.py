@@ -132,6 +132,7 @@ def test_random_scene_ground_truth_is_consistent_and_deterministic(tmp_path):
     meta = gt.meta
     assert meta["scene"] == "random" and meta["active_factors"] == active_factors(meta["factors"])
     ph = S.make_scene(1, n_frames=1)
+    assert not (ph.curves_mm.flags.writeable or ph.radius_mm.flags.writeable)  # shared safely, never cached
     for f in range(gt.curves.shape[0]):
         inside = [bool(np.all(cam.in_image(gt.projections[f, v]))) for v, cam in enumerate(gt.cameras)]
         assert sum(inside) >= 2

@@ -81,8 +81,9 @@ def write_phantom_experiment(site: str, out_dir: str | Path, *, n_frames: int | 
     from tendrilkit.phantom.render import render_view
 
     n = DEFAULT_N_FRAMES if n_frames is None else int(n_frames)
+    opts = _resolve_options(options)
     out = check_writable_dir(out_dir)
-    stamp = phantom_stamp(site, seed, n, _resolve_options(options))
+    stamp = phantom_stamp(site, seed, n, opts)
     if _stamp_matches(out, stamp, OUTPUTS):
         return out / "experiment.yaml"
     ph = make_phantom(site, n_frames=n, seed=seed, **options)

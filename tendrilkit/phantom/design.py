@@ -110,6 +110,13 @@ def response_profile(time_s: np.ndarray, onset_s: float, stable_s: float, wobble
     ``1 + a sin(2 pi t / P + phase)`` (slow wobble of the curl), plus a
     small always-positive term ``b (1 + sin(...)) / 2`` so frames before the
     onset differ slightly too.
+
+    Examples
+    --------
+    Without wobble, half-way between onset and stabilisation is half the response:
+
+    >>> response_profile(np.array([0.0, 450.0, 900.0]), 180.0, 720.0, np.array([0.0, 240.0, 0.0, 0.0, 0.0]))
+    array([0. , 0.5, 1. ])
     """
     t = np.asarray(time_s, dtype=float)
     a, period, ph, b, ph2 = wobble
