@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 
 from tendrilkit.camera import Camera
-from tendrilkit.geometry import marker_corners
+from tendrilkit.geometry import arc_length, marker_corners
 from tendrilkit.phantom.design import (_CLEAR_PX, _NODE_RADIUS_MM, _STEM_RADIUS_MM, SITES, WORLD_MARKER_ID,
                                        WORLD_MARKER_MM, Design)
 from tendrilkit.phantom.projection import _mm_per_px, _project_poly, _project_safe
@@ -208,7 +208,7 @@ def build_scene(design: Design, cams: list[Camera], curves: np.ndarray, seed: in
     # tape strips across the stem, left of the node
     tapes = []
     k_node = int(np.argmin(np.linalg.norm(stem[:, :2] - node[None, :2], axis=1)))
-    back = np.cumsum(np.r_[0, np.linalg.norm(np.diff(stem[k_node::-1, :2], axis=0), axis=1)])
+    back = arc_length(stem[k_node::-1, :2])
     for dist in (rng.uniform(22.0, 32.0), rng.uniform(48.0, 62.0)):
         k = k_node - int(np.argmin(np.abs(back - dist)))
         k = min(max(k, 1), len(stem) - 2)

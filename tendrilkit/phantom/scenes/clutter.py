@@ -22,6 +22,7 @@ from tendrilkit.phantom.design import WORLD_MARKER_ID
 from tendrilkit.phantom.projection import _pixel_to_board, _project_safe
 from tendrilkit.phantom.scene import MarkerSpec, Scene, _ellipse_poly, _local, _quiet_scale, _square_poly
 from tendrilkit.camera import Camera
+from tendrilkit.geometry import arc_length
 
 
 class _Retry(Exception):
@@ -51,8 +52,7 @@ def tube_clearance_mm(curves: np.ndarray, radius: np.ndarray, pts: np.ndarray, p
 
 # ================================================================ objects
 def _dense(poly: np.ndarray, step: float = 0.5) -> np.ndarray:
-    seg = np.linalg.norm(np.diff(poly, axis=0), axis=1)
-    s = np.r_[0.0, np.cumsum(seg)]
+    s = arc_length(poly)
     t = np.arange(0.0, s[-1] + 1e-9, step)
     return np.stack([np.interp(t, s, poly[:, k]) for k in range(poly.shape[1])], axis=1)
 
