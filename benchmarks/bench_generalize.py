@@ -4,7 +4,7 @@
         [--scene random] [--method chain|multiview] [--out DIR]
 
 For every seed: writes the random scene (``python -m tendrilkit phantom
---scene random --seed N``, :mod:`tendrilkit.scenes`), reconstructs it with
+--scene random --seed N``, :mod:`tendrilkit.phantom.scenes`), reconstructs it with
 ``pipeline.run_reconstruct`` and scores every processed frame against the
 ground truth (:func:`tendrilkit.scoring.score_result`). Prints, overall and
 per scene factor: % of frames within 0.5 mm mean / 2 mm max / base and tip
@@ -59,7 +59,7 @@ def one_scene(seed: int, scene: str, n_frames: int, out: str, method: str | None
     from tendrilkit.exceptions import ExperimentError
     from tendrilkit.phantom import PhantomError
     from tendrilkit.pipeline import run_reconstruct
-    from tendrilkit.scene_render import write_scene_experiment
+    from tendrilkit.phantom import write_scene_experiment
     from tendrilkit.scoring import score_frames, score_result
 
     w0, c0 = time.perf_counter(), time.process_time()
@@ -93,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--frames", type=int, default=6)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--scene", default="random",
-                   help="random, a preset of tendrilkit.scene_factors.PRESETS, several separated by commas, "
+                   help="random, a preset of tendrilkit.phantom.scenes.PRESETS, several separated by commas, "
                         "or 'alone' (every single-factor preset)")
     p.add_argument("--out", default=None, help="keep scenes, results and tables here")
     p.add_argument("--method", default=None, choices=["chain", "multiview"],
@@ -106,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
 
     t0 = time.perf_counter()
     tables, errors, cpu = [], [], 0.0
-    from tendrilkit.scene_factors import GROUPS, PRESETS
+    from tendrilkit.phantom.scenes import GROUPS, PRESETS
 
     if a.scene == "alone":
         scenes = [s for s in PRESETS if s not in ("random", *GROUPS)]

@@ -38,22 +38,21 @@ def _one(site: str, n_frames: int, out: str) -> tuple[str, float, float]:
 
 def stages(sites: list[str], n_frames: int) -> None:
     from tendrilkit import phantom as P
+    from tendrilkit.phantom.render import static_layers
 
     print(f"{'site':>4} {'make s':>7} {'static s':>8} {'frame ms':>8} {'write s':>8} {'cpu s':>6}")
     for site in sites:
-        P._CACHE.clear()
         t0 = time.perf_counter()
         ph = P.make_phantom(site, n_frames=n_frames)
         t_make = time.perf_counter() - t0
         t0 = time.perf_counter()
-        P._static(ph, 1)
+        static_layers(ph, 1)
         t_static = time.perf_counter() - t0
         t0 = time.perf_counter()
         for f in range(min(5, ph.n_frames)):
             P.render_view(ph, f, 1)
         t_frame = (time.perf_counter() - t0) / min(5, ph.n_frames)
-        P._STATIC.pop(ph, None)
-        P._CACHE.clear()
+        del ph  # its static layers go with it
         with tempfile.TemporaryDirectory() as d:
             _, wall, cpu = _one(site, n_frames, d)
         print(f"{site:>4} {t_make:7.2f} {t_static:8.2f} {1000 * t_frame:8.1f} {wall:8.1f} {cpu:6.1f}")

@@ -38,7 +38,7 @@ def _cmd_phantom(args: argparse.Namespace) -> int:
     if args.scene is not None:
         if args.site is not None:
             raise ExperimentError("phantom: give --site or --scene, not both")
-        from tendrilkit.scene_render import write_scene_experiment
+        from tendrilkit.phantom import write_scene_experiment
 
         try:
             path = write_scene_experiment(Path(args.out), seed=args.seed, scene=args.scene, n_frames=args.frames)

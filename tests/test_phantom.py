@@ -11,6 +11,9 @@ import pytest
 import yaml
 
 from tendrilkit import phantom as P
+from tendrilkit.phantom.constraints import _visible
+from tendrilkit.phantom.projection import _mm_per_px, _project_safe
+from tendrilkit.phantom.render import static_layers
 from tendrilkit.params import load_experiment, parse_experiment
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -24,7 +27,7 @@ def _digest(folder: Path) -> dict[str, str]:
 @pytest.mark.slow
 def test_write_is_deterministic_and_skips_when_present(tmp_path):
     a = P.write_phantom_experiment("S3", tmp_path / "a", n_frames=2, seed=0)
-    P._CACHE.clear()  # a fresh generation, not the cached phantom
+    # nothing is cached between calls: b is a fresh generation
     b = P.write_phantom_experiment("S3", tmp_path / "b", n_frames=2, seed=0)
     da, db = _digest(a.parent), _digest(b.parent)
     assert set(da) >= {"view1.mp4", "view2.mp4", "view3.mp4", "experiment.yaml", "ground_truth/gt_curves.csv"}
@@ -61,10 +64,10 @@ def test_ground_truth_round_trip(tmp_path):
         np.testing.assert_allclose(cam.project(gt.curves[2]), gt.projections[2, v], atol=1e-3)
     # the laws rebuild the curve: integrating them gives the stored centreline
     f = 2
-    for kind, law in (("kappa", ph.kappa), ("tau", ph.tau)):
+    for kind, law in (("kappa", ph.kappa[f]), ("tau", ph.tau[f])):
         rows = gt.laws[(gt.laws.frame == f) & (gt.laws.kind == kind)].sort_values("segment")
-        np.testing.assert_allclose(rows.s0_mm.to_numpy(), law.knots_s_mm[:-1], atol=1e-6)
-        np.testing.assert_allclose(rows.value_s0.to_numpy(), law.values[f, :-1], rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(rows.s0_mm.to_numpy(), law.knots_mm[:-1], atol=1e-6)
+        np.testing.assert_allclose(rows.value_s0.to_numpy(), law.values[:-1], rtol=1e-6, atol=1e-9)
 
 
 def test_centreline_has_the_laws_curvature_and_torsion():
@@ -81,9 +84,9 @@ def test_centreline_has_the_laws_curvature_and_torsion():
     tau = np.einsum("ij,ij->i", cr, d3) / np.maximum(kappa**2, 1e-12)
     inner = slice(8, -8)
     np.testing.assert_allclose(np.linalg.norm(d1, axis=1)[inner], 1.0, atol=5e-4)  # O(h^2 kappa^2) differences
-    np.testing.assert_allclose(kappa[inner], ph.kappa.at(f, s)[inner], atol=2e-3)
-    curl = ph.kappa.at(f, s) > 0.05  # torsion is only defined where the curve bends
-    np.testing.assert_allclose(tau[curl][4:-4], ph.tau.at(f, s)[curl][4:-4], atol=5e-3)
+    np.testing.assert_allclose(kappa[inner], ph.kappa[f](s)[inner], atol=2e-3)
+    curl = ph.kappa[f](s) > 0.05  # torsion is only defined where the curve bends
+    np.testing.assert_allclose(tau[curl][4:-4], ph.tau[f](s)[curl][4:-4], atol=5e-3)
 
 
 def test_rendered_tendril_lies_on_its_projection():
@@ -93,11 +96,11 @@ def test_rendered_tendril_lies_on_its_projection():
         img = P.render_view(ph, f, v)
         blue = img[:, :, 0].astype(float)
         proj = ph.projections_px[f, v]
-        r_px = 0.5 * ph.diameter_mm / P._mm_per_px(cam, ph.curves_mm[f].mean(axis=0))
+        r_px = 0.5 * ph.diameter_mm / _mm_per_px(cam, ph.curves_mm[f].mean(axis=0))
         x0, y0, w, h = ph.views[v]["roi"]
         x, y = np.meshgrid(np.arange(x0, x0 + w), np.arange(y0, y0 + h))
         # the tendril's pixels: dark in blue here, not dark in the static scene (stem, leaves, markers)
-        background = P._static(ph, v)["blurred"][y0:y0 + h, x0:x0 + w, 0]
+        background = static_layers(ph, v)["blurred"][y0:y0 + h, x0:x0 + w, 0]
         dark = (blue[y0:y0 + h, x0:x0 + w] < 120) & (background > 150)
         pts = np.stack([x[dark], y[dark]], axis=1).astype(float)
         from scipy.spatial import cKDTree
@@ -118,7 +121,7 @@ def test_s3_default_crosses_itself_in_two_views():
     final = [f for f in range(ph.n_frames) if ph.time_s[f] >= ph.design.stable_s]
     assert final
     for f in final:
-        views = [v for v in range(3) if any(P._visible(c, ph.length_mm) for c in ph.crossings[f][v])]
+        views = [v for v in range(3) if any(_visible(c, ph.length_mm) for c in ph.crossings[f][v])]
         assert len(views) >= 2, (f, ph.crossings[f])
     # the planar sites never cross themselves
     for site in ("S2", "S4"):
@@ -163,7 +166,7 @@ def test_design_and_marks_do_not_depend_on_the_sequence_length():
     assert r[t < default.design.onset_s].max() < 0.03
     for site in P.SITES:  # hanging almost straight before the onset
         ph = P.make_phantom(site, n_frames=3, seed=0)
-        assert ph.kappa.values[0].max() <= 0.005 and np.abs(ph.tau.values[0]).max() <= 0.005
+        assert ph.kappa[0].values.max() <= 0.005 and np.abs(ph.tau[0].values).max() <= 0.005
     assert np.all(np.abs(r[t >= default.design.stable_s] - 1) < 0.06)
     # another seed is another tendril
     assert P.make_phantom("S4", n_frames=3, seed=1).length_mm != short.length_mm
@@ -183,6 +186,54 @@ def test_points_beyond_the_field_of_view_are_not_folded_into_the_image():
     cam = Camera(K=np.array([[1750.0, 0, 960], [0, 1750.0, 540], [0, 0, 1]]), dist=[-0.06, -0.02, 0, 0, 0])
     far = np.array([[2.2 * 400.0, 0.0, 400.0]])  # 65 degrees off axis
     assert cam.in_image(cam.project(far)).all()  # the model's fold puts it inside the image
-    assert np.isnan(P._project_safe(cam, far)).all()
+    assert np.isnan(_project_safe(cam, far)).all()
     inside = np.array([[50.0, 20.0, 400.0]])
-    np.testing.assert_allclose(P._project_safe(cam, inside), cam.project(inside))
+    np.testing.assert_allclose(_project_safe(cam, inside), cam.project(inside))
+
+
+def test_phantom_is_read_only_and_its_layers_go_with_it():
+    """No global cache: a phantom's arrays cannot be changed by a reader, and its rendered layers die with it."""
+    import gc
+    import weakref
+
+    ph = P.make_phantom("S1", n_frames=2, seed=0)
+    for a in (ph.curves_mm, ph.projections_px, ph.s_mm, ph.time_s, ph.response, ph.kappa[0].values, ph.tau[1].values):
+        with pytest.raises(ValueError, match="read-only"):
+            a[..., 0] = 0.0
+    P.render_view(ph, 0, 1)
+    layers = static_layers(ph, 1)
+    with pytest.raises(ValueError, match="read-only"):
+        layers["blurred"][0, 0, 0] = 0.0
+    assert static_layers(ph, 1) is layers  # drawn once per view
+    ref = weakref.ref(ph)
+    del ph, layers
+    gc.collect()
+    assert ref() is None
+
+
+def test_true_centreline_agrees_with_the_methods_integrator():
+    """The ground truth's DOP853 solution and frenet.integrate_frenet (rotation steps on the law's step means)."""
+    from tendrilkit.frenet import integrate_frenet
+
+    ph = P.make_phantom("S3", n_frames=3, seed=0)
+    f, s, F0 = 2, ph.s_mm, ph.design.frame0
+    X, *_ = integrate_frenet(s, ph.kappa[f].step_means(s), ph.tau[f].step_means(s), F0[0], F0[1], F0[2],
+                             ph.curves_mm[f, 0], step_values=True, positions="exact")
+    # measured 0.75 micrometres over the 175 mm loop
+    assert np.linalg.norm(X - ph.curves_mm[f], axis=1).max() < 2e-3
+
+
+def test_solve_frenet_serret_checks_its_laws():
+    from tendrilkit.pwc import PiecewiseLinearLaw
+
+    a = PiecewiseLinearLaw(np.array([0.0, 10.0]), np.zeros(2))
+    b = PiecewiseLinearLaw(np.array([0.0, 5.0, 10.0]), np.zeros(3))
+    s = np.linspace(0, 10, 11)
+    with pytest.raises(ValueError, match="same breakpoints"):
+        P.solve_frenet_serret(s, [a, b], [a, a], np.zeros(3), np.eye(3))
+    with pytest.raises(ValueError, match="one law of each per frame"):
+        P.solve_frenet_serret(s, [a, a], [a], np.zeros(3), np.eye(3))
+    # a circle of radius 10 mm closes after 2 pi r
+    k = PiecewiseLinearLaw(np.array([0.0, 20 * np.pi]), np.full(2, 0.1))
+    X = P.solve_frenet_serret(np.linspace(0, 20 * np.pi, 401), [k], [a], np.zeros(3), np.eye(3))[0]
+    assert np.abs(X[-1]).max() < 1e-6 and abs(np.linalg.norm(X[100] - [0, 10, 0]) - 10) < 1e-6

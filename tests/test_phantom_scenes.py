@@ -1,4 +1,4 @@
-"""Random phantom scenes (tendrilkit.scenes): factors, ground truth, determinism, today's accuracy."""
+"""Random phantom scenes (tendrilkit.phantom.scenes): factors, ground truth, determinism, today's accuracy."""
 
 from __future__ import annotations
 
@@ -9,10 +9,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tendrilkit import scenes as S
 from tendrilkit.cli import main
 from tendrilkit.phantom import PhantomError, read_ground_truth
-from tendrilkit.scene_factors import BOOLEAN_FACTORS, GROUPS, SHAPES, active_factors, draw_factors
+from tendrilkit.phantom import scenes as S
+from tendrilkit.phantom.scenes import BOOLEAN_FACTORS, GROUPS, SHAPES, active_factors, draw_factors
+from tendrilkit.phantom.scenes.clutter import tube_clearance_mm
 from tendrilkit.scoring import score_frames, summarise_scores
 
 
@@ -90,11 +91,11 @@ def test_every_factor_is_present_when_asked():
             assert 8.0 <= r["alongside"]["median_distance_px"] <= 35.0
             assert len(r["tip_leaf"]["touching_frames"]) >= 2
             for obj in ph.board_tubes:
-                assert S.tube_clearance_mm(ph.curves_mm, ph.radius_mm, obj["pts"], obj["radius"]) >= 0.5
+                assert tube_clearance_mm(ph.curves_mm, ph.radius_mm, obj["pts"], obj["radius"]) >= 0.5
         if name == "clutter":
             v = r["occluding_leaf"]["view"] - 1
             assert ph.hidden_fraction[:, v].max() >= 0.03
-            gap = S.tube_clearance_mm(ph.curves_mm, ph.radius_mm, ph.tubes[0]["pts"], ph.tubes[0]["radius"])
+            gap = tube_clearance_mm(ph.curves_mm, ph.radius_mm, ph.tubes[0]["pts"], ph.tubes[0]["radius"])
             assert gap >= 1.0
         if name == "time":
             v = r["leave_view"]["view"] - 1
@@ -122,16 +123,16 @@ def test_every_factor_is_present_when_asked():
 
 @pytest.mark.slow
 def test_random_scene_ground_truth_is_consistent_and_deterministic(tmp_path):
-    from tendrilkit.scene_render import write_scene_experiment
+    from tendrilkit.phantom import write_scene_experiment
 
     a = write_scene_experiment(tmp_path / "a", seed=1, n_frames=1)
-    S._CACHE.clear()  # a fresh generation
     b = write_scene_experiment(tmp_path / "b", seed=1, n_frames=1)
     assert _digest(a.parent) == _digest(b.parent)
     gt = read_ground_truth(a.parent)
     meta = gt.meta
     assert meta["scene"] == "random" and meta["active_factors"] == active_factors(meta["factors"])
     ph = S.make_scene(1, n_frames=1)
+    assert not (ph.curves_mm.flags.writeable or ph.radius_mm.flags.writeable)  # shared safely, never cached
     for f in range(gt.curves.shape[0]):
         inside = [bool(np.all(cam.in_image(gt.projections[f, v]))) for v, cam in enumerate(gt.cameras)]
         assert sum(inside) >= 2
@@ -144,7 +145,7 @@ def test_random_scene_ground_truth_is_consistent_and_deterministic(tmp_path):
         far = np.abs(s[::4, None] - s[None, ::4]) > 4.0
         assert d[far].min() > 2 * ph.radius_mm.max()
     for obj in ph.tubes + ph.board_tubes:
-        assert S.tube_clearance_mm(ph.curves_mm, ph.radius_mm, obj["pts"], obj["radius"]) > 0.0
+        assert tube_clearance_mm(ph.curves_mm, ph.radius_mm, obj["pts"], obj["radius"]) > 0.0
     assert (gt.curves[..., 2] - ph.radius_mm[None]).min() > 0.0
 
 
@@ -152,7 +153,7 @@ def test_random_scene_ground_truth_is_consistent_and_deterministic(tmp_path):
 def test_todays_method_on_easy_scenes(tmp_path):
     """What the method reaches on a clean scene (measured, asserted as reached; not a target)."""
     from tendrilkit.pipeline import run_reconstruct
-    from tendrilkit.scene_render import write_scene_experiment
+    from tendrilkit.phantom import write_scene_experiment
     from tendrilkit.scoring import score_result
 
     exp = write_scene_experiment(tmp_path / "scene", seed=EASY_SEED, scene="clean", n_frames=2)

@@ -1,9 +1,9 @@
 """Scene factors of the random phantom scenes: which difficulties a scene has.
 
-A random scene (:mod:`tendrilkit.scenes`) is the site phantom's world
+A random scene (:mod:`tendrilkit.phantom.scenes`) is the site phantom's world
 (:mod:`tendrilkit.phantom`) with the difficulties of real recordings switched
 on one by one. This module only decides *which* factors a scene has, from its
-seed and a preset name; :mod:`tendrilkit.scenes` realises them.
+seed and a preset name; :mod:`tendrilkit.phantom.scenes.make` realises them.
 
 Factors (``name``: what it does):
 

@@ -1,7 +1,7 @@
-"""Rendering and writing random phantom scenes (:mod:`tendrilkit.scenes`).
+"""Rendering random phantom scenes (:mod:`tendrilkit.phantom.scenes`).
 
 A frame of a scene is drawn like a site phantom's
-(:func:`tendrilkit.phantom.render_view`): the static board scene (board,
+(:func:`tendrilkit.phantom.render.render_view`): the static board scene (board,
 taped stem, leaves, markers) lit by a gradient with vignetting, then, per
 frame, the tendril's soft shadow on the board, the objects behind the
 tendril, the tendril (a tube of tapering radius, 4 x 4 supersampled, with a
@@ -12,29 +12,26 @@ ringing at low quality). The videos are then written as mp4v like the site
 phantoms, so a frame is compressed twice, as a phone's H.264 recording
 re-encoded by a user would be.
 
-Public API: :func:`render_scene_view`, :func:`scene_params_yaml`,
-:func:`write_scene_experiment`.
+Public API: :func:`render_scene_view`; the files are written by
+:func:`tendrilkit.io.write_scene_experiment`.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import weakref
-from pathlib import Path
 
 import cv2
 import numpy as np
 
-from tendrilkit import phantom as P
-from tendrilkit.scenes import DEFAULT_SCENE_FRAMES, SCENE_VERSION, ScenePhantom, make_scene, scene_meta
-
-_STATIC: "weakref.WeakKeyDictionary[ScenePhantom, dict]" = weakref.WeakKeyDictionary()
+from tendrilkit.phantom.design import read_only
+from tendrilkit.phantom.projection import _project_safe
+from tendrilkit.phantom.render import _STEM, _blend, _light_map, _render_static, _tube_cover
+from tendrilkit.phantom.scenes.make import ScenePhantom
 
 
 def _poly_cover(cam, poly_mm: np.ndarray, *, ss: int = 4) -> tuple[tuple[int, int, int, int], np.ndarray] | None:
     """Anti-aliased coverage of a planar polygon in space (k, 3) mm: box and (h, w) in [0, 1]."""
-    xy = P._project_safe(cam, poly_mm)
+    xy = _project_safe(cam, poly_mm)
     if not np.all(np.isfinite(xy)):
         return None
     x0 = int(max(0, math.floor(xy[:, 0].min()) - 2))
@@ -55,7 +52,7 @@ def _object_layers(ph: ScenePhantom, view: int) -> tuple[list, list]:
     cam = ph.cameras[view]
     behind, front = [], []
     for tb in ph.tubes:
-        res = P._tube_cover(cam, tb["pts"], tb["radius"])
+        res = _tube_cover(cam, tb["pts"], tb["radius"])
         if res is not None:
             (front if view in tb["front_views"] else behind).append((res[0], res[1], np.array(tb["colour"])))
     for pl in ph.plates:
@@ -82,25 +79,38 @@ def _texture(albedo: np.ndarray, rng: np.random.Generator) -> None:
     albedo *= (1.0 + 0.015 * slow + 0.004 * fine + 0.06 * green * fine)[..., None]
 
 
-def _static(ph: ScenePhantom, view: int) -> dict:
-    per = _STATIC.setdefault(ph, {})
-    if view not in per:
+def scene_layers(ph: ScenePhantom, view: int) -> dict:
+    """The static layers of one view of a scene, rendered on first use and kept with the scene.
+
+    Returns
+    -------
+    dict
+        ``light`` (H, W) float32; ``lit`` (H, W, 3) float32 (board, stems,
+        textures and the objects behind the tendril, lit); ``front`` list of
+        (box, coverage, colour) of the objects in front of it; ``noise``
+        (H + 32, W + 32, 3) int8. Arrays read-only; kept in the scene's private
+        ``_layers`` (freed with it).
+    """
+    key = ("scene", view)
+    if key not in ph._layers:
         cam = ph.cameras[view]
-        albedo = P._render_static(ph, view)
+        albedo = _render_static(ph, view)
         for bt in ph.board_tubes:  # side shoots of the stem, on the board
-            res = P._tube_cover(cam, bt["pts"], bt["radius"])
+            res = _tube_cover(cam, bt["pts"], bt["radius"])
             if res is not None:
-                P._blend(albedo, res[0], res[1], P._STEM)
+                _blend(albedo, res[0], res[1], _STEM)
         _texture(albedo, np.random.default_rng([ph.seed, 1125, view]))
         behind, front = _object_layers(ph, view)
         for box, cover, colour in behind:
-            P._blend(albedo, box, cover, colour)
-        light = P._light_map(cam, ph.scene.light, view)
+            _blend(albedo, box, cover, colour)
+        light = _light_map(cam, ph.scene.light, view)
         rng = np.random.default_rng([ph.seed, 1121, view])
         noise = np.clip(np.round(rng.standard_normal((cam.height + 32, cam.width + 32, 3), dtype=np.float32)
                                  * np.float32(ph.imaging["noise_sigma"])), -127, 127).astype(np.int8)
-        per[view] = {"light": light, "lit": albedo * light[..., None], "front": front, "noise": noise}
-    return per[view]
+        front = [(box, read_only(cover), read_only(colour)) for box, cover, colour in front]
+        ph._layers[key] = {"light": read_only(light), "lit": read_only(albedo * light[..., None]), "front": front,
+                           "noise": read_only(noise)}
+    return ph._layers[key]
 
 
 def render_scene_view(ph: ScenePhantom, frame: int, view_index: int) -> np.ndarray:
@@ -118,7 +128,7 @@ def render_scene_view(ph: ScenePhantom, frame: int, view_index: int) -> np.ndarr
         raise ValueError(f"frame: expected 0..{ph.n_frames - 1}, got {frame}")
     if not 0 <= view_index < len(ph.cameras):
         raise ValueError(f"view_index: expected 0..{len(ph.cameras) - 1}, got {view_index}")
-    st = _static(ph, view_index)
+    st = scene_layers(ph, view_index)
     cam = ph.cameras[view_index]
     im = ph.imaging
     img = st["lit"].copy()
@@ -129,15 +139,15 @@ def render_scene_view(ph: ScenePhantom, frame: int, view_index: int) -> np.ndarr
         spts = curve - (curve[:, 2] / ldir[2])[:, None] * ldir[None]
         spts[:, 2] = 0.0
         pad = int(3 * sh["softness_px"]) + 2
-        res = P._tube_cover(cam, spts, 1.2 * ph.radius_mm, pad_px=pad)
+        res = _tube_cover(cam, spts, 1.2 * ph.radius_mm, pad_px=pad)
         if res is not None:
             (x0, y0, x1, y1), cover = res
             cover = cv2.GaussianBlur(cover, (0, 0), sh["softness_px"])
             img[y0:y1, x0:x1] *= (1.0 - sh["strength"] * cover)[..., None]
-    res = P._tube_cover(cam, curve, ph.radius_mm, pad_px=4)
+    res = _tube_cover(cam, curve, ph.radius_mm, pad_px=4)
     if res is not None:
         (x0, y0, x1, y1), cover = res
-        core = P._tube_cover(cam, curve, 0.4 * ph.radius_mm, box=(x0, y0, x1, y1))[1]
+        core = _tube_cover(cam, curve, 0.4 * ph.radius_mm, box=(x0, y0, x1, y1))[1]
         tube, hi = np.asarray(im["tendril_bgr"], np.float32), np.asarray(im["core_bgr"], np.float32)
         colour = tube[None, None, :] + (0.6 * core)[..., None] * (hi - tube)[None, None, :]
         colour *= st["light"][y0:y1, x0:x1, None]
@@ -165,62 +175,3 @@ def render_scene_view(ph: ScenePhantom, frame: int, view_index: int) -> np.ndarr
         ok, buf = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, int(im["jpeg_quality"][frame])])
         out = cv2.imdecode(buf, cv2.IMREAD_COLOR)
     return out
-
-
-def scene_params_yaml(ph: ScenePhantom) -> str:
-    """The experiment file (EXPERIMENT_FORMAT.md) of a scene, as text (videos beside it)."""
-    fmt = P._fmt
-    world = ph.scene.markers[0]
-    lines = [
-        f"# Random phantom scene '{ph.scene_name}', seed {ph.seed}: a synthetic tendril with exact ground truth,",
-        f"# made by tendrilkit.scenes (scene version {SCENE_VERSION}, {ph.n_frames} frames).",
-        f"#   python -m tendrilkit phantom --scene {ph.scene_name} --seed {ph.seed} --frames {ph.n_frames} --out <folder>",
-        "# Factors: " + ", ".join(scene_meta(ph)["active_factors"]),
-        "# The marks (roi, keep_out, base_point) are what a user marked on frame 0.",
-        f"name: {ph.name}",
-        f"videos: [{', '.join(f'view{v + 1}.mp4' for v in range(len(ph.cameras)))}]",
-        f"fps: {fmt(ph.fps)}",
-        "reference_view: 2",
-        *P.rig_and_marks_yaml(ph.cameras, ph.views, marker_id=world.id, marker_mm=world.length_mm),
-    ]
-    return "\n".join(lines) + "\n"
-
-
-def write_scene_experiment(out_dir: str | Path, *, seed: int, scene: str = "random",
-                           n_frames: int | None = None) -> Path:
-    """Write a random scene: three videos, ``experiment.yaml`` and ``ground_truth/``.
-
-    Same layout as :func:`tendrilkit.phantom.write_phantom_experiment` (so
-    ``reconstruct`` and :func:`tendrilkit.phantom.read_ground_truth` work on
-    it); ``gt_meta.json`` also holds the scene's factors
-    (:func:`tendrilkit.scenes.scene_meta`). An existing folder with the same
-    stamp (seed, scene, frames, generator version) is left alone.
-
-    Returns
-    -------
-    Path
-        ``out_dir/experiment.yaml``.
-    """
-    from tendrilkit.io import check_writable_dir, write_json, write_text
-
-    n = DEFAULT_SCENE_FRAMES if n_frames is None else int(n_frames)
-    out = check_writable_dir(out_dir)
-    stamp = {"scene_version": SCENE_VERSION, "scene": scene, "seed": int(seed), "n_frames": n}
-    stamp_path = out / ".phantom_stamp.json"
-    if stamp_path.is_file() and all((out / f).is_file() for f in P._OUTPUTS):
-        try:
-            if json.loads(stamp_path.read_text(encoding="utf-8")) == stamp:
-                return out / "experiment.yaml"
-        except json.JSONDecodeError:
-            pass
-    if stamp_path.exists():
-        stamp_path.unlink()
-    ph = make_scene(seed, scene=scene, n_frames=n)
-    for v in range(len(ph.cameras)):
-        P._write_video(ph, v, out / f"view{v + 1}.mp4", render=render_scene_view)
-    P.write_ground_truth(ph, out / "ground_truth")
-    write_json(scene_meta(ph), out / "ground_truth" / "gt_meta.json")
-    write_text(scene_params_yaml(ph), out / "experiment.yaml")
-    write_json(stamp, stamp_path)
-    _STATIC.pop(ph, None)
-    return out / "experiment.yaml"

@@ -1,6 +1,6 @@
 """Clutter and marks of the random phantom scenes: objects near the tendril, markers, careless marks.
 
-Placed by :func:`tendrilkit.scenes.make_scene` after the tendril and the
+Placed by :func:`tendrilkit.phantom.scenes.make_scene` after the tendril and the
 site phantom's scene: leaves and side shoots on the board under or along the
 tendril, a leaf the tip rests on, a second tendril and a leaf in space (in
 front of or behind the tendril in each view), markers as people tape them,
@@ -18,8 +18,11 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tendrilkit import phantom as P
+from tendrilkit.phantom.design import WORLD_MARKER_ID
+from tendrilkit.phantom.projection import _pixel_to_board, _project_safe
+from tendrilkit.phantom.scene import MarkerSpec, Scene, _ellipse_poly, _local, _quiet_scale, _square_poly
 from tendrilkit.camera import Camera
+from tendrilkit.geometry import arc_length
 
 
 class _Retry(Exception):
@@ -49,17 +52,16 @@ def tube_clearance_mm(curves: np.ndarray, radius: np.ndarray, pts: np.ndarray, p
 
 # ================================================================ objects
 def _dense(poly: np.ndarray, step: float = 0.5) -> np.ndarray:
-    seg = np.linalg.norm(np.diff(poly, axis=0), axis=1)
-    s = np.r_[0.0, np.cumsum(seg)]
+    s = arc_length(poly)
     t = np.arange(0.0, s[-1] + 1e-9, step)
     return np.stack([np.interp(t, s, poly[:, k]) for k in range(poly.shape[1])], axis=1)
 
 
-def _clear_of_markers(scene: P.Scene, xy: np.ndarray, pad: float) -> bool:
+def _clear_of_markers(scene: Scene, xy: np.ndarray, pad: float) -> bool:
     """Board points ``xy`` (k, 2) keep ``pad`` mm from every marker's paper square."""
-    qs = P._quiet_scale()
+    qs = _quiet_scale()
     for m in scene.markers:
-        loc = P._local(xy, m.centre_mm, m.angle_deg)
+        loc = _local(xy, m.centre_mm, m.angle_deg)
         half = 0.5 * m.length_mm * qs + pad
         if np.any((np.abs(loc[:, 0]) <= half) & (np.abs(loc[:, 1]) <= half)):
             return False
@@ -68,7 +70,7 @@ def _clear_of_markers(scene: P.Scene, xy: np.ndarray, pad: float) -> bool:
 
 def _board_point_under(cam: Camera, X: np.ndarray) -> np.ndarray:
     """Board point (2,) mm seen at the same pixel as world point ``X`` (3,)."""
-    return P._pixel_to_board(cam, cam.project(X[None]))[0]
+    return _pixel_to_board(cam, cam.project(X[None]))[0]
 
 
 def _place_over_leaf(ph: dict, rng) -> dict:
@@ -81,7 +83,7 @@ def _place_over_leaf(ph: dict, rng) -> dict:
         a, b = float(rng.uniform(18.0, 30.0)), float(rng.uniform(9.0, 15.0))
         ang = float(rng.uniform(0, 180))
         d = np.array([math.cos(math.radians(ang)), math.sin(math.radians(ang))])
-        outline = P._ellipse_poly(centre, ang, a + 3, b + 3)[:, :2]
+        outline = _ellipse_poly(centre, ang, a + 3, b + 3)[:, :2]
         if not _clear_of_markers(ph["scene"], np.vstack([outline, centre[None]]), 3.0):
             continue
         leaf = {"centre": centre, "angle_deg": ang, "a_mm": a, "b_mm": b,
@@ -107,7 +109,7 @@ def _place_board_shoot(ph: dict, rng, alongside: bool) -> dict:
             t = np.gradient(xy, axis=0)
             n = np.stack([-t[:, 1], t[:, 0]], axis=1) / np.linalg.norm(t, axis=1, keepdims=True)
             off = float(rng.uniform(14.0, 26.0)) * (1 if rng.uniform() < 0.5 else -1)
-            board = P._pixel_to_board(cam, xy + off * n)
+            board = _pixel_to_board(cam, xy + off * n)
         else:
             X = curves[-1, int(np.searchsorted(s, rng.uniform(0.3, 0.8) * L))]
             c = _board_point_under(cam, X)
@@ -137,13 +139,13 @@ def _place_board_shoot(ph: dict, rng, alongside: bool) -> dict:
 
 
 def _plate(centre: np.ndarray, angle_deg: float, a: float, b: float) -> np.ndarray:
-    poly = P._ellipse_poly(centre[:2], angle_deg, a, b, n=64)
+    poly = _ellipse_poly(centre[:2], angle_deg, a, b, n=64)
     poly[:, 2] = centre[2]
     return poly
 
 
 def _inside_plate(xy: np.ndarray, centre: np.ndarray, angle_deg: float, a: float, b: float) -> np.ndarray:
-    loc = P._local(xy, centre[:2], angle_deg)
+    loc = _local(xy, centre[:2], angle_deg)
     return (loc[:, 0] / a) ** 2 + (loc[:, 1] / b) ** 2 <= 1.0
 
 
@@ -200,10 +202,10 @@ def _place_tip_leaf(ph: dict, rng) -> dict:
 
 
 def _hidden_by_plate(cam: Camera, plate: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    poly = P._project_safe(cam, plate)
+    poly = _project_safe(cam, plate)
     if not np.all(np.isfinite(poly)):
         return np.zeros(len(pts), bool)
-    xy = P._project_safe(cam, pts)
+    xy = _project_safe(cam, pts)
     contour = poly.astype(np.float32).reshape(-1, 1, 2)
     return np.array([np.isfinite(p).all() and _point_in(contour, p) for p in xy])
 
@@ -289,7 +291,7 @@ def _front_hidden(cams: list, curves: np.ndarray, radius: np.ndarray, tubes: lis
     for f in range(len(curves)):
         pts = curves[f, ::4]
         for v, cam in enumerate(cams):
-            hid = ~cam.in_image(np.nan_to_num(P._project_safe(cam, pts), nan=-1e9))
+            hid = ~cam.in_image(np.nan_to_num(_project_safe(cam, pts), nan=-1e9))
             for p in plates:
                 if p.get("front_views") and v in p["front_views"]:
                     hid |= _hidden_by_plate(cam, p["poly"], pts)
@@ -325,16 +327,16 @@ def _front_views(cams: list, curves: np.ndarray, pts: np.ndarray) -> list[int]:
 
 
 # ================================================================ markers
-def _redo_markers(scene: P.Scene, cams: list, curves: np.ndarray, rng) -> tuple[P.Scene, dict]:
+def _redo_markers(scene: Scene, cams: list, curves: np.ndarray, rng) -> tuple[Scene, dict]:
     """Two to five markers: the world marker 16-24 mm, some small, one partly outside a view."""
-    qs = P._quiet_scale()
-    world = P.MarkerSpec(P.WORLD_MARKER_ID, np.zeros(2), float(rng.choice([16.0, 20.0, 24.0])), 0.0)
+    qs = _quiet_scale()
+    world = MarkerSpec(WORLD_MARKER_ID, np.zeros(2), float(rng.choice([16.0, 20.0, 24.0])), 0.0)
     others = list(scene.markers[1:])
     keep = int(rng.integers(0, min(3, len(others)) + 1))
     kept = []
     for m in others[:keep]:
         if rng.uniform() < 0.5:  # small in the image
-            m = P.MarkerSpec(m.id, m.centre_mm, float(m.length_mm * rng.uniform(0.4, 0.6)), m.angle_deg)
+            m = MarkerSpec(m.id, m.centre_mm, float(m.length_mm * rng.uniform(0.4, 0.6)), m.angle_deg)
         kept.append(m)
     markers = [world] + kept
     info = {"world_length_mm": world.length_mm, "n_markers": None, "small": [m.id for m in kept if m.length_mm < 16],
@@ -347,19 +349,19 @@ def _redo_markers(scene: P.Scene, cams: list, curves: np.ndarray, rng) -> tuple[
         t = rng.uniform(0.15, 0.85)
         xy = np.array([[t * cam.width, 0.0], [cam.width - 1.0, t * cam.height], [t * cam.width, cam.height - 1.0],
                        [0.0, t * cam.height]])[edge]
-        c = P._pixel_to_board(cam, xy[None])[0]
-        mk = P.MarkerSpec(int(rng.integers(0, 1024)), c, float(rng.uniform(20.0, 32.0)), float(rng.uniform(-25, 25)))
+        c = _pixel_to_board(cam, xy[None])[0]
+        mk = MarkerSpec(int(rng.integers(0, 1024)), c, float(rng.uniform(20.0, 32.0)), float(rng.uniform(-25, 25)))
         if mk.id in {m.id for m in markers}:
             continue
         r = 0.5 * mk.length_mm * qs * math.sqrt(2)
         if any(np.linalg.norm(c - o.centre_mm) < r + 0.5 * o.length_mm * qs * math.sqrt(2) + 3 for o in markers):
             continue
-        poly = P._square_poly(mk, qs)
+        poly = _square_poly(mk, qs)
         if any(np.linalg.norm(c - lf["centre"]) < max(lf["a_mm"], lf["b_mm"]) + r for lf in scene.leaves):
             continue
         far = True
         for u, cu in enumerate(cams):
-            pxy = P._project_safe(cu, poly)
+            pxy = _project_safe(cu, poly)
             if not np.any(np.isfinite(pxy)):
                 continue
             txy = cu.project(curves[:, ::8].reshape(-1, 3))
@@ -375,7 +377,7 @@ def _redo_markers(scene: P.Scene, cams: list, curves: np.ndarray, rng) -> tuple[
 
 
 # ================================================================== marks
-def _careless(views: list, cams: list, scene: P.Scene, rng) -> tuple[list, dict]:
+def _careless(views: list, cams: list, scene: Scene, rng) -> tuple[list, dict]:
     """Marks as a hurried user draws them: generous ROI, sloppy keep-out box, base point off."""
     out, info = [], []
     for m, cam in zip(views, cams):
@@ -386,7 +388,7 @@ def _careless(views: list, cams: list, scene: P.Scene, rng) -> tuple[list, dict]
         # take in part of the nearest marker (its border) when one is close
         best = None
         for mk in scene.markers:
-            pxy = P._project_safe(cam, mk.corners_mm(P._quiet_scale()))
+            pxy = _project_safe(cam, mk.corners_mm(_quiet_scale()))
             if not np.all(np.isfinite(pxy)):
                 continue
             cx, cy = pxy.mean(axis=0)

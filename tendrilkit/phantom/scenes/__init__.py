@@ -1,0 +1,24 @@
+"""Random phantom scenes like real recordings (issue 11): the site phantom's world with its difficulties.
+
+- :mod:`~tendrilkit.phantom.scenes.factors`: which factors a scene has (drawn
+  from the seed, or one preset alone);
+- :mod:`~tendrilkit.phantom.scenes.make`: :func:`make_scene`, the tendril's
+  shape, times, cameras, imaging and the constraints;
+- :mod:`~tendrilkit.phantom.scenes.clutter`: objects near the tendril,
+  markers as people tape them, careless marks;
+- :mod:`~tendrilkit.phantom.scenes.render`: the frames (:func:`render_scene_view`);
+- :mod:`~tendrilkit.phantom.scenes.experiment`: the experiment file's text and
+  ``gt_meta.json``.
+
+Files are written by :func:`tendrilkit.io.phantom.write_scene_experiment`
+(also :func:`tendrilkit.phantom.write_scene_experiment`). Seeds 0-9999 are for
+development, 10000 and above are reserved for ``benchmarks/bench_generalize.py``.
+"""
+
+from tendrilkit.phantom.scenes.factors import (BOOLEAN_FACTORS, GROUPS, LOOKS, PRESETS, SAMPLINGS, SHAPES,
+                                               active_factors, draw_factors)
+from tendrilkit.phantom.scenes.make import DEFAULT_SCENE_FRAMES, SCENE_VERSION, ScenePhantom, make_scene
+from tendrilkit.phantom.scenes.render import render_scene_view
+
+__all__ = ["BOOLEAN_FACTORS", "DEFAULT_SCENE_FRAMES", "GROUPS", "LOOKS", "PRESETS", "SAMPLINGS", "SCENE_VERSION", "SHAPES",
+           "ScenePhantom", "active_factors", "draw_factors", "make_scene", "render_scene_view"]
