@@ -4,7 +4,7 @@
 :func:`run_reconstruct`:
 
 1. load and check the experiment; calibrate the rig once
-   (:func:`tendrilkit.calibration.calibrate_experiment`); write
+   (:func:`tendrilkit.extrinsics.calibrate_experiment`); write
    ``DIR/cameras.json`` and ``DIR/calibration_markers.csv``;
 2. for every selected frame (``frames: {start, stop, step}``; ``stop: null``
    is the longest video's length: a frame that a shorter video lacks is read
@@ -679,8 +679,9 @@ def frame_fingerprint(exp, cameras: list[Camera], video_info: list[dict]) -> str
 def _code_digest() -> str:
     """SHA-256 of tendrilkit's own source files: a changed algorithm recomputes the frames."""
     h = hashlib.sha256()
-    for p in sorted(Path(__file__).resolve().parent.glob("*.py")):
-        h.update(p.name.encode())
+    root = Path(__file__).resolve().parent
+    for p in sorted(root.rglob("*.py")):  # sub-packages too (skeleton/, calibration/, plotting/)
+        h.update(p.relative_to(root).as_posix().encode())
         h.update(p.read_bytes())
     return h.hexdigest()
 
@@ -830,7 +831,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         The experiment file, a video or the output folder is unusable, or the
         calibration fails.
     """
-    from tendrilkit.calibration import calibrate_experiment
+    from tendrilkit.extrinsics import calibrate_experiment
     from tendrilkit.inputs import check_inputs
     from tendrilkit.io import (check_writable_dir, file_stamp, open_views, read_cameras, write_cameras, write_csv,
                                write_frame_record, write_json)

@@ -9,7 +9,6 @@ noise and 8-bit quantisation.
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import cv2
@@ -24,8 +23,6 @@ from tendrilkit.calibration import (
     CalibrationResult,
     bundle_adjust,
     calibrate,
-    calibrate_experiment,
-    calibrate_to_dir,
     cameras_from_ijcv25,
     detect_markers,
     ijcv25_rig,
@@ -35,7 +32,8 @@ from tendrilkit.calibration import (
 )
 from tendrilkit.camera import Camera, rotation_from_rvec
 from tendrilkit.exceptions import ExperimentError
-from tendrilkit.io import read_ijcv25_extrinsics
+from tendrilkit.extrinsics import calibrate_experiment, calibrate_to_dir
+from tendrilkit.io import read_ijcv25_extrinsics, read_ijcv25_intrinsics
 
 DICT = "DICT_ARUCO_ORIGINAL"
 WORLD_ID = 815
@@ -283,11 +281,38 @@ def test_ijcv25_loader_reproduces_stored_corners():
 def test_cameras_from_ijcv25_picks_row_by_frame():
     rig = ijcv25_rig()
     files = [RIG_DIR / f"CamExtrPara_Corners{i + 1}.csv" for i in range(3)]
-    ext = read_ijcv25_extrinsics(files[0])
-    by_frame = cameras_from_ijcv25(files, rig, frame=int(ext["frame"][2]))
+    tables = [read_ijcv25_extrinsics(f) for f in files]
+    ext = tables[0]
+    by_frame = cameras_from_ijcv25(tables, rig, frame=int(ext["frame"][2]))
     np.testing.assert_allclose(by_frame[0].t_mm, ext["t_mm"][2])
-    absent = cameras_from_ijcv25(files, rig, frame=0)
+    absent = cameras_from_ijcv25(tables, rig, frame=0)
     np.testing.assert_allclose(absent[0].t_mm, ext["t_mm"][0])
+
+
+def test_ijcv25_rig_is_the_package_data_files():
+    """ijcv25_rig() holds the numbers of data/ijcv25_rig: exactly the intrinsics and first stored poses."""
+    meta = read_ijcv25_intrinsics(RIG_DIR / "intrinsics.yaml")
+    w, h = meta["image_size"]
+    intr = [Camera(K=np.array([[c["fx"], 0, c["cx"]], [0, c["fy"], c["cy"]], [0, 0, 1.0]]), width=w, height=h)
+            for c in meta["cameras"]]
+    tables = [read_ijcv25_extrinsics(RIG_DIR / f"CamExtrPara_Corners{i + 1}.csv") for i in range(len(intr))]
+    for a, b in zip(ijcv25_rig(), cameras_from_ijcv25(tables, intr)):
+        assert (a.width, a.height) == (b.width, b.height)
+        assert np.array_equal(a.K, b.K) and np.array_equal(a.dist, b.dist)
+        assert np.array_equal(a.R, b.R) and np.array_equal(a.t_mm, b.t_mm)
+
+
+def test_rodrigues_of_the_bundle_adjustment_is_scipys_rotation():
+    """The adjustment's own vectorised Rodrigues (kept: scipy's Rotation differs in the last bits, which
+    would move every adjusted rig) equals scipy.spatial.transform.Rotation.from_rotvec to rounding."""
+    from scipy.spatial.transform import Rotation
+
+    from tendrilkit.calibration.bundle import _rodrigues
+
+    rng = np.random.default_rng(0)
+    rv = rng.normal(size=(2000, 3)) * rng.uniform(0, 3, size=(2000, 1))
+    rv[:3] = [[0, 0, 0], [1e-14, 0, 0], [np.pi, 0, 0]]
+    np.testing.assert_allclose(_rodrigues(rv), Rotation.from_rotvec(rv).as_matrix(), rtol=0, atol=1e-13)
 
 
 def _write_experiment(tmp_path: Path, images: list[np.ndarray], cams: list[Camera], extra: str = "") -> Path:
@@ -369,9 +394,7 @@ def test_bundle_adjust_recovers_perturbed_rig():
         start.append(c.with_pose(dR @ c.R, c.t_mm + rng.normal(0, 3 / np.sqrt(3), 3)))
     P = working_volume()
     before, _ = rig_agreement_px(start, truth, P)
-    t0 = time.perf_counter()
-    cams, rep = bundle_adjust(start, obs, world_id=WORLD_ID, length_mm=L)
-    elapsed = time.perf_counter() - t0
+    cams, rep = bundle_adjust(start, obs, world_id=WORLD_ID, length_mm=L)  # its time: benchmarks/bench_calibration.py speed
     after, mean = rig_agreement_px(cams, truth, P)
     assert isinstance(rep, BundleReport)
     assert rep.on_plane == sorted(BOARD_MARKERS)  # not the stands, not the raised marker
@@ -384,7 +407,6 @@ def test_bundle_adjust_recovers_perturbed_rig():
     for m, s in rep.marker_lengths_mm.items():
         true_side = np.linalg.norm(markers[m][1] - markers[m][0])
         assert abs(s - true_side) < 0.05
-    assert elapsed < 5
 
 
 def test_bundle_adjust_single_marker_poses_improve_on_noisy_corners():
