@@ -485,3 +485,13 @@ def test_phantom_experiment_calibrates_within_3px(tmp_path):
     assert mx.max() < 3.0, f"required: within 3 px; got {mx} (single-marker {single})"
     assert mx.max() < 0.5, f"goal: within 0.5 px; got {mx} (single-marker {single})"  # reached: ~0.04 px
     assert res.bundle is not None and len(res.bundle.on_plane) >= 3
+
+
+@pytest.mark.parametrize("module", ['tendrilkit.calibration', 'tendrilkit.calibration.bundle', 'tendrilkit.calibration.experiment', 'tendrilkit.calibration.ijcv25', 'tendrilkit.calibration.markers', 'tendrilkit.calibration.poses', 'tendrilkit.calibration.rig', 'tendrilkit.extrinsics'])
+def test_docstring_examples_run(module):
+    """The Examples of the tendrilkit.calibration docstrings (what ``pytest --doctest-modules`` runs)."""
+    import doctest
+    import importlib
+
+    res = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS)
+    assert res.failed == 0, f"{res.failed} of {res.attempted} docstring example(s) of {module} failed"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from tendrilkit.skeleton._testdata import SPUR, TWO_LINES, X_AS_TWO_Y
 from tendrilkit.skeleton.graph import _build_graph, _contract_junctions, _Graph, _keep_component, _merge_degree_two, _prune
@@ -105,3 +106,13 @@ def test_keep_component_of_the_start_node():
     g = _build_graph(TWO_LINES)
     assert round(_keep_component(g, 3), 3) == 9.0
     assert edges(g) == [(2, 3, 4.414)]
+
+
+@pytest.mark.parametrize("module", ['tendrilkit.segmentation', 'tendrilkit.skeleton', 'tendrilkit.skeleton._testdata', 'tendrilkit.skeleton.centreline', 'tendrilkit.skeleton.graph', 'tendrilkit.skeleton.results', 'tendrilkit.skeleton.tangents', 'tendrilkit.skeleton.view', 'tendrilkit.skeleton.walk'])
+def test_docstring_examples_run(module):
+    """The Examples of the tendrilkit.skeleton docstrings (what ``pytest --doctest-modules`` runs)."""
+    import doctest
+    import importlib
+
+    res = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS)
+    assert res.failed == 0, f"{res.failed} of {res.attempted} docstring example(s) of {module} failed"

@@ -21,6 +21,11 @@ def marker_object_corners(length_mm: float) -> np.ndarray:
 
     Top-left, top-right, bottom-right, bottom-left: ``(-L/2, L/2, 0), (L/2, L/2, 0),
     (L/2, -L/2, 0), (-L/2, -L/2, 0)``.
+
+    Examples
+    --------
+    >>> marker_object_corners(24.0)[:2].tolist()
+    [[-12.0, 12.0, 0.0], [12.0, 12.0, 0.0]]
     """
     h = float(length_mm) / 2.0
     return np.array([[-h, h, 0.0], [h, h, 0.0], [h, -h, 0.0], [-h, -h, 0.0]])

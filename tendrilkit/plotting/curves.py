@@ -51,6 +51,14 @@ def plot_tip_trajectory(traj: pd.DataFrame, *, title: str | None = None, width: 
     """The tip's 3D path (black) with its XY, YZ, XZ projections (paper Figure 9).
 
     First position: blue circle; last: vermillion square.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> traj = pd.DataFrame({"x_mm": [0.0, 1.0, 2.0], "y_mm": [0.0, 0.5, 0.7], "z_mm": [50.0, 51.0, 53.0]})
+    >>> fig = plot_tip_trajectory(traj)
+    >>> type(fig).__name__, len(fig.axes)  # the 3D path and its three projections
+    ('Figure', 4)
     """
     _check(traj, ("x_mm", "y_mm", "z_mm"), "traj")
     P = traj[["x_mm", "y_mm", "z_mm"]].to_numpy(float)

@@ -180,6 +180,14 @@ def compare_centerlines(points_xy: np.ndarray, truth_xy: np.ndarray) -> dict:
         barely moves it); ``fraction_max_px``: the largest distance between
         the measured and the true point at the same fraction of arc length
         (101 fractions); ``base_px``, ``tip_px``: distances between the ends.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> truth = np.column_stack([np.linspace(0, 100, 101), np.zeros(101)])
+    >>> m = compare_centerlines(truth + (0, 0.5), truth)
+    >>> m["mean_px"], round(m["arc_corr"], 6), m["tip_px"]
+    (0.5, 1.0, 0.5)
     """
     from scipy.spatial import cKDTree
 

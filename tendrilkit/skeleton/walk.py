@@ -103,6 +103,19 @@ def order_skeleton(
     Raises
     ------
     EmptySkeletonError, AmbiguousOrderingError
+
+    Examples
+    --------
+    A straight tube 9 px wide, ordered from its left end:
+
+    >>> import numpy as np
+    >>> mask = np.zeros((40, 120), bool)
+    >>> mask[15:24, 10:110] = True
+    >>> oc = order_skeleton(mask, base_point_xy=(10, 19))
+    >>> oc.n_crossings, oc.decisions
+    (0, ())
+    >>> np.round(oc.points_xy[[0, -1]]).tolist()
+    [[9.0, 19.0], [106.0, 18.0]]
     """
     mask = np.asarray(mask_roi)
     if mask.ndim != 2:
