@@ -19,14 +19,15 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from tendrilkit.geometry import check_points
+
 
 def _as_points(points: np.ndarray, dim: int, name: str) -> np.ndarray:
+    """(n, dim) float array of ``points`` (one point may come as (dim,)); NaN allowed."""
     arr = np.asarray(points, dtype=float)
     if arr.ndim == 1 and arr.shape[0] == dim:
         arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != dim:
-        raise ValueError(f"{name} must have shape (n, {dim}), got {arr.shape}")
-    return arr
+    return check_points(arr, dim=dim, name=name, finite=False)
 
 
 @dataclass(frozen=True, eq=False)
@@ -120,6 +121,64 @@ class Camera:
         u = K[0, 0] * x + K[0, 1] * y + K[0, 2]
         v = K[1, 1] * y + K[1, 2]
         return np.stack([u, v], axis=1)
+
+    def project_jacobian(self, points_world: np.ndarray, *, distort: bool = False, step_mm: float = 1e-3,
+                         along: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Pixels (n, 2) of world points (n, 3) mm and their Jacobians (n, 2, 3), px per mm.
+
+        With ``distort=False`` (default) the ideal pinhole pixels (undistorted
+        image) and the exact Jacobian
+
+        .. math::
+
+            \\frac{\\partial u}{\\partial X} = K_{2 \\times 2}
+            \\begin{pmatrix} 1/z & 0 & -x/z \\\\ 0 & 1/z & -y/z \\end{pmatrix} R,
+            \\qquad (x, y) = (X_c / z, Y_c / z);
+
+        with ``distort=True`` the observed pixels (:meth:`project`) and the
+        forward differences of :meth:`project` with steps of ``step_mm``.
+        With ``along`` (n, 3), world directions (pinhole only): the
+        derivatives (n, 2) of the pixels along them, px per unit of
+        ``along``, instead of the Jacobians.
+
+        Examples
+        --------
+        >>> cam = Camera(K=np.diag([100.0, 100.0, 1.0]), t_mm=np.array([0.0, 0.0, 10.0]))
+        >>> u, J = cam.project_jacobian(np.array([[1.0, 0.0, 0.0]]))
+        >>> u, J[0]
+        (array([[10.,  0.]]), array([[10.,  0., -1.],
+               [ 0., 10.,  0.]]))
+        """
+        X = _as_points(points_world, 3, "points_world")
+        if distort and along is not None:
+            raise ValueError("along is for the pinhole projection (distort=False) only")
+        if distort:
+            u = self.project(X)
+            J = np.empty((len(X), 2, 3))
+            for a in range(3):
+                Xh = X.copy()
+                Xh[:, a] += step_mm
+                J[:, :, a] = (self.project(Xh) - u) / step_mm
+            return u, J
+        Xc = X @ self.R.T + self.t_mm
+        z = Xc[:, 2]
+        x, y = Xc[:, 0] / z, Xc[:, 1] / z
+        K = self.K
+        u = np.stack([K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]], axis=1)
+        if along is not None:
+            dXc = _as_points(along, 3, "along") @ self.R.T
+            if dXc.shape != X.shape:
+                raise ValueError(f"along must have shape {X.shape}, got {dXc.shape}")
+            dx = (dXc[:, 0] - x * dXc[:, 2]) / z
+            dy = (dXc[:, 1] - y * dXc[:, 2]) / z
+            return u, np.stack([K[0, 0] * dx + K[0, 1] * dy, K[1, 1] * dy], axis=1)
+        dn = np.zeros((len(X), 2, 3))  # d(x, y)/dXc
+        dn[:, 0, 0] = 1 / z
+        dn[:, 0, 2] = -x / z
+        dn[:, 1, 1] = 1 / z
+        dn[:, 1, 2] = -y / z
+        J = np.einsum("ab,kbc,cd->kad", K[:2, :2], dn, self.R)
+        return u, J
 
     def _project_opencv(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """OpenCV's projection of normalised coordinates (the 8, 12 and 14 coefficient models)."""

@@ -76,90 +76,24 @@ from numba import njit
 
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import CorrespondenceError
-from tendrilkit.frenet import whittaker_smooth
+from tendrilkit.geometry import (
+    arc_length,
+    check_points,
+    marker_corners,
+    nearest_on_polyline,
+    point_at_index,
+    resample_polyline,
+    whittaker_smooth,
+)
 
 __all__ = [
-    "resample_by_arclength",
     "discrete_frechet",
     "marker_homography",
     "match_frechet",
     "fundamental_matrix",
     "epipolar_distance",
     "match_epipolar",
-    "match_views",
 ]
-
-
-# ---------------------------------------------------------------- resampling
-def _check_curve(points_xy, name: str) -> np.ndarray:
-    arr = np.asarray(points_xy, dtype=float)
-    if arr.ndim != 2 or arr.shape[1] != 2:
-        raise ValueError(f"{name} must have shape (n, 2), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite (no NaN or inf)")
-    return arr
-
-
-def _cumlen(points: np.ndarray) -> np.ndarray:
-    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
-
-
-def resample_by_arclength(points_xy: np.ndarray, k: int) -> np.ndarray:
-    """Resample a polyline to ``k`` points equally spaced in arc length.
-
-    Parameters
-    ----------
-    points_xy : (n, d) float array
-        Ordered points (any dimension ``d``), n >= 2.
-    k : int
-        Number of output points, >= 2.
-
-    Returns
-    -------
-    (k, d) float array
-        Linear interpolation of the polyline; the first and last points are
-        the input's.
-
-    Raises
-    ------
-    CorrespondenceError
-        The polyline has zero length.
-
-    Examples
-    --------
-    >>> resample_by_arclength(np.array([[0.0, 0.0], [4.0, 0.0]]), 3)
-    array([[0., 0.],
-           [2., 0.],
-           [4., 0.]])
-    """
-    pts = np.asarray(points_xy, dtype=float)
-    if pts.ndim != 2 or pts.shape[0] < 2:
-        raise ValueError(f"points_xy must have shape (n >= 2, d), got {pts.shape}")
-    if not np.all(np.isfinite(pts)):
-        raise ValueError(f"points_xy must be finite, got {int((~np.isfinite(pts).all(axis=1)).sum())} rows with NaN or inf")
-    if int(k) < 2:
-        raise ValueError(f"k must be at least 2, got {k}")
-    s = _cumlen(pts)
-    if not s[-1] > 0:
-        raise CorrespondenceError("curve has zero length")
-    keep = np.concatenate([[True], np.diff(s) > 0])
-    pts, s = pts[keep], s[keep]
-    si = np.linspace(0.0, s[-1], int(k))
-    out = np.stack([np.interp(si, s, pts[:, c]) for c in range(pts.shape[1])], axis=1)
-    out[0], out[-1] = pts[0], pts[-1]
-    return out
-
-
-def _interp_index(points: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Points of a polyline at fractional vertex indices ``t`` (NaN stays NaN)."""
-    n = points.shape[0]
-    out = np.full((t.shape[0], points.shape[1]), np.nan)
-    ok = np.isfinite(t)
-    tt = np.clip(t[ok], 0.0, n - 1.0)
-    i0 = np.minimum(np.floor(tt).astype(int), n - 2)
-    f = (tt - i0)[:, None]
-    out[ok] = points[i0] * (1 - f) + points[i0 + 1] * f
-    return out
 
 
 # ------------------------------------------------------------ discrete Fréchet
@@ -272,8 +206,7 @@ def marker_homography(camera_from: Camera, camera_to: Camera, *, corners_world: 
     import cv2
 
     if corners_world is None:
-        h = length_mm / 2.0
-        corners_world = np.array([[-h, h, 0.0], [h, h, 0.0], [h, -h, 0.0], [-h, -h, 0.0]])
+        corners_world = marker_corners(length_mm)
     a = camera_from.project(corners_world, distort=False).astype(np.float64)
     b = camera_to.project(corners_world, distort=False).astype(np.float64)
     H, _ = cv2.findHomography(a, b, 0)
@@ -326,7 +259,7 @@ def match_frechet(
     V = len(curves)
     und = [cams[v].undistort_points(curves[v]) for v in range(V)]
     out = np.full((V, k, 2), np.nan)
-    ref_obs = resample_by_arclength(curves[ref], k)
+    ref_obs = resample_polyline(curves[ref], k)
     ref_und = cams[ref].undistort_points(ref_obs)
     out[ref] = ref_obs
     for v in range(V):
@@ -343,7 +276,7 @@ def match_frechet(
         else:
             H = marker_homography(cams[v], cams[ref], length_mm=marker_length_mm)
         # resample in the view's own undistorted pixels, map the same points
-        own_und = resample_by_arclength(und[v], k)
+        own_und = resample_polyline(und[v], k)
         mapped = _apply_h(H, own_und)
         _, coupling = discrete_frechet(ref_und, mapped)
         d = np.linalg.norm(ref_und[coupling[:, 0]] - mapped[coupling[:, 1]], axis=1)
@@ -457,46 +390,6 @@ def _monotone_dp(C, skip_cost, beta, r, max_step):  # pragma: no cover - compile
     return pos
 
 
-@njit(cache=True)
-def _nearest_kernel(p, Q, t0, window):  # pragma: no cover - compiled
-    n, m = p.shape[0], Q.shape[0]
-    t = np.empty(n)
-    near = np.empty((n, 2))
-    normal = np.empty((n, 2))
-    for i in range(n):
-        s0 = int(np.floor(t0[i]))
-        lo = max(s0 - window, 0)
-        hi = min(s0 + window, m - 2)
-        if hi < lo:
-            lo = hi = min(max(s0, 0), m - 2)
-        best = np.inf
-        for s in range(lo, hi + 1):
-            ax, ay = Q[s, 0], Q[s, 1]
-            bx, by = Q[s + 1, 0] - ax, Q[s + 1, 1] - ay
-            L2 = max(bx * bx + by * by, 1e-12)
-            u = ((p[i, 0] - ax) * bx + (p[i, 1] - ay) * by) / L2
-            u = min(max(u, 0.0), 1.0)
-            cx, cy = ax + u * bx, ay + u * by
-            d2 = (p[i, 0] - cx) ** 2 + (p[i, 1] - cy) ** 2
-            if d2 < best:
-                best = d2
-                t[i] = s + u
-                near[i, 0], near[i, 1] = cx, cy
-                L = np.sqrt(L2)
-                normal[i, 0], normal[i, 1] = -by / L, bx / L
-    return t, near, normal
-
-
-def _nearest_on_curve(p: np.ndarray, Q: np.ndarray, t0: np.ndarray, window: int):
-    """Point of polyline ``Q`` nearest each ``p``, among segments within ``window`` of index ``t0``.
-
-    Returns the fractional index (n,), the nearest point (n, 2) and the unit
-    normal (n, 2) of the segment it lies on.
-    """
-    return _nearest_kernel(np.ascontiguousarray(p, dtype=float), np.ascontiguousarray(Q, dtype=float),
-                           np.ascontiguousarray(t0, dtype=float), int(window))
-
-
 def _beyond_ends(t: np.ndarray, dist: np.ndarray, m: int, tol_px: float = 1.0) -> np.ndarray:
     """Projections that fall past either end of a view's curve (its nearest point is an end, > tol_px away).
 
@@ -508,22 +401,8 @@ def _beyond_ends(t: np.ndarray, dist: np.ndarray, m: int, tol_px: float = 1.0) -
     return ((t <= 0.0) | (t >= m - 1.0)) & (dist > tol_px)
 
 
-def _project_und(cam: Camera, X: np.ndarray, dX: np.ndarray):
-    """Undistorted pixels (n, 2) of X (n, 3) and their derivative along dX (n, 3)."""
-    Xc = X @ cam.R.T + cam.t_mm
-    dXc = dX @ cam.R.T
-    z = Xc[:, 2]
-    K = cam.K
-    x, y = Xc[:, 0] / z, Xc[:, 1] / z
-    dx = (dXc[:, 0] - x * dXc[:, 2]) / z
-    dy = (dXc[:, 1] - y * dXc[:, 2]) / z
-    p = np.stack([K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]], axis=1)
-    dp = np.stack([K[0, 0] * dx + K[0, 1] * dy, K[1, 1] * dy], axis=1)
-    return p, dp
-
-
 def _check_inputs(centerlines_xy, cameras, reference, k):
-    curves = [_check_curve(c, f"centerlines_xy[{v}]") for v, c in enumerate(centerlines_xy)]
+    curves = [check_points(c, dim=2, name=f"centerlines_xy[{v}]") for v, c in enumerate(centerlines_xy)]
     cams = list(cameras)
     if len(curves) < 2:
         raise ValueError(f"centerlines_xy must hold at least 2 views, got {len(curves)}")
@@ -534,7 +413,7 @@ def _check_inputs(centerlines_xy, cameras, reference, k):
     if int(k) < 5:
         raise ValueError(f"k must be at least 5, got {k}")
     for v, c in enumerate(curves):
-        if c.shape[0] < 2 or not _cumlen(c)[-1] > 0:
+        if c.shape[0] < 2 or not arc_length(c)[-1] > 0:
             raise CorrespondenceError(f"view {v + 1}: the centreline has no length")
     return curves, cams, int(reference)
 
@@ -604,7 +483,7 @@ def match_epipolar(
     k = int(k)
     m = max(int(oversample) * k, 4)
     cam0 = cams[ref]
-    ref_obs = resample_by_arclength(curves[ref], k)
+    ref_obs = resample_polyline(curves[ref], k)
     ref_und = cam0.undistort_points(ref_obs)
 
     # viewing rays of the reference points: X(d) = C0 + d * a, d = depth (mm, camera z)
@@ -619,7 +498,7 @@ def match_epipolar(
     r = m / k
     max_step = int(np.ceil(max_step_factor * r))
     for v in others:
-        obs = resample_by_arclength(curves[v], m)
+        obs = resample_polyline(curves[v], m)
         und = cams[v].undistort_points(obs)
         dense_obs[v], dense_und[v] = obs, und
         F = fundamental_matrix(cam0, cams[v])
@@ -635,7 +514,7 @@ def match_epipolar(
         ok = np.isfinite(pos[v])
         if not ok.any():
             continue
-        q = _interp_index(dense_und[v], pos[v])
+        q = point_at_index(dense_und[v], pos[v])
         bc = np.hstack([q, np.ones((k, 1))]) @ np.linalg.inv(cams[v].K).T @ cams[v].R  # world dirs
         C1 = cams[v].center_world
         w0 = C0 - C1
@@ -648,9 +527,9 @@ def match_epipolar(
         with np.errstate(invalid="ignore", divide="ignore"):
             d_v = (ab * bw - bb * aw) / det
         # weight: sine of the angle between curve and epipolar line (sensitivity)
-        _, dp = _project_und(cams[v], C0 + d_v[:, None] * a, a)
+        _, dp = cams[v].project_jacobian(C0 + d_v[:, None] * a, along=a)
         tq = np.gradient(dense_und[v], axis=0)
-        tv = _interp_index(tq, pos[v])
+        tv = point_at_index(tq, pos[v])
         tv /= np.maximum(np.linalg.norm(tv, axis=1, keepdims=True), 1e-12)
         sens = np.abs(tv[:, 0] * dp[:, 1] - tv[:, 1] * dp[:, 0])
         good = ok & np.isfinite(d_v) & (d_v > 0) & np.isfinite(sens)
@@ -680,8 +559,8 @@ def match_epipolar(
         for v in others:
             if not np.all(np.isfinite(t_cur[v])):
                 continue
-            p, dp = _project_und(cams[v], X, a)
-            t, near, nrm = _nearest_on_curve(p, dense_und[v], t_cur[v], window)
+            p, dp = cams[v].project_jacobian(X, along=a)
+            t, near, _, nrm = nearest_on_polyline(p, dense_und[v], start=t_cur[v], window=window)
             t_cur[v] = t
             e = p - near
             rr = np.einsum("ij,ij->i", nrm, p - near)
@@ -718,31 +597,14 @@ def match_epipolar(
     for v in others:
         if not np.all(np.isfinite(t_cur[v])):
             continue
-        p, _ = _project_und(cams[v], X, a)
-        t, near, _ = _nearest_on_curve(p, dense_und[v], t_cur[v], window)
+        p = cams[v].project(X, distort=False)
+        t, near, _, _ = nearest_on_polyline(p, dense_und[v], start=t_cur[v], window=window)
         dist = np.hypot(*(p - near).T)
         good = np.isfinite(pos[v]) & (dist <= max_cost_px) & matched & ~_beyond_ends(t, dist, len(dense_und[v]))
         t = np.where(good, t, np.nan)
-        out[v] = _interp_index(dense_obs[v], t)
+        out[v] = point_at_index(dense_obs[v], t)
         any_match |= good
     if not any_match.any():
         raise CorrespondenceError("no reference point has a match in another view")
     out[ref] = np.where(any_match[:, None], ref_obs, np.nan)
     return out
-
-
-def match_views(
-    centerlines_xy: list[np.ndarray],
-    cameras: list[Camera],
-    *,
-    reference: int,
-    k: int = 200,
-    method: str = "epipolar",
-    **options,
-) -> np.ndarray:
-    """Dispatch to :func:`match_epipolar` or :func:`match_frechet` by ``method``."""
-    if method == "epipolar":
-        return match_epipolar(centerlines_xy, cameras, reference=reference, k=k, **options)
-    if method == "frechet":
-        return match_frechet(centerlines_xy, cameras, reference=reference, k=k, **options)
-    raise ValueError(f"method must be 'epipolar' or 'frechet', got {method!r}")

@@ -7,7 +7,7 @@ The chain is
 
 1. :func:`resample_curve`: repeated points are dropped and the polyline is
    resampled at uniform chord length (PCHIP, as the reference does);
-2. :func:`whittaker_smooth`: a second-order Whittaker smoother on x, y, z whose
+2. :func:`tendrilkit.geometry.whittaker_smooth`: a second-order Whittaker smoother on x, y, z whose
    strength is a *length in mm* (see below), not a bare lambda;
 3. :func:`frenet_frames`: arc length of the smoothed curve, T, N, B, curvature
    and torsion from its derivatives, and a flag where torsion is undefined;
@@ -63,62 +63,17 @@ import numpy as np
 from numba import njit
 
 from tendrilkit.exceptions import DegenerateCurveError
+from tendrilkit.geometry import arc_length, check_points, resample_polyline, whittaker_smooth
 
 __all__ = [
     "FrenetFrames",
     "resample_curve",
     "whittaker_lambda",
-    "whittaker_smooth",
     "frenet_frames",
     "integrate_frenet",
     "noise_sigma_mm",
     "auto_smoothing_length_mm",
 ]
-
-
-def _check_points(points_mm: np.ndarray, name: str = "points_mm") -> np.ndarray:
-    arr = np.asarray(points_mm, dtype=float)
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"{name} must have shape (n, 3), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got {int((~np.isfinite(arr)).any(axis=1).sum())} rows with NaN or inf")
-    return arr
-
-
-def _pchip_slopes(u: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Fritsch-Carlson (PCHIP) derivatives at the nodes, shape preserving, per column."""
-    h = np.diff(u)[:, None]
-    d = np.diff(y, axis=0) / h
-    m = np.zeros_like(y)
-    if y.shape[0] == 2:
-        m[:] = d[0]
-        return m
-    w1 = 2 * h[1:] + h[:-1]
-    w2 = h[1:] + 2 * h[:-1]
-    same = (np.sign(d[1:]) * np.sign(d[:-1])) > 0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        hm = (w1 + w2) / (w1 / d[:-1] + w2 / d[1:])
-    m[1:-1] = np.where(same, hm, 0.0)
-
-    def end(h0, h1, d0, d1):
-        e = ((2 * h0 + h1) * d0 - h0 * d1) / (h0 + h1)
-        e = np.where(np.sign(e) != np.sign(d0), 0.0, e)
-        return np.where((np.sign(d0) != np.sign(d1)) & (np.abs(e) > np.abs(3 * d0)), 3 * d0, e)
-
-    m[0] = end(h[0], h[1], d[0], d[1])
-    m[-1] = end(h[-1], h[-2], d[-1], d[-2])
-    return m
-
-
-def _pchip(u: np.ndarray, y: np.ndarray, ui: np.ndarray) -> np.ndarray:
-    """Piecewise cubic Hermite interpolation with PCHIP slopes (as scipy's PchipInterpolator)."""
-    m = _pchip_slopes(u, y)
-    j = np.clip(np.searchsorted(u, ui, side="right") - 1, 0, u.size - 2)
-    h = (u[j + 1] - u[j])[:, None]
-    t = ((ui - u[j])[:, None]) / h
-    t2, t3 = t * t, t * t * t
-    return ((2 * t3 - 3 * t2 + 1) * y[j] + (t3 - 2 * t2 + t) * h * m[j]
-            + (-2 * t3 + 3 * t2) * y[j + 1] + (t3 - t2) * h * m[j + 1])
 
 
 def resample_curve(points_mm: np.ndarray, n: int | None = None, *, min_points: int = 5) -> np.ndarray:
@@ -143,25 +98,8 @@ def resample_curve(points_mm: np.ndarray, n: int | None = None, *, min_points: i
     DegenerateCurveError
         Fewer than ``min_points`` distinct points, or zero length.
     """
-    pts = _check_points(points_mm)
-    if n is not None and int(n) < min_points:
-        raise ValueError(f"n must be at least {min_points}, got {n}")
-    n = max(pts.shape[0], min_points) if n is None else int(n)
-    if pts.shape[0] < 2:
-        raise DegenerateCurveError(f"curve has {pts.shape[0]} point(s); at least {min_points} distinct points are needed")
-    step = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-    total = float(step.sum())
-    if not total > 0:
-        raise DegenerateCurveError("curve has zero length (all points coincide)")
-    keep = np.concatenate([[True], step > 1e-9 * total])
-    pts = pts[keep]
-    if pts.shape[0] < min_points:
-        raise DegenerateCurveError(f"curve has {pts.shape[0]} distinct points; at least {min_points} are needed")
-    u = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
-    ui = np.linspace(0.0, u[-1], n)
-    out = _pchip(u, pts, ui)
-    out[0], out[-1] = pts[0], pts[-1]
-    return out
+    pts = check_points(points_mm, dim=3, name="points_mm")
+    return resample_polyline(pts, n, method="pchip", min_points=min_points, repeat_tol=1e-9)
 
 
 def whittaker_lambda(length_mm: float, spacing_mm: float) -> float:
@@ -175,85 +113,6 @@ def whittaker_lambda(length_mm: float, spacing_mm: float) -> float:
     if not spacing_mm > 0:
         raise ValueError(f"spacing_mm must be > 0, got {spacing_mm}")
     return float((length_mm / (2.0 * np.pi * spacing_mm)) ** 4)
-
-
-def whittaker_smooth(y: np.ndarray, *, lam: float, weights: np.ndarray | None = None) -> np.ndarray:
-    """Second-order Whittaker smoother: solve :math:`(W + \\lambda D_2^T D_2) z = W y`.
-
-    Parameters
-    ----------
-    y : (n,) or (n, k) float array
-        Equally spaced samples (each column smoothed independently).
-    lam : float, keyword-only
-        Smoothing weight (dimensionless); see :func:`whittaker_lambda`.
-    weights : (n,) float array, optional
-        Weight of each sample, >= 0 (default 1: :math:`W = I`); a weight of
-        0 lets the smoother interpolate that sample from its neighbours.
-
-    Returns
-    -------
-    array like ``y``
-    """
-    y = np.asarray(y, dtype=float)
-    n = y.shape[0]
-    if not lam >= 0:
-        raise ValueError(f"lam must be >= 0, got {lam}")
-    if not np.all(np.isfinite(y)):
-        raise ValueError("y must be finite (no NaN or inf)")
-    if lam == 0 or n < 3:
-        return y.copy()
-    w = np.ones(n) if weights is None else np.asarray(weights, dtype=float)
-    if w.shape != (n,) or not np.all(np.isfinite(w)) or np.any(w < 0) or np.count_nonzero(w) < 2:
-        raise ValueError(f"weights must be {n} finite numbers >= 0, at least two of them positive")
-    main = np.full(n, 6.0)
-    main[[0, -1]] = 1.0
-    main[[1, -2]] = 5.0
-    off1 = np.full(n - 1, -4.0)
-    off1[[0, -1]] = -2.0
-    off2 = np.ones(n - 2)
-    if n == 3:
-        main = np.array([1.0, 4.0, 1.0])
-        off1 = np.array([-2.0, -2.0])
-    rhs = np.ascontiguousarray((y.reshape(n, -1) * w[:, None]) if weights is not None else y.reshape(n, -1))
-    return _solve_penta(w + lam * main, lam * off1, lam * off2, rhs).reshape(y.shape)
-
-
-@njit(cache=True)
-def _solve_penta(d0, d1, d2, y):
-    """Solve a symmetric positive-definite pentadiagonal system (banded Cholesky), columns of y."""
-    n = d0.shape[0]
-    L0 = np.empty(n)
-    L1 = np.zeros(n)
-    L2 = np.zeros(n)
-    for i in range(n):
-        a2 = d2[i - 2] / L0[i - 2] if i >= 2 else 0.0
-        a1 = (d1[i - 1] - (a2 * L1[i - 1] if i >= 2 else 0.0)) / L0[i - 1] if i >= 1 else 0.0
-        L2[i] = a2
-        L1[i] = a1
-        v = d0[i] - a1 * a1 - a2 * a2
-        L0[i] = np.sqrt(v)
-    # L stored as: row i has L[i,i]=L0[i], L[i,i-1]=L1[i], L[i,i-2]=L2[i]
-    out = np.empty_like(y)
-    for c in range(y.shape[1]):
-        z = np.empty(n)
-        for i in range(n):
-            v = y[i, c]
-            if i >= 1:
-                v -= L1[i] * z[i - 1]
-            if i >= 2:
-                v -= L2[i] * z[i - 2]
-            z[i] = v / L0[i]
-        x = np.empty(n)
-        for i in range(n - 1, -1, -1):
-            v = z[i]
-            if i + 1 < n:
-                v -= L1[i + 1] * x[i + 1]
-            if i + 2 < n:
-                v -= L2[i + 2] * x[i + 2]
-            x[i] = v / L0[i]
-        for i in range(n):
-            out[i, c] = x[i]
-    return out
 
 
 def _extrapolate(end: np.ndarray, m_fit: int, m_pad: int) -> np.ndarray:
@@ -351,7 +210,7 @@ def noise_sigma_mm(points_mm: np.ndarray) -> float:
     standard deviation :math:`\\sigma` gives variance :math:`20\\sigma^2`):
     :math:`\\hat\\sigma = 1.4826\\,\\mathrm{median}|\\Delta^3 x| / \\sqrt{20}`.
     """
-    data = _check_points(points_mm)
+    data = check_points(points_mm, dim=3, name="points_mm")
     step = np.linalg.norm(np.diff(data, axis=0), axis=1)
     if data.shape[0]:
         data = data[np.concatenate([[True], step > 1e-9 * max(step.sum(), 1e-300)])]
@@ -373,7 +232,7 @@ def auto_smoothing_length_mm(points_mm: np.ndarray, *, reference_mm: float = 20.
     smoother keeps 89 % of the coil's curvature; clipped to [4 h, L / 3].
     """
     data = resample_curve(points_mm)
-    L = float(np.sum(np.linalg.norm(np.diff(data, axis=0), axis=1)))
+    L = float(arc_length(data)[-1])
     h = L / (data.shape[0] - 1)
     sigma = noise_sigma_mm(points_mm)
     Ls = reference_mm * (max(sigma, 1e-6) / reference_noise_mm) ** 0.4
@@ -425,13 +284,11 @@ def frenet_frames(
         smoothing_length_mm = auto_smoothing_length_mm(points_mm)
     data = resample_curve(points_mm, n)
     m = data.shape[0]
-    u = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(data, axis=0), axis=1))])
-    h = u[-1] / (m - 1)
+    h = arc_length(data)[-1] / (m - 1)
     lam = whittaker_lambda(smoothing_length_mm, h)
     z = _smooth_padded(data, lam, smoothing_length_mm, h)
-    ds = np.linalg.norm(np.diff(z, axis=0), axis=1)
-    s = np.concatenate([[0.0], np.cumsum(ds)])
-    if not s[-1] > 0 or np.any(ds <= 0):
+    s = arc_length(z)
+    if not s[-1] > 0 or np.any(np.diff(s) <= 0):
         raise DegenerateCurveError("smoothed curve has repeated points; reduce smoothing_length_mm")
     d1 = np.gradient(z, s, axis=0, edge_order=2)
     d2 = np.gradient(d1, s, axis=0, edge_order=2)

@@ -50,8 +50,8 @@ import numpy as np
 from scipy.linalg import solveh_banded
 
 from tendrilkit.camera import Camera
-from tendrilkit.correspondence import resample_by_arclength
 from tendrilkit.exceptions import DegenerateCurveError, TendrilLostError
+from tendrilkit.geometry import arc_length, resample_polyline, section_masks
 from tendrilkit.mv_acquire import ON_PX, advance, claim, cone_directions, grow_curve, point_costs
 from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
 from tendrilkit.triangulation import triangulate
@@ -108,16 +108,6 @@ def base_point_from_marks(base_points_xy: list, cameras: list[Camera], *, max_px
     return B
 
 
-def _proj_jac(cam: Camera, X: np.ndarray, h: float = 1e-3):
-    u = cam.project(X)
-    J = np.empty((len(X), 2, 3))
-    for a in range(3):
-        Xh = X.copy()
-        Xh[:, a] += h
-        J[:, :, a] = (cam.project(Xh) - u) / h
-    return u, J
-
-
 def _bending_blocks(n: int) -> np.ndarray:
     """(D2^T D2) of the second difference on ``n`` nodes as banded upper rows (3, n) (bandwidth 2)."""
     D = np.zeros((n, n))
@@ -165,7 +155,7 @@ def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm
         Hd = np.zeros((n, 3, 3))
         g = np.zeros((n, 3))
         for ev in evidence:
-            u, J = _proj_jac(ev.camera, X)
+            u, J = ev.camera.project_jacobian(X, distort=True)
             d, gd, seen = skeleton_distance(ev, u, outside_px=1e3)
             w = np.where(d <= huber_px, 1.0, huber_px / np.maximum(d, 1e-9)) * (seen & (d <= cap))
             row = np.einsum("ka,kai->ki", gd, J)
@@ -245,9 +235,9 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     t = t / max(np.linalg.norm(t), 1e-9)
     # what the curve explains already, but its last 3 mm: the extension must explain new pixels
     Xa = np.asarray(X)
-    s_ = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(Xa, axis=0), axis=1))]
+    s_ = arc_length(Xa)
     body = Xa[s_ <= s_[-1] - 3.0]
-    claims = claim(evidence, None, _densify(body, 0.25)) if len(body) >= 2 else None
+    claims = claim(evidence, None, resample_polyline(body, step=0.25)) if len(body) >= 2 else None
     lag = int(round(3.0 / step_mm))
     for _ in range(int(max_extend_mm / step_mm)):
         dirs = cone_directions(t, 30.0, 3)
@@ -281,14 +271,13 @@ def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.
     """
     from scipy.spatial import cKDTree
 
-    s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
+    s = arc_length(X)
     d, seen, near, bg = point_costs(evidence, X, nearest=True)
     on = seen & (d <= ON_PX)
     on[:, 1:] &= advance(evidence, X[:-1], X[1:])
     on &= ~bg.any(axis=0)  # a view showing the board there contradicts the node
-    n_dense = max(int(np.ceil(s[-1] / 0.25)) + 1, 2)
-    dense = resample_by_arclength(X, n_dense)
-    s_dense = np.linspace(0.0, s[-1], n_dense)
+    dense = resample_polyline(X, step=0.25)
+    s_dense = np.linspace(0.0, s[-1], len(dense))
     for v, ev in enumerate(evidence):
         ok = on[v] & (near[v] >= 0)
         if not ok.any():
@@ -302,23 +291,17 @@ def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.
     return X[:max(last + 1, 3)]
 
 
-def _densify(X: np.ndarray, spacing_mm: float) -> np.ndarray:
-    L = float(np.linalg.norm(np.diff(X, axis=0), axis=1).sum())
-    return resample_by_arclength(X, max(int(np.ceil(L / spacing_mm)) + 1, 2))
-
-
 def _resample(X: np.ndarray, segment_mm: float) -> np.ndarray:
-    L = float(np.linalg.norm(np.diff(X, axis=0), axis=1).sum())
-    n = max(int(round(L / segment_mm)) + 1, 3)
-    return resample_by_arclength(X, n)
+    """The curve resampled at the count nearest ``segment_mm`` spacing (at least 3 nodes)."""
+    return resample_polyline(X, max(int(round(_length(X) / segment_mm)) + 1, 3))
 
 
 def _length(X: np.ndarray) -> float:
-    return float(np.linalg.norm(np.diff(X, axis=0), axis=1).sum())
+    return float(arc_length(X)[-1])
 
 
 def _segment(X: np.ndarray) -> float:
-    return float(np.linalg.norm(np.diff(X, axis=0), axis=1).mean())
+    return _length(X) / (len(X) - 1)
 
 
 def curve_support(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, tol_px: float = 3.0):
@@ -328,7 +311,7 @@ def curve_support(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, tol_px:
     -------
     precision, coverage : (V,) float arrays
     """
-    Xd = resample_by_arclength(X_mm, max(int(np.linalg.norm(np.diff(X_mm, axis=0), axis=1).sum() / 0.5), 4))
+    Xd = resample_polyline(X_mm, max(int(_length(X_mm) / 0.5), 4))
     d, seen = point_costs(evidence, Xd)
     prec = np.full(len(evidence), np.nan)
     cov = np.full(len(evidence), np.nan)
@@ -432,7 +415,7 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
             cands.append({"mode": "acquired", "nodes_mm": X, "precision": prec, "coverage": cov,
                           "score": _score(prec, cov)})
     best = max(cands, key=lambda c: (round(c["score"], 3), _length(c["nodes_mm"])))  # ties: the longer, then tracked
-    length = float(np.linalg.norm(np.diff(best["nodes_mm"], axis=0), axis=1).sum())
+    length = _length(best["nodes_mm"])
     if length < 5 * segment_mm:
         raise TendrilLostError(f"the curve that two views explain is only {length:.1f} mm long")
     keep = cands if keep_candidates else []
@@ -449,8 +432,7 @@ def distance_table(points_mm: np.ndarray, evidence: list[SkeletonEvidence | None
     (points the view does not see are left out).
     """
     X = np.asarray(points_mm, float)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))])
-    sec = {"base": s <= 0.25 * s[-1], "tip": s >= 0.75 * s[-1], "entire": np.ones(len(X), bool)}
+    sec = section_masks(arc_length(X))
     rows = []
     for v, ev in enumerate(evidence):
         if ev is None:

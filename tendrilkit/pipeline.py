@@ -1113,9 +1113,9 @@ def accuracy_against_truth(curves: pd.DataFrame, truth: pd.DataFrame) -> pd.Data
 
 
 def _resample_linear(X: np.ndarray, n: int) -> np.ndarray:
-    from tendrilkit.correspondence import resample_by_arclength
+    from tendrilkit.geometry import resample_polyline
 
-    return resample_by_arclength(X, n)
+    return resample_polyline(X, n)
 
 
 def compare_correspondence(experiment_path: str | Path, out_dir: str | Path, *, truth: pd.DataFrame | None = None,

@@ -29,11 +29,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from numba import njit
 
 from tendrilkit.camera import Camera
+from tendrilkit.geometry import arc_length, nearest_on_polyline, point_to_polyline_distance, section_masks
 
-__all__ = ["Triangulated", "triangulate", "refine_to_curves", "point_to_polyline_distance", "reprojection_table"]
+__all__ = ["Triangulated", "triangulate", "refine_to_curves", "reprojection_table"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,22 +67,13 @@ def _check_views(points_xy, cameras) -> tuple[np.ndarray, list[Camera]]:
     return x, cams
 
 
-def _project_jac(cam: Camera, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Undistorted pixels (k, 2) of X (k, 3) and their Jacobians (k, 2, 3)."""
-    Xc = X @ cam.R.T + cam.t_mm
-    z = Xc[:, 2]
-    x, y = Xc[:, 0] / z, Xc[:, 1] / z
-    K = cam.K
-    u = np.stack([K[0, 0] * x + K[0, 1] * y + K[0, 2], K[1, 1] * y + K[1, 2]], axis=1)
-    # d(x, y)/dXc
-    dn = np.zeros((len(X), 2, 3))
-    dn[:, 0, 0] = 1 / z
-    dn[:, 0, 2] = -x / z
-    dn[:, 1, 1] = 1 / z
-    dn[:, 1, 2] = -y / z
-    Kxy = K[:2, :2]
-    J = np.einsum("ab,kbc,cd->kad", Kxy, dn, cam.R)
-    return u, J
+def _newton_steps(H: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """Batched Gauss-Newton steps :math:`-H^{-1} g`, (k, 3), of normal matrices (k, 3, 3) and gradients (k, 3).
+
+    A non-finite step (a singular point) is 0; a singular batch raises ``LinAlgError``.
+    """
+    step = np.linalg.solve(H, -g[..., None])[..., 0]
+    return np.where(np.isfinite(step), step, 0.0)
 
 
 def triangulate(points_xy: np.ndarray, cameras: list[Camera], *, refine: bool = True,
@@ -161,17 +152,16 @@ def triangulate(points_xy: np.ndarray, cameras: list[Camera], *, refine: bool = 
             H = np.zeros((len(Xo), 3, 3))
             g = np.zeros((len(Xo), 3))
             for v, cam in enumerate(cams):
-                u, J = _project_jac(cam, Xo)
+                u, J = cam.project_jacobian(Xo)
                 r = np.where(vo[v][:, None], u - np.nan_to_num(uo[v]), 0.0)
                 Jm = np.where(vo[v][:, None, None], J, 0.0)
                 H += np.einsum("kai,kaj->kij", Jm, Jm)
                 g += np.einsum("kai,ka->ki", Jm, r)
             H += 1e-9 * np.trace(H, axis1=1, axis2=2)[:, None, None] * np.eye(3)
             try:
-                step = np.linalg.solve(H, -g[..., None])[..., 0]
+                step = _newton_steps(H, g)
             except np.linalg.LinAlgError:
                 break
-            step = np.where(np.isfinite(step), step, 0.0)
             Xo = Xo + step
             if np.max(np.abs(step)) < 1e-9:
                 break
@@ -233,8 +223,6 @@ def refine_to_curves(points_mm: np.ndarray, curves_xy: list[np.ndarray | None], 
     points where triangulation put them in that direction (the curve is
     resampled by arc length afterwards).
     """
-    from tendrilkit.correspondence import _nearest_on_curve
-
     X = np.array(points_mm, dtype=float)
     if X.ndim != 2 or X.shape[1] != 3:
         raise ValueError(f"points_mm must have shape (k, 3), got {X.shape}")
@@ -247,19 +235,13 @@ def refine_to_curves(points_mm: np.ndarray, curves_xy: list[np.ndarray | None], 
     if len(views) < 2 or not ok.any():
         return X
     Xo = X[ok]
-    from scipy.spatial import cKDTree
-
-    t = []
-    for cam, Q in views:
-        u, _ = _project_jac(cam, Xo)
-        _, i = cKDTree(Q).query(u)
-        t.append(np.minimum(i, len(Q) - 2).astype(float))
+    t = [nearest_on_polyline(cam.project(Xo, distort=False), Q).t for cam, Q in views]
     for _ in range(iterations):
         H = np.zeros((len(Xo), 3, 3))
         g = np.zeros((len(Xo), 3))
         for n_v, (cam, Q) in enumerate(views):
-            u, J = _project_jac(cam, Xo)
-            tt, near, nrm = _nearest_on_curve(u, Q, t[n_v], 8)
+            u, J = cam.project_jacobian(Xo)
+            tt, near, _, nrm = nearest_on_polyline(u, Q, start=t[n_v], window=8)
             t[n_v] = tt
             dist = np.hypot(*(u - near).T)
             r = np.einsum("ka,ka->k", nrm, u - near)
@@ -269,64 +251,12 @@ def refine_to_curves(points_mm: np.ndarray, curves_xy: list[np.ndarray | None], 
             H += w[:, None, None] * np.einsum("ki,kj->kij", Jn, Jn)
             g += (w * r)[:, None] * Jn
         H += (0.05 * np.trace(H, axis1=1, axis2=2) / 3 + 1e-12)[:, None, None] * np.eye(3)
-        step = np.linalg.solve(H, -g[..., None])[..., 0]
-        step = np.where(np.isfinite(step), step, 0.0)
+        step = _newton_steps(H, g)
         Xo = Xo + step
         if np.max(np.abs(step)) < 1e-6:
             break
     X[ok] = Xo
     return X
-
-
-@njit(cache=True)
-def _polyline_distance(P, Q):  # pragma: no cover - compiled
-    out = np.empty(P.shape[0])
-    for i in range(P.shape[0]):
-        px, py = P[i, 0], P[i, 1]
-        if not (np.isfinite(px) and np.isfinite(py)):
-            out[i] = np.nan
-            continue
-        best = np.inf
-        for j in range(Q.shape[0] - 1):
-            ax, ay = Q[j, 0], Q[j, 1]
-            bx, by = Q[j + 1, 0] - ax, Q[j + 1, 1] - ay
-            L2 = bx * bx + by * by
-            t = 0.0
-            if L2 > 0:
-                t = ((px - ax) * bx + (py - ay) * by) / L2
-                t = min(max(t, 0.0), 1.0)
-            dx, dy = px - ax - t * bx, py - ay - t * by
-            d2 = dx * dx + dy * dy
-            if d2 < best:
-                best = d2
-        out[i] = np.sqrt(best)
-    return out
-
-
-def point_to_polyline_distance(points_xy: np.ndarray, polyline_xy: np.ndarray) -> np.ndarray:
-    """Distance (n,) of every point (n, 2) to a polyline (m, 2); NaN points give NaN.
-
-    Examples
-    --------
-    >>> point_to_polyline_distance(np.array([[5.0, 2.0]]), np.array([[0.0, 0.0], [10.0, 0.0]]))
-    array([2.])
-    """
-    P = np.ascontiguousarray(points_xy, dtype=float)
-    Q = np.ascontiguousarray(polyline_xy, dtype=float)
-    if P.ndim != 2 or P.shape[1] != 2 or Q.ndim != 2 or Q.shape[1] != 2 or len(Q) < 1:
-        raise ValueError(f"points_xy and polyline_xy must have shapes (n, 2) and (m >= 1, 2), got {P.shape} and {Q.shape}")
-    if not np.all(np.isfinite(Q)):
-        raise ValueError("polyline_xy must be finite (no NaN or inf); NaN is allowed in points_xy only")
-    if len(Q) == 1:
-        return np.linalg.norm(P - Q[0], axis=1)
-    return _polyline_distance(P, Q)
-
-
-def _sections(points_mm: np.ndarray) -> dict[str, np.ndarray]:
-    seg = np.linalg.norm(np.diff(points_mm, axis=0), axis=1)
-    s = np.concatenate([[0.0], np.cumsum(seg)])
-    L = s[-1]
-    return {"base": s <= 0.25 * L, "tip": s >= 0.75 * L, "entire": np.ones(len(s), dtype=bool)}
 
 
 def reprojection_table(points_mm: np.ndarray, skeletons_xy: list[np.ndarray | None], cameras: list[Camera], *,
@@ -359,7 +289,7 @@ def reprojection_table(points_mm: np.ndarray, skeletons_xy: list[np.ndarray | No
         raise ValueError(f"points_mm must have shape (k, 3), got {X.shape}")
     if len(skeletons_xy) != len(cameras):
         raise ValueError(f"skeletons_xy must have one entry per camera ({len(cameras)}), got {len(skeletons_xy)}")
-    sec = _sections(X)
+    sec = section_masks(arc_length(X))
     keep = np.ones(len(X), dtype=bool) if measured is None else np.asarray(measured, dtype=bool)
     if keep.shape != (len(X),):
         raise ValueError(f"measured must have shape ({len(X)},), got {keep.shape}")

@@ -15,9 +15,9 @@ from tendrilkit.correspondence import (
     fundamental_matrix,
     match_epipolar,
     match_frechet,
-    resample_by_arclength,
 )
 from tendrilkit.exceptions import CorrespondenceError
+from tendrilkit.geometry import resample_polyline
 from tendrilkit.triangulation import triangulate
 
 
@@ -34,23 +34,6 @@ def _brute_frechet(P, Q):
         return max(min(c(i - 1, j), c(i - 1, j - 1), c(i, j - 1)), d)
 
     return c(len(P) - 1, len(Q) - 1)
-
-
-def test_resample_by_arclength_is_uniform():
-    t = np.linspace(0, 3, 57) ** 2
-    pts = np.c_[np.cos(t), np.sin(t)] * 10
-    out = resample_by_arclength(pts, 40)
-    step = np.linalg.norm(np.diff(out, axis=0), axis=1)
-    assert out.shape == (40, 2)
-    np.testing.assert_allclose(out[[0, -1]], pts[[0, -1]])
-    assert step.std() / step.mean() < 0.02  # chords of a fine polyline: nearly equal
-
-
-def test_resample_rejects_bad_input():
-    with pytest.raises(ValueError, match="k must be"):
-        resample_by_arclength(np.zeros((3, 2)), 1)
-    with pytest.raises(CorrespondenceError):
-        resample_by_arclength(np.zeros((3, 2)), 5)
 
 
 @pytest.mark.parametrize("seed", range(12))
@@ -102,7 +85,7 @@ def _views(X, cams, noise, seed):
     for c in cams:
         p = c.project(X)
         n = int(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())  # ~1 px apart, like a skeleton
-        p = resample_by_arclength(p, n)
+        p = resample_polyline(p, n)
         out.append(p + rng.normal(0, noise, p.shape))
     return out
 

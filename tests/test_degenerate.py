@@ -17,6 +17,7 @@ import pytest
 
 from tendrilkit import correspondence as co
 from tendrilkit import frenet as fr
+from tendrilkit import geometry as geo
 from tendrilkit import pwc
 from tendrilkit import sequence as sq
 from tendrilkit import skeleton as sk
@@ -61,14 +62,14 @@ def _views(x):
 
 FUNCTIONS_2D = {
     "undistort_points": lambda x: DIST_CAM.undistort_points(x),
-    "resample_by_arclength": lambda x: co.resample_by_arclength(x, 20),
+    "resample_polyline": lambda x: geo.resample_polyline(x, 20),
     "discrete_frechet": lambda x: co.discrete_frechet(x, x[::-1]),
     "match_epipolar": lambda x: co.match_epipolar([x, x + 1.0, x - 1.0], CAMS, reference=1, k=20),
     "match_frechet": lambda x: co.match_frechet([x, x + 1.0, x - 1.0], CAMS, reference=1, k=20),
     "triangulate": lambda x: tr.triangulate(_views(x), CAMS),
     "refine_to_curves": lambda x: tr.refine_to_curves(HELIX, [x, x, x], CAMS),
-    "point_to_polyline_distance(points)": lambda x: tr.point_to_polyline_distance(x, HELIX[:, :2]),
-    "point_to_polyline_distance(polyline)": lambda x: tr.point_to_polyline_distance(HELIX[:, :2], x),
+    "point_to_polyline_distance(points)": lambda x: geo.point_to_polyline_distance(x, HELIX[:, :2]),
+    "point_to_polyline_distance(polyline)": lambda x: geo.point_to_polyline_distance(HELIX[:, :2], x),
     "reprojection_table": lambda x: tr.reprojection_table(HELIX, [x, x, x], CAMS),
 }
 
@@ -261,7 +262,7 @@ def test_views_sharing_a_centre_have_no_depth():
     lambda: __import__("tendrilkit.camera", fromlist=["look_at"]).look_at(np.zeros(3), np.array([0, 0, 1.0]), np.array([0, 0, 1.0])),
     lambda: __import__("tendrilkit.camera", fromlist=["look_at"]).look_at(np.array([np.nan, 0, 0]), np.array([0, 0, 1.0]), np.array([0, 1.0, 0])),
     lambda: __import__("tendrilkit.camera", fromlist=["rotation_from_rvec"]).rotation_from_rvec(np.array([np.nan, 0, 0])),
-    lambda: fr.whittaker_smooth(_with_bad_row(HELIX, np.nan), lam=10.0),
+    lambda: geo.whittaker_smooth(_with_bad_row(HELIX, np.nan), lam=10.0),
     lambda: pwc.segment_penalty(np.zeros((0, 0)), 1.0),
     lambda: pwc.fit_scores(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)),
     lambda: pwc.fit_scores(CASES_3D["nan"], HELIX, np.arange(60.0)),

@@ -14,8 +14,8 @@ from tendrilkit.frenet import (
     integrate_frenet,
     resample_curve,
     whittaker_lambda,
-    whittaker_smooth,
 )
+from tendrilkit.geometry import whittaker_smooth
 
 
 def helix(a=8.0, c=3.0, length=150.0, n=200):

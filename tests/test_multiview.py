@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 from scipy.spatial import cKDTree
 
-from tendrilkit.correspondence import resample_by_arclength
+from tendrilkit.geometry import resample_polyline
 from tendrilkit.multiview import base_point_from_marks, reconstruct_multiview
 from tendrilkit.evidence import view_evidence
 from tendrilkit.mv_evidence import skeleton_evidence
@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def _errors(P: np.ndarray, X: np.ndarray) -> dict:
     """Mean / max distance (mm) of the reconstruction P to the true curve X, and its ends."""
-    Xd = resample_by_arclength(X, 4000)
+    Xd = resample_polyline(X, 4000)
     d, _ = cKDTree(Xd).query(P)
     return {"mean": d.mean(), "max": d.max(), "base": np.linalg.norm(P[0] - X[0]), "tip": np.linalg.norm(P[-1] - X[-1])}
 
@@ -87,7 +87,7 @@ def test_acquired_then_tracked():
         B = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=8.0)
         r = reconstruct_multiview(_evidence(images, cams, exp), B, previous_mm=prev)
         prev = r.nodes_mm
-        e = _errors(resample_by_arclength(r.nodes_mm, 200), X)
+        e = _errors(resample_polyline(r.nodes_mm, 200), X)
         assert e["mean"] <= 0.3 and e["max"] <= 1.5 and e["tip"] <= 2.0, (k, e)
         results.append(r.mode)
     assert results == ["acquired", "tracked", "tracked"]
@@ -100,7 +100,7 @@ def test_tracking_lost_is_acquired_afresh(coil):
     wrong = np.c_[B[0] + np.zeros(60), B[1] + np.linspace(0, 60, 60), B[2] + np.zeros(60)]  # sideways
     r = reconstruct_multiview(_evidence(images, cams, exp), B, previous_mm=wrong)
     assert r.mode == "acquired" and "tracking lost" in r.note
-    e = _errors(resample_by_arclength(r.nodes_mm, 200), X)
+    e = _errors(resample_polyline(r.nodes_mm, 200), X)
     assert e["mean"] <= 0.5 and e["tip"] <= 3.0, e
 
 

@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 
 from tendrilkit.calibration import ijcv25_rig
 from tendrilkit.camera import Camera
-from tendrilkit.triangulation import point_to_polyline_distance, reprojection_table, triangulate
+from tendrilkit.geometry import point_to_polyline_distance
+from tendrilkit.triangulation import reprojection_table, triangulate
 
 
 def _rig():
@@ -74,14 +75,6 @@ def test_triangulate_rejects_bad_shapes():
         triangulate(np.zeros((3, 5)), cams)
     with pytest.raises(ValueError, match="one entry per view"):
         triangulate(np.zeros((2, 5, 2)), cams)
-
-
-def test_point_to_polyline_distance():
-    poly = np.array([[0.0, 0], [10, 0], [10, 10]])
-    p = np.array([[5.0, 2], [12, 5], [-3, -4], [np.nan, 1]])
-    d = point_to_polyline_distance(p, poly)
-    np.testing.assert_allclose(d[:3], [2, 2, 5])
-    assert np.isnan(d[3])
 
 
 def test_reprojection_table_sections():
