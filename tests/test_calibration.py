@@ -26,12 +26,12 @@ from tendrilkit.calibration import (
     cameras_from_ijcv25,
     detect_markers,
     ijcv25_rig,
-    marker_object_corners,
     marker_pose,
     rig_agreement_px,
 )
 from tendrilkit.camera import Camera, rotation_from_rvec
 from tendrilkit.exceptions import ExperimentError
+from tendrilkit.geometry import marker_corners
 from tendrilkit.extrinsics import calibrate_experiment, calibrate_to_dir
 from tendrilkit.io import read_ijcv25_extrinsics, read_ijcv25_intrinsics
 
@@ -151,7 +151,7 @@ def rendered():
 
 # ---------------------------------------------------------------- detection
 def test_marker_object_corners_order():
-    c = marker_object_corners(24.0)
+    c = marker_corners(24.0)
     assert c.shape == (4, 3)
     np.testing.assert_allclose(c[0], [-12, 12, 0])
     np.testing.assert_allclose(c[2], [12, -12, 0])
@@ -229,7 +229,7 @@ def test_marker_pose_exact_corners_property(dist_mm, tilt_deg, azimuth_deg, roll
     R, tv = look_at(eye, np.zeros(3), up)
     K = np.array([[1750.0, 0, 960], [0, 1750.0, 540], [0, 0, 1]])
     cam = Camera(K, [k1, 0.01, 0, 0, 0], R, tv)
-    corners = cam.project(marker_object_corners(length))
+    corners = cam.project(marker_corners(length))
     R_est, t_est = marker_pose(corners, cam, length)
     assert rot_err_deg(R_est, R) < 0.01  # exactly frontal views are ill-conditioned in tilt
     assert np.linalg.norm(t_est - tv) < 1e-3 * dist_mm
@@ -268,9 +268,9 @@ def test_ijcv25_loader_reproduces_stored_corners():
     L_ = 24.0
     for i, cam in enumerate(rig):
         ext = read_ijcv25_extrinsics(RIG_DIR / f"CamExtrPara_Corners{i + 1}.csv")
-        proj = cam.project(marker_object_corners(L_))
+        proj = cam.project(marker_corners(L_))
         assert np.abs(proj - ext["corners_xy"][0]).max() < 0.5
-        ok, rv, tv = cv2.solvePnP(marker_object_corners(L_), ext["corners_xy"][0], cam.K, None,
+        ok, rv, tv = cv2.solvePnP(marker_corners(L_), ext["corners_xy"][0], cam.K, None,
                                   flags=cv2.SOLVEPNP_IPPE_SQUARE)
         assert np.abs(tv.ravel() - cam.t_mm).max() < 0.2
         # marker_pose (IPPE + LM polish) agrees with the stored pose as well
@@ -366,13 +366,13 @@ def test_calibrate_to_dir_from_frames(tmp_path, rendered):
 # ------------------------------------------------------- bundle adjustment
 def _synthetic_markers(rng: np.random.Generator) -> dict[int, np.ndarray]:
     """World corners of markers around the working volume, on and off the board."""
-    out = {WORLD_ID: marker_object_corners(L)}
+    out = {WORLD_ID: marker_corners(L)}
     for mid, (cx, cy, s) in BOARD_MARKERS.items():
-        out[mid] = marker_object_corners(s) + [cx, cy, 0.0]
+        out[mid] = marker_corners(s) + [cx, cy, 0.0]
     # two on stands, tilted towards the cameras
     for mid, c, rv in ((301, (120.0, -60.0, 40.0), (0.3, 0.2, 0.1)), (302, (60.0, 60.0, 30.0), (-0.2, 0.3, 0.0))):
-        out[mid] = marker_object_corners(20.0) @ rotation_from_rvec(np.array(rv)).T + c
-    out[303] = marker_object_corners(30.0) + [120.0, -20.0, 4.0]  # parallel to the board, 4 mm above it
+        out[mid] = marker_corners(20.0) @ rotation_from_rvec(np.array(rv)).T + c
+    out[303] = marker_corners(30.0) + [120.0, -20.0, 4.0]  # parallel to the board, 4 mm above it
     return out
 
 

@@ -16,7 +16,7 @@ The method in four steps:
 3. :func:`bundle_adjust`: every other marker seen by two or more views is a
    square of unknown pose and side length; the camera poses and these squares
    are refined jointly on all corner observations, the world marker's corners
-   held at :func:`marker_object_corners` (which fixes the frame and the scale).
+   held at :func:`tendrilkit.geometry.marker_corners` (which fixes the frame and the scale).
    Markers found to lie on the world marker's board are then held in its
    plane, which pins the world frame's tilt over the board's whole extent.
 4. :func:`calibrate` (images) and :func:`calibrate_from_observations`
@@ -45,7 +45,7 @@ checks), ``ijcv25`` (the authors' stored poses and the paper's rig) and
 from tendrilkit.calibration.bundle import BundleReport, bundle_adjust
 from tendrilkit.calibration.experiment import calibrate_views, experiment_intrinsics
 from tendrilkit.calibration.ijcv25 import RIG_DIR, calibration_from_ijcv25, cameras_from_ijcv25, ijcv25_rig
-from tendrilkit.calibration.markers import REFINE_METHODS, detect_markers, marker_object_corners
+from tendrilkit.calibration.markers import REFINE_METHODS, detect_markers
 from tendrilkit.calibration.poses import marker_pose
 from tendrilkit.calibration.rig import (
     MIN_BASELINE_FRACTION,
@@ -74,7 +74,6 @@ __all__ = [
     "detect_markers",
     "experiment_intrinsics",
     "ijcv25_rig",
-    "marker_object_corners",
     "marker_pose",
     "rig_agreement_px",
 ]

@@ -11,8 +11,8 @@ import pandas as pd
 from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
-from tendrilkit.calibration.markers import marker_object_corners
 from tendrilkit.camera import Camera
+from tendrilkit.geometry import marker_corners
 
 __all__ = ["BundleReport", "bundle_adjust"]
 
@@ -54,7 +54,7 @@ def _triangulate(cameras: list[Camera], obs_xy: list[np.ndarray | None]) -> np.n
 
 def _fit_square(points_world: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """Similarity (R, t, side) that best maps the unit marker square onto 4 points."""
-    U = marker_object_corners(1.0)
+    U = marker_corners(1.0)
     X = np.asarray(points_world, float)
     mu, mx = U.mean(0), X.mean(0)
     A, B = U - mu, X - mx
@@ -183,8 +183,8 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
             p_free.append(np.concatenate([cv2.Rodrigues(R)[0].ravel(), t, [side]]))
     nf, npl = len(free), len(plane)
     slot = {m: i for i, m in enumerate(free)} | {m: nf + i for i, m in enumerate(plane)}
-    W = marker_object_corners(length_mm)
-    U = marker_object_corners(1.0)
+    W = marker_corners(length_mm)
+    U = marker_corners(1.0)
     views, slots, ks, xy = [], [], [], []
     for v in sorted(obs):
         for m, c in sorted(obs[v].items()):
@@ -199,7 +199,7 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
     n_cam = 6 * n_views
     off_plane = n_cam + 7 * nf
 
-    def marker_corners(x: np.ndarray) -> np.ndarray:
+    def corners_of(x: np.ndarray) -> np.ndarray:
         """Corners (nf + npl, 4, 3) of the adjusted markers."""
         out = np.empty((nf + npl, 4, 3))
         if nf:
@@ -216,7 +216,7 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
         return out
 
     def residuals(x: np.ndarray) -> np.ndarray:
-        Xm = marker_corners(x)
+        Xm = corners_of(x)
         P = np.empty((len(xy_a), 3))
         w = slot_a < 0
         P[w] = W[k_a[w]]
@@ -246,7 +246,7 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
     cp = sol.x[:n_cam].reshape(n_views, 6)
     Rc = _rodrigues(cp[:, :3])
     cams = [c.with_pose(Rc[v], cp[v, 3:]) for v, c in enumerate(cams0)]
-    X0, X1 = marker_corners(x0), marker_corners(sol.x)
+    X0, X1 = corners_of(x0), corners_of(sol.x)
     ids = free + plane
     mw0 = {world_id: W.copy()} | {m: X0[slot[m]] for m in ids}
     mw = {world_id: W.copy()} | {m: X1[slot[m]] for m in ids}
@@ -264,7 +264,7 @@ def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.nd
 
     Unknowns: each camera's pose (Rodrigues vector, translation) and, for every
     other marker seen in at least ``min_views`` views, a square's pose and side
-    length. The world marker's corners stay at ``marker_object_corners(length_mm)``:
+    length. The world marker's corners stay at ``marker_corners(length_mm)``:
     they fix the world frame and, through ``length_mm``, the scale. The residuals
     are the corner reprojection errors through each camera's lens distortion
     (:meth:`Camera.project`); ``scipy.optimize.least_squares`` minimises them

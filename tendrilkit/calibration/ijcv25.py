@@ -16,9 +16,9 @@ import numpy as np
 import pandas as pd
 
 from tendrilkit.calibration.bundle import _reprojection_rows
-from tendrilkit.calibration.markers import marker_object_corners
 from tendrilkit.calibration.rig import CalibrationResult, _marker_table
 from tendrilkit.camera import Camera
+from tendrilkit.geometry import marker_corners
 
 __all__ = ["RIG_DIR", "calibration_from_ijcv25", "cameras_from_ijcv25", "ijcv25_rig"]
 
@@ -100,7 +100,7 @@ def calibration_from_ijcv25(tables: list[dict[str, np.ndarray]], intrinsics: lis
         r = int(hit[0]) if hit.size else 0
         frame_used = int(ext["frame"][r])
         obs[v] = {int(ext["marker_id"][r]): ext["corners_xy"][r]}
-    mw = {mid: marker_object_corners(length_mm) for o in obs.values() for mid in o}
+    mw = {mid: marker_corners(length_mm) for o in obs.values() for mid in o}
     rows = pd.DataFrame(_reprojection_rows(cams, obs, mw, "single"),
                         columns=["view", "marker_id", "stage", "mean_px", "max_px", "n_corners"])
     return CalibrationResult(cameras=cams, single_cameras=cams, markers=_marker_table(rows, mw),

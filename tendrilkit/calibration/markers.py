@@ -8,27 +8,12 @@ import cv2
 import numpy as np
 
 from tendrilkit.camera import Camera
+from tendrilkit.geometry import marker_corners
 
-__all__ = ["REFINE_METHODS", "detect_markers", "marker_object_corners"]
+__all__ = ["REFINE_METHODS", "detect_markers"]
 
 #: Corner refinement methods of :func:`detect_markers`.
 REFINE_METHODS = ("edges", "subpix", "contour", "apriltag", "none")
-
-
-# ----------------------------------------------------------------- world frame
-def marker_object_corners(length_mm: float) -> np.ndarray:
-    """The world marker's corners (4, 3) mm, OpenCV ArUco order and frame.
-
-    Top-left, top-right, bottom-right, bottom-left: ``(-L/2, L/2, 0), (L/2, L/2, 0),
-    (L/2, -L/2, 0), (-L/2, -L/2, 0)``.
-
-    Examples
-    --------
-    >>> marker_object_corners(24.0)[:2].tolist()
-    [[-12.0, 12.0, 0.0], [12.0, 12.0, 0.0]]
-    """
-    h = float(length_mm) / 2.0
-    return np.array([[-h, h, 0.0], [h, h, 0.0], [h, -h, 0.0], [-h, -h, 0.0]])
 
 
 # ------------------------------------------------------------------- detection
@@ -116,7 +101,7 @@ def _refine_corners_edges(grey: np.ndarray, corners_xy: np.ndarray, *, cells: in
     c = np.asarray(corners_xy, dtype=float).copy()
     c0 = c.copy()
     h, w = g.shape
-    U = marker_object_corners(1.0)[:, :2]  # unit square, marker x right, y up
+    U = marker_corners(1.0)[:, :2]  # unit square, marker x right, y up
     for _ in range(iterations):
         side = np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1)
         if side.min() < 12:

@@ -7,8 +7,8 @@ import cv2
 import numpy as np
 
 from tendrilkit.calibration.bundle import _triangulate
-from tendrilkit.calibration.markers import marker_object_corners
 from tendrilkit.camera import Camera, rotation_from_rvec
+from tendrilkit.geometry import marker_corners
 
 __all__ = ["marker_pose"]
 
@@ -22,7 +22,7 @@ def _pose_candidates(corners_xy: np.ndarray, camera: Camera, length_mm: float) -
     axes (tests/test_calibration.py, property test). Each is polished by
     Levenberg-Marquardt through the lens distortion.
     """
-    obj = marker_object_corners(length_mm)
+    obj = marker_corners(length_mm)
     img = np.asarray(corners_xy, dtype=float).reshape(4, 1, 2)
     starts = []
     _, rvecs, tvecs, _ = cv2.solvePnPGeneric(obj, img, camera.K, camera.dist, flags=cv2.SOLVEPNP_IPPE_SQUARE)
@@ -59,7 +59,7 @@ def marker_pose(corners_xy: np.ndarray, camera: Camera, length_mm: float) -> tup
 
     ``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)`` with the camera's K and lens
     distortion, polished by Levenberg-Marquardt; ``x_cam = R @ x_marker + t_mm``
-    with the marker frame of :func:`marker_object_corners`. For the world
+    with the marker frame of :func:`tendrilkit.geometry.marker_corners`. For the world
     marker this is the camera's world-to-camera pose.
 
     Parameters

@@ -11,10 +11,11 @@ import pandas as pd
 
 from tendrilkit.calibration import bundle
 from tendrilkit.calibration.bundle import BundleReport, _reprojection_rows
-from tendrilkit.calibration.markers import detect_markers, marker_object_corners
+from tendrilkit.calibration.markers import detect_markers
 from tendrilkit.calibration.poses import _choose_world_poses
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import ExperimentError
+from tendrilkit.geometry import marker_corners
 
 __all__ = ["MIN_BASELINE_FRACTION", "CalibrationResult", "calibrate", "calibrate_from_observations",
            "check_calibration", "corner_rms_px", "rig_agreement_px"]
@@ -158,7 +159,7 @@ def calibrate_from_observations(observations: dict[int, dict[int, np.ndarray]], 
             what = f" ({dictionary})" if dictionary else ""
             raise ExperimentError(f"view {v + 1}: world marker {world_id}{what} not found in frame {frame}")
     single = _choose_world_poses(observations, intrinsics, world_id, length_mm)
-    W = marker_object_corners(length_mm)
+    W = marker_corners(length_mm)
     shared = [m for m in set().union(*[set(o) for o in observations.values()]) - {world_id}
               if sum(m in o for o in observations.values()) >= 2]
     if bundle_adjust and shared:
