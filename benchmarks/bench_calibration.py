@@ -8,7 +8,7 @@
 ``synthetic``: exact corners plus noise; camera rotation error and agreement
 of the single-marker poses and of the bundle adjustment.
 
-``corners``: the board of tests/test_calibration.py rendered through the
+``corners``: the board of tendrilkit.calibration.synthetic rendered through the
 IJCV25 rig with lens distortion at several blur levels; per corner refinement
 method, the corner error against the exact projection, the single-marker
 rotation error of the world marker's pose, and the calibrated rig's agreement
@@ -38,15 +38,15 @@ from tendrilkit.calibration import calibrate, calibrate_from_observations, detec
 
 
 def bench_corners() -> None:
-    from tests import test_calibration as T
+    from tendrilkit.calibration import synthetic as T
 
     cams = T.distorted_rig()
-    tex, corners = T._scene()
+    tex, corners = T.board_scene()
     P = T.working_volume()
     print(f"{'blur':>4} {'method':>8} {'corner mean':>11} {'max':>6} {'rot deg':>7} {'single px':>9} {'adjusted px':>11} {'detect ms':>9}")
     for blur in (0.7, 1.2, 2.0):
         rng = np.random.default_rng(11)
-        images = [T.render(c, tex, rng=rng, blur_px=blur, noise=2.5, corners=corners) for c in cams]
+        images = [T.render_board(c, tex, rng=rng, blur_px=blur, noise=2.5, corners=corners) for c in cams]
         for method in ("none", "subpix", "contour", "apriltag", "edges"):
             errs, rots, obs = [], [], {}
             t0 = time.perf_counter()
@@ -69,8 +69,8 @@ def bench_corners() -> None:
 
 def bench_synthetic(seeds: int = 20) -> None:
     """Pose error (deg) and working-volume agreement (px) of single-marker vs adjusted
-    poses on exact corners plus Gaussian noise, the markers of tests/test_calibration.py."""
-    from tests import test_calibration as T
+    poses on exact corners plus Gaussian noise, the markers of tendrilkit.calibration.synthetic."""
+    from tendrilkit.calibration import synthetic as T
     from tendrilkit.calibration import bundle_adjust
 
     P = T.working_volume()
@@ -80,7 +80,7 @@ def bench_synthetic(seeds: int = 20) -> None:
         for seed in range(seeds):
             rng = np.random.default_rng(seed)
             truth = T.distorted_rig()
-            obs = T._observe(truth, T._synthetic_markers(rng), rng, sigma)
+            obs = T.observe_markers(truth, T.synthetic_markers(rng), rng, sigma)
             single = [c.with_pose(*marker_pose(obs[v][T.WORLD_ID], c, T.L)) for v, c in enumerate(truth)]
             t0 = time.perf_counter()
             cams, _ = bundle_adjust(single, obs, world_id=T.WORLD_ID, length_mm=T.L)
@@ -98,13 +98,13 @@ def bench_bundle_speed(repeats: int = 5) -> None:
     """Time of one bundle adjustment on the perturbed rig of
     tests/test_calibration.py::test_bundle_adjust_recovers_perturbed_rig (1.5 degrees and
     3 mm off, 0.05 px noise); that test asserted ``elapsed < 5`` s, which belongs here."""
-    from tests import test_calibration as T
+    from tendrilkit.calibration import synthetic as T
     from tendrilkit.calibration import bundle_adjust
     from tendrilkit.camera import rotation_from_rvec
 
     rng = np.random.default_rng(7)
     truth = T.distorted_rig()
-    obs = T._observe(truth, T._synthetic_markers(rng), rng, 0.05)
+    obs = T.observe_markers(truth, T.synthetic_markers(rng), rng, 0.05)
     start = []
     for c in truth:
         dR = rotation_from_rvec(rng.normal(size=3) * np.radians(1.5) / np.sqrt(3))

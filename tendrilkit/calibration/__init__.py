@@ -39,7 +39,8 @@ The sub-package does no I/O (the caller reads frames and files): ``markers``
 (detection and corner refinement), ``poses`` (single-marker poses), ``bundle``
 (bundle adjustment), ``rig`` (:class:`CalibrationResult`, :func:`calibrate`,
 checks), ``ijcv25`` (the authors' stored poses and the paper's rig) and
-``experiment`` (an experiment file's options applied to read frames).
+``experiment`` (an experiment file's options applied to read frames);
+``synthetic`` holds seeded scenes with exact truth for tests and benchmarks.
 """
 
 from tendrilkit.calibration.bundle import BundleReport, bundle_adjust
