@@ -58,7 +58,7 @@ def rendered():
 
 
 # ---------------------------------------------------------------- detection
-def test_marker_object_corners_order():
+def test_marker_corners_order():
     c = marker_corners(24.0)
     assert c.shape == (4, 3)
     np.testing.assert_allclose(c[0], [-12, 12, 0])
