@@ -60,7 +60,7 @@ def synthetic_frame():
 
 
 def phantom_frame(site: str = "S3"):
-    from tendrilkit.calibration import calibrate_experiment
+    from tendrilkit.extrinsics import calibrate_experiment
     from tendrilkit.io import open_views
     from tendrilkit.params import load_experiment
     from tendrilkit.phantom import write_phantom_experiment

@@ -91,7 +91,7 @@ def frame_loop(exp, cameras, frames) -> tuple[float, float, list]:
 
 
 def sequence(site: str = "S3", n_frames: int = 60) -> None:
-    from tendrilkit.calibration import calibrate_experiment
+    from tendrilkit.extrinsics import calibrate_experiment
     from tendrilkit.params import load_experiment
     from tendrilkit.phantom import write_phantom_experiment
 

@@ -35,7 +35,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from test_verify_pipeline import _fake_continuation  # noqa: E402
 
-from tendrilkit.calibration import calibrate_experiment  # noqa: E402
+from tendrilkit.extrinsics import calibrate_experiment  # noqa: E402
 from tendrilkit.camera import Camera  # noqa: E402
 from tendrilkit.io import read_frames  # noqa: E402
 from tendrilkit.params import load_experiment  # noqa: E402

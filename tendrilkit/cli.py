@@ -57,7 +57,7 @@ def _cmd_phantom(args: argparse.Namespace) -> int:
 
 
 def _cmd_calibrate(args: argparse.Namespace) -> int:
-    from tendrilkit.calibration import calibrate_to_dir
+    from tendrilkit.extrinsics import calibrate_to_dir
 
     summary = calibrate_to_dir(Path(args.experiment), Path(args.out),
                                overrides=_ACCEPT if args.accept_calibration else None)

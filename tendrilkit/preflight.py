@@ -93,7 +93,8 @@ def _intrinsics(exp, sizes) -> list:
 
 def check_lines(exp, *, n_trial: int = 2) -> list[tuple[bool, str]]:
     """Run every check of an experiment (loaded with ``marks_optional=True``); ``(ok, line)`` pairs."""
-    from tendrilkit.calibration import _pose_candidates, calibrate, detect_markers
+    from tendrilkit.calibration import calibrate, detect_markers
+    from tendrilkit.calibration.poses import _pose_candidates
     from tendrilkit.camera import Camera
     from tendrilkit.exceptions import ExperimentError, FrameReadError
 

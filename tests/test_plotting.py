@@ -225,3 +225,13 @@ def test_contact_sheet_and_frame_overlay():
     assert contact_frames(f, max_doubtful=8, n_ok=3) == [0, 2, 3, 7]  # ok frames 0, 1, 3, 5, 6, 7: first, middle, last
     img = draw_overlay_bgr(views, status="doubtful", label="frame 7", height_px=120)
     assert img.shape[0] == 120 and img.shape[1] % 2 == 0 and img.dtype == np.uint8
+
+
+@pytest.mark.parametrize("module", ['tendrilkit.plotting', 'tendrilkit.plotting.curves', 'tendrilkit.plotting.pwc', 'tendrilkit.plotting.quality', 'tendrilkit.plotting.sequence', 'tendrilkit.plotting.style', 'tendrilkit.plotting.views'])
+def test_docstring_examples_run(module):
+    """The Examples of the tendrilkit.plotting docstrings (what ``pytest --doctest-modules`` runs)."""
+    import doctest
+    import importlib
+
+    res = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS)
+    assert res.failed == 0, f"{res.failed} of {res.attempted} docstring example(s) of {module} failed"

@@ -1,0 +1,67 @@
+"""An experiment file's calibration options applied to frames and stored poses the caller has read.
+
+:func:`tendrilkit.extrinsics.calibrate_experiment` reads the videos' first
+processed frame (or the ``extrinsics`` files) and calls :func:`calibrate_views`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from tendrilkit.calibration.ijcv25 import calibration_from_ijcv25
+from tendrilkit.calibration.rig import CalibrationResult, calibrate, check_calibration
+from tendrilkit.camera import Camera
+
+if TYPE_CHECKING:  # only for type hints: algorithm code never needs params
+    from tendrilkit.params import Experiment
+
+__all__ = ["calibrate_views", "experiment_intrinsics"]
+
+
+def experiment_intrinsics(exp: "Experiment", image_sizes: list[tuple[int, int]]) -> list[Camera]:
+    """The experiment's cameras (K, dist; no pose) with each view's image size ``(width, height)`` px."""
+    if len(image_sizes) != len(exp.cameras):
+        raise ValueError(f"image_sizes: expected one per camera ({len(exp.cameras)}), got {len(image_sizes)}")
+    cams = []
+    for c, (w, h) in zip(exp.cameras, image_sizes):
+        K = np.array([[c.fx, 0.0, c.cx], [0.0, c.fy, c.cy], [0.0, 0.0, 1.0]])
+        cams.append(Camera(K=K, dist=np.asarray(c.dist, float), width=w, height=h))
+    return cams
+
+
+def calibrate_views(exp: "Experiment", *, image_sizes: list[tuple[int, int]], images: list[np.ndarray] | None = None,
+                    extrinsics: list[dict[str, np.ndarray]] | None = None) -> CalibrationResult:
+    """The rig of an experiment: from its stored poses, else from the markers of its first processed frame.
+
+    With ``extrinsics: {format: ijcv25}`` (``extrinsics``: the files' tables,
+    :func:`tendrilkit.io.read_ijcv25_extrinsics`) the stored poses of the row
+    whose frame is ``frames.start`` (else the first row) are used
+    (:func:`~tendrilkit.calibration.ijcv25.calibration_from_ijcv25`).
+    Otherwise ``images`` (frame ``frames.start`` of every view, BGR) go
+    through :func:`~tendrilkit.calibration.rig.calibrate` with the
+    experiment's ``marker`` and ``calibration.bundle_adjust``.
+
+    The result is then checked (:func:`check_calibration`): every view's
+    marker corners must reproject within ``calibration.max_corner_rms_px``
+    (unless ``null``) and no two cameras may sit at the same place.
+
+    Raises
+    ------
+    ExperimentError
+        A view does not show the world marker, or the calibration failed its checks.
+    """
+    intr = experiment_intrinsics(exp, image_sizes)
+    start = exp.frames.start
+    if exp.extrinsics is not None:
+        if extrinsics is None:
+            raise ValueError("extrinsics: the experiment names stored poses (extrinsics:); pass their tables")
+        result = calibration_from_ijcv25(extrinsics, intr, frame=start, length_mm=exp.marker.length_mm)
+    else:
+        if images is None:
+            raise ValueError("images: expected frame frames.start of every view to calibrate from the markers")
+        result = calibrate(images, intr, dictionary=exp.marker.dictionary, world_id=exp.marker.id,
+                           length_mm=exp.marker.length_mm, bundle_adjust=exp.calibration.bundle_adjust, frame=start)
+    check_calibration(result, max_corner_rms_px=exp.calibration.max_corner_rms_px)
+    return result

@@ -1,0 +1,256 @@
+"""ArUco markers: the world marker's corners and detection with corners refined from the marker's edges."""
+
+from __future__ import annotations
+
+import warnings
+
+import cv2
+import numpy as np
+
+from tendrilkit.camera import Camera
+from tendrilkit.geometry import marker_corners
+
+__all__ = ["REFINE_METHODS", "detect_markers"]
+
+#: Corner refinement methods of :func:`detect_markers`.
+REFINE_METHODS = ("edges", "subpix", "contour", "apriltag", "none")
+
+
+# ------------------------------------------------------------------- detection
+def _dictionary(name: str):
+    if not isinstance(name, str) or not name.startswith("DICT_") or not hasattr(cv2.aruco, name):
+        raise ValueError(f"dictionary: expected a cv2.aruco predefined dictionary name such as DICT_ARUCO_ORIGINAL, got {name!r}")
+    return cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, name))
+
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    img = np.asarray(image)
+    if img.ndim == 3 and img.shape[2] == 3:
+        return cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+    if img.ndim == 3 and img.shape[2] == 1:
+        return img[:, :, 0]
+    if img.ndim == 2:
+        return img
+    raise ValueError(f"image_bgr: expected a (height, width, 3) BGR or (height, width) grey image, got shape {img.shape}")
+
+
+def _line_intersection(l1: np.ndarray, l2: np.ndarray) -> np.ndarray:
+    """Point where two lines ``(a, b, c)`` (``a x + b y = c``) meet."""
+    A = np.array([l1[:2], l2[:2]])
+    return np.linalg.solve(A, np.array([l1[2], l2[2]]))
+
+
+def _crossings(g: np.ndarray, base: np.ndarray, n: np.ndarray, centre: np.ndarray, half: float,
+               rising: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Sub-pixel edge offsets along ``n`` of profiles through ``base + o n``.
+
+    Each profile spans ``centre +- half`` px (0.25 px steps); the edge is where
+    it crosses half-way between its dark and bright ends (the last such
+    crossing, dark to bright along ``n`` if ``rising``, else bright to dark),
+    interpolated linearly. Returns the offsets (k,) (NaN: no clear edge) and
+    the profiles' mid levels (k,).
+    """
+    offs = np.arange(-half, half + 1e-9, 0.25)
+    o = centre[:, None] + offs[None, :]
+    pts = base[:, None, :] + o[:, :, None] * n[None, None, :]
+    prof = cv2.remap(g, pts[..., 0].astype(np.float32), pts[..., 1].astype(np.float32), cv2.INTER_LINEAR,
+                     borderMode=cv2.BORDER_REPLICATE)
+    if not rising:
+        prof = prof[:, ::-1]
+        o = o[:, ::-1]
+    k = max(2, len(offs) // 6)
+    lo, hi = prof[:, :k].mean(axis=1), prof[:, -k:].mean(axis=1)
+    mid = (lo + hi) / 2
+    above = prof >= mid[:, None]
+    up = ~above[:, :-1] & above[:, 1:]
+    has = up.any(axis=1) & ((hi - lo) > 20)
+    q = up.shape[1] - 1 - np.argmax(up[:, ::-1], axis=1)
+    rows = np.arange(len(base))
+    y0, y1 = prof[rows, q], prof[rows, q + 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        edge = o[rows, q] + (mid - y0) / (y1 - y0) * (o[rows, q + 1] - o[rows, q])
+    edge[~(has & np.isfinite(edge))] = np.nan
+    return edge, mid
+
+
+def _refine_corners_edges(grey: np.ndarray, corners_xy: np.ndarray, *, cells: int,
+                          camera: Camera | None, iterations: int = 3,
+                          bias: float | None = None) -> tuple[np.ndarray, float, int] | None:
+    """Corners (4, 2) from straight lines fitted to the marker's four sides.
+
+    Along each side, away from the corners, intensity profiles across the edge
+    give sub-pixel edge points where the profile crosses half-way between the
+    black border and the white surround (unbiased for a symmetric blur of a
+    linear image). With a ``camera`` the edge points are undistorted before the
+    line fit, so the lines are straight in the pinhole image; the corners are
+    distorted back. Returns None when the edges cannot be measured (the caller
+    keeps its own corners).
+
+    A camera's non-linear response (gamma), defocus in a non-linear domain or
+    ink spread moves every edge of the black square outwards or inwards by the
+    same amount ``b`` (a dilation), which scales the marker and so the whole
+    rig (1 % of scale is about 10 px at the tendril). ``b`` is measured and
+    removed: where the interior cell next to the black border is white, the
+    border's inner edge is found too; the border is one cell wide (its width
+    in pixels from the homography of the current corners), so
+    ``b = (measured width - cell width) / 2``, the median over all such places
+    (at least 10, else ``b`` = 0); a given ``bias`` is used instead.
+    Returns ``(corners, b, number of places)``.
+    """
+    g = grey.astype(np.float32)
+    c = np.asarray(corners_xy, dtype=float).copy()
+    c0 = c.copy()
+    h, w = g.shape
+    U = marker_corners(1.0)[:, :2]  # unit square, marker x right, y up
+    for _ in range(iterations):
+        side = np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1)
+        if side.min() < 12:
+            return None
+        cell = side.mean() / cells
+        half = float(np.clip(0.45 * cell, 1.5, 5.0))  # profile half-length: stays in one cell
+        H = cv2.getPerspectiveTransform(U.astype(np.float32), c.astype(np.float32))
+        centre = c.mean(axis=0)
+        sides = []
+        widths = []
+        for i in range(4):
+            a, b = c[i], c[(i + 1) % 4]
+            L = np.linalg.norm(b - a)
+            d = (b - a) / L
+            n = np.array([d[1], -d[0]])
+            if np.dot((a + b) / 2 - centre, n) < 0:
+                n = -n  # outward
+            t = np.linspace(0.12, 0.88, max(8, int(0.76 * L)))
+            base = a[None, :] + (t * L)[:, None] * d[None, :]
+            if base.min() < half + 2 or base[:, 0].max() > w - half - 3 or base[:, 1].max() > h - half - 3:
+                return None
+            outer, mid = _crossings(g, base, n, np.zeros(len(t)), half, rising=True)
+            # cell width across the border at each sample, from the homography
+            Pu = U[i][None, :] + t[:, None] * (U[(i + 1) % 4] - U[i])[None, :]
+            inward = -(U[i] + U[(i + 1) % 4]) / np.linalg.norm(U[i] + U[(i + 1) % 4])
+            p0 = cv2.perspectiveTransform(Pu[None].astype(np.float64), H)[0]
+            p1 = cv2.perspectiveTransform((Pu + inward / cells)[None].astype(np.float64), H)[0]
+            cell_px = (p0 - p1) @ n
+            # inner edge of the border where the neighbouring interior cell is white
+            tc = t * cells
+            j = np.floor(tc)
+            cand = (j >= 1) & (j <= cells - 2) & ((tc - j) > 0.2) & ((tc - j) < 0.8)
+            if cand.any():
+                probe = base[cand] - 1.5 * cell_px[cand, None] * n[None, :]
+                val = cv2.remap(g, probe[:, 0:1].astype(np.float32), probe[:, 1:2].astype(np.float32),
+                                cv2.INTER_LINEAR).ravel()
+                white = val > mid[cand]
+                idx = np.flatnonzero(cand)[white]
+                if idx.size:
+                    inner, _ = _crossings(g, base[idx], n, -cell_px[idx], half, rising=False)
+                    widths.append((outer[idx] - inner) - cell_px[idx])
+            sides.append((base, n, outer))
+        dil = np.concatenate(widths) / 2 if widths else np.array([])
+        dil = dil[np.isfinite(dil)]
+        b_used = bias if bias is not None else (float(np.median(dil)) if dil.size >= 10 else 0.0)
+        lines = []
+        poor = False
+        for base, n, outer in sides:
+            ok = np.isfinite(outer)
+            if ok.sum() < 6:
+                return None
+            n_samples = len(outer)
+            p = base[ok] + (outer[ok] - b_used)[:, None] * n[None, :]
+            if camera is not None:
+                p = camera.undistort_points(p)
+            # total least squares line, one pass of outlier rejection
+            for _pass in range(2):
+                m = p.mean(axis=0)
+                _, _, vt = np.linalg.svd(p - m, full_matrices=False)
+                nrm = vt[1]
+                r = (p - m) @ nrm
+                mad = np.median(np.abs(r - np.median(r))) * 1.4826
+                keep = np.abs(r) <= max(3 * mad, 0.3)
+                if keep.all() or keep.sum() < 6:
+                    break
+                p = p[keep]
+            r = (p - p.mean(axis=0)) @ nrm
+            poor |= len(p) < 0.5 * n_samples or float(np.sqrt(np.mean(r ** 2))) > 0.35
+            lines.append(np.array([nrm[0], nrm[1], nrm @ m]))
+        new = np.array([_line_intersection(lines[(i - 1) % 4], lines[i]) for i in range(4)])
+        if camera is not None:
+            new = camera.distort_points(new)
+        # OpenCV's corner can be pulled several pixels by something dark touching
+        # the marker; the lines are not, but they must stay near the quad
+        if not np.all(np.isfinite(new)) or np.abs(new - c0).max() > max(3.0, 0.2 * side.mean()):
+            return None
+        c = new
+    if poor:  # lines through too few or too scattered edge points: keep OpenCV's corners
+        return None
+    return c, (float(np.median(dil)) if dil.size else np.nan), int(dil.size)
+
+
+def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "edges",
+                   camera: Camera | None = None) -> dict[int, np.ndarray]:
+    """ArUco markers of one image: ``{marker_id: corners (4, 2) px}``.
+
+    Parameters
+    ----------
+    image_bgr : (height, width, 3) uint8 array
+        The frame (a grey (height, width) image is accepted too).
+    dictionary : str
+        A ``cv2.aruco`` predefined dictionary name, e.g. ``DICT_ARUCO_ORIGINAL``.
+    refine : {"edges", "subpix", "contour", "apriltag", "none"}, keyword-only
+        Corner refinement. ``edges`` (default): OpenCV's ``CORNER_REFINE_SUBPIX``
+        corners, then straight lines fitted to sub-pixel edge points of each side
+        (see Notes); the others are OpenCV's ``CORNER_REFINE_*`` methods alone.
+    camera : Camera, optional, keyword-only
+        With it, the ``edges`` refinement fits the sides in undistorted
+        coordinates (lens distortion bends straight edges).
+
+    Returns
+    -------
+    dict
+        Corners in OpenCV order (top-left, top-right, bottom-right, bottom-left
+        of the marker), observed (distorted) pixels, x = column. An id detected
+        twice in the image is ambiguous and left out (with a warning).
+
+    Notes
+    -----
+    On frames rendered through the IJCV25 rig with lens distortion, blur 0.7-2 px
+    and noise (benchmarks/bench_calibration.py ``corners``), the mean corner
+    error is 0.013-0.022 px (max 0.05) with ``edges``, against 0.2-0.57 px for
+    ``subpix``, 0.84-0.92 for ``contour`` and 0.66-0.70 for ``apriltag``
+    (OpenCV's corners are biased, mostly outwards or inwards). A corner from
+    two lines through ~100 edge points each averages the noise that a local
+    corner fit sees, and the dilation correction (see ``_refine_corners_edges``)
+    keeps it unbiased under a non-linear response (gamma 2.2: 0.01 px).
+    It costs ~60 ms per 1920x1080 frame.
+    """
+    if refine not in REFINE_METHODS:
+        raise ValueError(f"refine: expected one of {', '.join(REFINE_METHODS)}, got {refine!r}")
+    dic = _dictionary(dictionary)
+    grey = _grey(image_bgr)
+    params = cv2.aruco.DetectorParameters()
+    method = {"edges": cv2.aruco.CORNER_REFINE_SUBPIX, "subpix": cv2.aruco.CORNER_REFINE_SUBPIX,
+              "contour": cv2.aruco.CORNER_REFINE_CONTOUR, "apriltag": cv2.aruco.CORNER_REFINE_APRILTAG,
+              "none": cv2.aruco.CORNER_REFINE_NONE}[refine]
+    params.cornerRefinementMethod = method
+    detector = cv2.aruco.ArucoDetector(dic, params)
+    corners, ids, _ = detector.detectMarkers(grey)
+    out: dict[int, np.ndarray] = {}
+    if ids is None:
+        return out
+    ids = ids.ravel().astype(int)
+    uniq, counts = np.unique(ids, return_counts=True)
+    dup = set(uniq[counts > 1].tolist())
+    if dup:
+        warnings.warn(f"marker id(s) {sorted(dup)} detected more than once in one image; left out", stacklevel=2)
+    cells = dic.markerSize + 2
+    found = {int(m): np.asarray(c, dtype=float).reshape(4, 2) for m, c in zip(ids, corners) if m not in dup}
+    if refine != "edges":
+        return dict(sorted(found.items()))
+    refined = {m: _refine_corners_edges(grey, c, cells=cells, camera=camera) for m, c in found.items()}
+    # a marker with too few white cells along its border takes the image's dilation
+    biases = [r[1] for r in refined.values() if r is not None and r[2] >= 10]
+    for m, c in found.items():
+        r = refined[m]
+        if r is not None and r[2] < 10 and biases:
+            r = _refine_corners_edges(grey, c, cells=cells, camera=camera, bias=float(np.median(biases)))
+        out[m] = c if r is None else r[0]
+    return dict(sorted(out.items()))
+

@@ -1,0 +1,266 @@
+"""The calibrated rig: :class:`CalibrationResult`, :func:`calibrate` composing detection, poses and bundle
+adjustment, and the checks that refuse a calibration that cannot be right."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from tendrilkit.calibration import bundle
+from tendrilkit.calibration.bundle import BundleReport, _reprojection_rows
+from tendrilkit.calibration.markers import detect_markers
+from tendrilkit.calibration.poses import _choose_world_poses
+from tendrilkit.camera import Camera
+from tendrilkit.exceptions import ExperimentError
+from tendrilkit.geometry import marker_corners
+
+__all__ = ["MIN_BASELINE_FRACTION", "CalibrationResult", "calibrate", "calibrate_from_observations",
+           "check_calibration", "corner_rms_px", "rig_agreement_px"]
+
+
+@dataclass(frozen=True, eq=False)
+class CalibrationResult:
+    """The calibrated rig of one experiment.
+
+    Attributes
+    ----------
+    cameras : list of Camera
+        Final cameras in view order (adjusted if bundle adjustment ran).
+    single_cameras : list of Camera
+        The single-marker (paper) poses.
+    markers : pandas.DataFrame
+        Corner reprojection errors, one row per (view, marker, stage):
+        ``view`` (1-based), ``marker_id``, ``stage`` (``single`` | ``adjusted``),
+        ``mean_px``, ``max_px``, ``n_corners``, and the marker's estimated
+        geometry ``x_mm``, ``y_mm``, ``z_mm`` (centre, world) and ``length_mm``
+        (NaN for a marker seen by one view only), sorted by stage, view, marker.
+    observations : dict
+        ``{view_index (0-based): {marker_id: corners (4, 2) px}}`` as detected.
+    markers_world : dict[int, (4, 3) float array]
+        Corners of every marker in the adjustment, world mm.
+    frame : int or None
+        The video frame the calibration comes from.
+    source : str
+        ``markers`` (detection, single marker), ``bundle`` (detection and
+        bundle adjustment) or ``ijcv25`` (the authors' stored poses).
+    bundle : BundleReport or None
+        The adjustment's report (markers on the board plane, dropped
+        observations, residuals) when it ran.
+    """
+
+    cameras: list[Camera]
+    single_cameras: list[Camera]
+    markers: pd.DataFrame
+    observations: dict[int, dict[int, np.ndarray]]
+    markers_world: dict[int, np.ndarray]
+    frame: int | None = None
+    source: str = "markers"
+    bundle: BundleReport | None = None
+
+    def summary(self) -> str:
+        """Per view: markers seen, mean corner error single -> adjusted."""
+        t = self.markers
+        lines = []
+        for v in range(1, len(self.cameras) + 1):
+            seen = len(self.observations.get(v - 1, {}))
+            s = t[(t.view == v) & (t.stage == "single")]
+            a = t[(t.view == v) & (t.stage == "adjusted")]
+            used = len(a) if len(a) else len(s)
+            line = f"view {v}: {seen} marker(s) seen, {used} used; corner error "
+            if len(s):
+                line += f"mean {_wmean(s):.3f} px (max {s.max_px.max():.3f})"
+            if len(a):
+                line += f" -> {_wmean(a):.3f} px (max {a.max_px.max():.3f}) after bundle adjustment"
+            lines.append(line)
+        if self.bundle is not None:
+            b = self.bundle
+            extra = f"adjusted markers: {', '.join(str(m) for m in sorted(b.markers_world))}"
+            if b.on_plane:
+                extra += f"; on the world marker's plane: {', '.join(str(m) for m in b.on_plane)}"
+            if b.dropped:
+                extra += "; dropped: " + ", ".join(f"view {v} marker {m}" for v, m in b.dropped)
+            lines.append(extra + f"; rms {b.rms_before_px:.3f} -> {b.rms_after_px:.3f} px")
+            if not b.converged:
+                lines.append("the bundle adjustment did not converge: the single-marker poses are kept")
+        return "\n".join(lines)
+
+
+def _wmean(rows: pd.DataFrame) -> float:
+    return float((rows.mean_px * rows.n_corners).sum() / rows.n_corners.sum())
+
+
+def _marker_table(rows: pd.DataFrame, markers_world: dict[int, np.ndarray],
+                  markers_world_single: dict[int, np.ndarray] | None = None) -> pd.DataFrame:
+    """The reprojection rows with each marker's centre and side (per stage)."""
+    def geo(X):
+        return (*X.mean(0), float(np.mean(np.linalg.norm(np.roll(X, -1, 0) - X, axis=1))))
+
+    by_stage = {"adjusted": {m: geo(X) for m, X in markers_world.items()},
+                "single": {m: geo(X) for m, X in (markers_world_single or markers_world).items()}}
+    t = rows.copy()
+    for j, col in enumerate(("x_mm", "y_mm", "z_mm", "length_mm")):
+        t[col] = [by_stage[st][m][j] if m in by_stage[st] else np.nan for st, m in zip(t.stage, t.marker_id)]
+    order = {"single": 0, "adjusted": 1}
+    t = t.assign(_o=t.stage.map(order)).sort_values(["_o", "view", "marker_id"]).drop(columns="_o")
+    return t.reset_index(drop=True)
+
+
+def calibrate(images: list[np.ndarray], intrinsics: list[Camera], *, dictionary: str, world_id: int,
+              length_mm: float, bundle_adjust: bool = True, frame: int = 0,
+              refine: str = "edges") -> CalibrationResult:
+    """Camera poses from the markers in one frame of every view.
+
+    The world marker's single-marker pose (:func:`marker_pose`) is each camera's
+    initial pose, as in the paper; with ``bundle_adjust`` the rig is then
+    refined with every marker two or more views see (:func:`bundle_adjust`).
+
+    Parameters
+    ----------
+    images : list of (height, width, 3) uint8 arrays
+        One BGR frame per view, view order.
+    intrinsics : list of Camera
+        One per view (K, dist, image size; poses ignored).
+    dictionary, world_id, length_mm
+        The world marker (experiment file's ``marker:``).
+    bundle_adjust : bool, keyword-only
+        Refine with the other markers (default True).
+    frame : int, keyword-only
+        The frames' index in the videos, for messages only.
+
+    Raises
+    ------
+    ExperimentError
+        When a view does not show the world marker:
+        ``view 2: world marker 815 (DICT_ARUCO_ORIGINAL) not found in frame 0``.
+    """
+    if len(images) != len(intrinsics):
+        raise ValueError(f"images: expected one per camera ({len(intrinsics)}), got {len(images)}")
+    if len(images) < 1:
+        raise ValueError("images: expected at least one view")
+    observations: dict[int, dict[int, np.ndarray]] = {}
+    for v, (img, cam) in enumerate(zip(images, intrinsics)):
+        observations[v] = detect_markers(img, dictionary, refine=refine, camera=cam)
+        if world_id not in observations[v]:
+            raise ExperimentError(f"view {v + 1}: world marker {world_id} ({dictionary}) not found in frame {frame}")
+    return calibrate_from_observations(observations, intrinsics, world_id=world_id, length_mm=length_mm,
+                                       bundle_adjust=bundle_adjust, frame=frame)
+
+
+
+def calibrate_from_observations(observations: dict[int, dict[int, np.ndarray]], intrinsics: list[Camera], *,
+                                world_id: int, length_mm: float, bundle_adjust: bool = True,
+                                frame: int | None = None, dictionary: str = "") -> CalibrationResult:
+    """:func:`calibrate` from already detected corners ``{view_index: {id: (4, 2)}}``."""
+    for v in range(len(intrinsics)):
+        if world_id not in observations.get(v, {}):
+            what = f" ({dictionary})" if dictionary else ""
+            raise ExperimentError(f"view {v + 1}: world marker {world_id}{what} not found in frame {frame}")
+    single = _choose_world_poses(observations, intrinsics, world_id, length_mm)
+    W = marker_corners(length_mm)
+    shared = [m for m in set().union(*[set(o) for o in observations.values()]) - {world_id}
+              if sum(m in o for o in observations.values()) >= 2]
+    if bundle_adjust and shared:
+        cams, rep = bundle.bundle_adjust(single, observations, world_id=world_id, length_mm=length_mm)
+        table = _marker_table(rep.table, rep.markers_world, rep.markers_world_single)
+        return CalibrationResult(cameras=cams, single_cameras=single, markers=table, observations=observations,
+                                 markers_world=rep.markers_world, frame=frame, source="bundle", bundle=rep)
+    if bundle_adjust and len(intrinsics) > 1:
+        warnings.warn("bundle adjustment skipped: no marker other than the world marker is seen by two views",
+                      stacklevel=2)
+    rows = pd.DataFrame(_reprojection_rows(single, observations, {world_id: W}, "single"),
+                        columns=["view", "marker_id", "stage", "mean_px", "max_px", "n_corners"])
+    return CalibrationResult(cameras=single, single_cameras=single, markers=_marker_table(rows, {world_id: W}),
+                             observations=observations, markers_world={world_id: W}, frame=frame, source="markers")
+
+
+def rig_agreement_px(cameras_a: list[Camera], cameras_b: list[Camera], points_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How far apart two rigs put the same world points, per view.
+
+    Parameters
+    ----------
+    cameras_a, cameras_b : list of Camera
+        Two calibrations of the same views (e.g. estimated and true).
+    points_world : (n, 3) float array
+        World points, mm (e.g. the tendril's working volume); NaN rows ignored.
+
+    Returns
+    -------
+    max_px, mean_px : (n_views,) float arrays
+        Largest and mean distance between the two projections of the points.
+    """
+    if len(cameras_a) != len(cameras_b):
+        raise ValueError(f"cameras_b: expected {len(cameras_a)} cameras like cameras_a, got {len(cameras_b)}")
+    X = np.asarray(points_world, float).reshape(-1, 3)
+    X = X[np.all(np.isfinite(X), axis=1)]
+    if len(X) == 0:
+        raise ValueError("points_world: expected at least one finite point")
+    d = np.array([np.linalg.norm(a.project(X) - b.project(X), axis=1) for a, b in zip(cameras_a, cameras_b)])
+    return d.max(axis=1), d.mean(axis=1)
+
+
+#: Two cameras closer than this fraction of their distance to the world marker cannot triangulate.
+MIN_BASELINE_FRACTION = 0.02
+
+
+def corner_rms_px(result: CalibrationResult) -> dict[int, float]:
+    """Per view (1-based), the corner reprojection error of the final rig, pixels: the root mean
+    square, over the markers, of each marker's mean corner error.
+
+    Over every marker the view sees (the ``adjusted`` rows of
+    :attr:`CalibrationResult.markers` when the bundle adjustment ran, else the
+    ``single`` rows), dropped observations included.
+    """
+    t = result.markers
+    stage = "adjusted" if (t.stage == "adjusted").any() else "single"
+    t = t[t.stage == stage]
+    out = {}
+    for v, g in t.groupby("view"):
+        # mean_px is a mean of distances: rms >= mean; the mean of the squares is bounded by max_px^2
+        n = g.n_corners.to_numpy(float)
+        out[int(v)] = float(np.sqrt((np.asarray(g.mean_px, float) ** 2 * n).sum() / n.sum()))
+    return out
+
+
+def check_calibration(result: CalibrationResult, *, max_corner_rms_px: float | None = 1.5) -> None:
+    """Refuse a calibration that cannot be right.
+
+    - A view whose marker corners reproject further than ``max_corner_rms_px``
+      (:func:`corner_rms_px`): wrong intrinsics, intrinsics of another image
+      size, a moved camera... (``None``: not checked; a warning is given).
+    - Two cameras at the same place (closer than :data:`MIN_BASELINE_FRACTION`
+      of their distance to the world marker): the same video given for two
+      views; nothing can be triangulated.
+
+    Raises
+    ------
+    ExperimentError
+        ``calibration failed: view 1: marker corners reproject 6.27 px rms ...``
+    """
+    cams = result.cameras
+    C = np.array([c.center_world for c in cams])
+    depth = np.linalg.norm(C, axis=1)
+    for i in range(len(cams)):
+        for j in range(i):
+            base = float(np.linalg.norm(C[i] - C[j]))
+            if not base >= MIN_BASELINE_FRACTION * max(float(min(depth[i], depth[j])), 1e-9):
+                raise ExperimentError(
+                    f"calibration failed: views {j + 1} and {i + 1} are {base:.1f} mm apart at {depth[i]:.0f} mm from "
+                    f"the world marker (at least {100 * MIN_BASELINE_FRACTION:g} % of it needed to triangulate); "
+                    f"the same video given for two views?")
+    rms = corner_rms_px(result)
+    bad = {v: r for v, r in rms.items() if max_corner_rms_px is not None and not r <= max_corner_rms_px}
+    if bad:
+        v, r = max(bad.items(), key=lambda kv: kv[1])
+        others = ", ".join(f"view {w}: {x:.2f} px" for w, x in sorted(bad.items()) if w != v)
+        raise ExperimentError(
+            f"calibration failed: view {v}: marker corners reproject {r:.2f} px off (rms over markers; limit "
+            f"calibration.max_corner_rms_px = {max_corner_rms_px:g} px{'; also ' + others if others else ''}); "
+            f"check view {v}'s intrinsics (fx, fy, cx, cy, dist) and image size, or pass --accept-calibration")
+    if max_corner_rms_px is None and rms:
+        v, r = max(rms.items(), key=lambda kv: kv[1])
+        if r > 1.5:
+            warnings.warn(f"calibration accepted although view {v}'s marker corners reproject {r:.2f} px rms",
+                          stacklevel=2)

@@ -1,0 +1,285 @@
+"""Thinning and the skeleton graph: nodes, branches and their surgery.
+
+The mask is thinned (:func:`skeletonize_strips`), :class:`skan.Skeleton`
+splits the skeleton into branches (:func:`_build_graph`); spurs are pruned
+(:func:`_prune`), plain nodes left with two branches merged
+(:func:`_merge_degree_two`), junctions of one crossing contracted into one
+node (:func:`_contract_junctions`, with :func:`_is_shallow_x` for shallow X
+crossings) and the component of the base kept (:func:`_keep_component`,
+with :mod:`scipy.sparse.csgraph`). :func:`_widen_zones` grows each
+junction's zone to where its branches are single tubes again.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import skan
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from skimage.morphology import skeletonize
+
+from tendrilkit.skeleton.tangents import _end_tangent, _signed_angle_deg
+
+__all__ = ["skeletonize_strips"]
+
+_SHALLOW_X_WIDTHS = 15.0  # longest middle of a shallow X crossing, in tube widths (about 8 deg)
+
+
+def skeletonize_strips(mask_u8: np.ndarray, strip: int = 96) -> np.ndarray:
+    """:func:`skimage.morphology.skeletonize` of a mask, strip by strip.
+
+    Zhang-Suen thinning costs in proportion to the array's area, and a
+    diagonal tendril fills a small part of its bounding box (9 ms for a
+    400 x 800 px box on a 1080p phantom view). Each horizontal strip of
+    ``strip`` rows is thinned with ``margin`` extra rows above and below,
+    cropped to the columns its rows use; a pixel depends only on pixels within
+    one pixel per sub-iteration, and the sub-iterations are about the mask's
+    thickness, so a margin of three thicknesses (at least 24 px) gives the
+    same skeleton as the whole box (no pixel differs on 96 phantom frames of
+    the four sites) at about 40 % of the cost.
+    """
+    H, W = mask_u8.shape
+    if H <= 2 * strip:
+        return skeletonize(mask_u8.astype(bool))
+    contours, _ = cv2.findContours(mask_u8, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
+    perimeter = sum(cv2.arcLength(c, True) for c in contours)
+    thickness = 2.0 * float(np.count_nonzero(mask_u8)) / max(perimeter, 1.0)
+    margin = max(24, int(np.ceil(3 * thickness)) + 4)
+    rows_any = mask_u8.any(axis=1)
+    out = np.zeros((H, W), bool)
+    for r0 in range(0, H, strip):
+        r1 = min(r0 + strip, H)
+        if not rows_any[r0:r1].any():
+            continue
+        a0, a1 = max(r0 - margin, 0), min(r1 + margin, H)
+        band = mask_u8[a0:a1]
+        cols = np.flatnonzero(band.any(axis=0))
+        c0, c1 = max(cols[0] - 1, 0), min(cols[-1] + 2, W)
+        out[r0:r1, c0:c1] = skeletonize(band[:, c0:c1].astype(bool))[r0 - a0 : r1 - a0]
+    return out
+
+
+
+class _Graph:
+    """Nodes (xy, kind) and branches (u, v, pixel path xy) of a skeleton."""
+
+    def __init__(self) -> None:
+        self.node_xy: list[np.ndarray] = []
+        self.node_junction: list[bool] = []  # came from junction pixels
+        self.node_span: list[float] = []
+        self.edges: list[list] = []  # [u, v, pts_xy (k, 2), length]
+
+    def degrees(self) -> np.ndarray:
+        deg = np.zeros(len(self.node_xy), int)
+        for u, v, _, _ in self.edges:
+            deg[u] += 1
+            deg[v] += 1
+        return deg
+
+
+def _path_length(pts: np.ndarray) -> float:
+    return float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
+
+
+def _build_graph(skel: np.ndarray) -> _Graph:
+    S = skan.Skeleton(skel, keep_images=False)
+    coords_xy = S.coordinates[:, ::-1].astype(float)
+    deg = S.degrees
+    g = _Graph()
+    index: dict[int, int] = {}
+
+    def node(pix: int) -> int:
+        if pix not in index:
+            index[pix] = len(g.node_xy)
+            g.node_xy.append(coords_xy[pix].copy())
+            g.node_junction.append(bool(deg[pix] >= 3))
+            g.node_span.append(0.0)
+        return index[pix]
+
+    for path in S.paths_list():
+        path = np.asarray(path)
+        pts = coords_xy[path]
+        u, v = node(int(path[0])), node(int(path[-1]))
+        g.edges.append([u, v, pts, _path_length(pts)])
+    return g
+
+
+def _prune(g: _Graph, prune_px: float) -> None:
+    """Remove spurs (endpoint-to-junction branches shorter than ``prune_px``)."""
+    for _ in range(10):
+        deg = g.degrees()
+        drop = set()
+        for i, (u, v, _, length) in enumerate(g.edges):
+            if length >= prune_px or u == v:
+                continue
+            if (deg[u] == 1 and deg[v] >= 3) or (deg[v] == 1 and deg[u] >= 3):
+                drop.add(i)
+        if not drop or len(drop) >= len(g.edges):
+            return
+        # two spurs on one junction of degree 3 would leave a dangling path:
+        # drop them all the same (the junction then ends the remaining branch)
+        g.edges = [e for i, e in enumerate(g.edges) if i not in drop]
+        _merge_degree_two(g)
+
+
+def _merge_degree_two(g: _Graph) -> None:
+    """Join the two branches of plain skeleton nodes left with degree 2."""
+    while True:
+        deg = g.degrees()
+        cand = [n for n in range(len(deg)) if deg[n] == 2 and g.node_span[n] == 0.0]
+        done = False
+        for n in cand:
+            inc = [i for i, e in enumerate(g.edges) if e[0] == n or e[1] == n]
+            if len(inc) != 2:
+                continue  # a closed loop on itself
+            a, b = (g.edges[i] for i in inc)
+            pa = a[2] if a[1] == n else a[2][::-1]
+            ua = a[0] if a[1] == n else a[1]
+            pb = b[2] if b[0] == n else b[2][::-1]
+            vb = b[1] if b[0] == n else b[0]
+            pts = np.vstack([pa, pb[1:]])
+            g.edges = [e for i, e in enumerate(g.edges) if i not in inc]
+            g.edges.append([ua, vb, pts, _path_length(pts)])
+            g.node_junction[n] = False
+            done = True
+            break
+        if not done:
+            return
+
+
+def _is_shallow_x(g: _Graph, i: int, deg: np.ndarray, width: float, window: float, max_turn_deg: float = 35.0) -> bool:
+    """Is branch ``i`` the shared middle of a shallow X crossing?
+
+    Two tubes crossing at a small angle thin to two Y junctions joined by a
+    branch several widths long (about ``w / tan(angle / 2)``). The branch is
+    such a middle when it joins two degree-3 junctions and the two other
+    branches at one end continue, each with a turn under ``max_turn_deg``,
+    into the two other branches at the other end.
+    """
+    u, v, _, _ = g.edges[i]
+    if u == v or deg[u] != 3 or deg[v] != 3:
+        return False
+    a_xy, b_xy = g.node_xy[u], g.node_xy[v]
+    mid = b_xy - a_xy
+    if np.hypot(*mid) == 0:
+        return False
+    mid = mid / np.hypot(*mid)
+
+    def others(nd: int) -> list[np.ndarray]:
+        out = []
+        for k, (p, q, pts, _) in enumerate(g.edges):
+            if k == i:
+                continue
+            for end, node_end, path in ((0, p, pts), (1, q, pts[::-1])):
+                if node_end == nd:
+                    out.append(_end_tangent(path, g.node_xy[nd], width, window))
+        return out
+
+    ta, tb = others(u), others(v)
+    if len(ta) != 2 or len(tb) != 2:
+        return False
+    # arriving at u along -ta (heading towards v), leaving v along tb
+    if any(float(-t @ mid) < np.cos(np.radians(60)) for t in ta) or any(float(t @ mid) < np.cos(np.radians(60)) for t in tb):
+        return False
+    for pairing in (((0, 0), (1, 1)), ((0, 1), (1, 0))):
+        if all(abs(_signed_angle_deg(-ta[x], tb[y])) < max_turn_deg for x, y in pairing):
+            return True
+    return False
+
+
+def _contract_junctions(g: _Graph, merge_len: float, width: float = 0.0, window: float = 15.0, max_len: float = 0.0) -> None:
+    """Contract branches between junction nodes: those shorter than ``merge_len``
+    and, up to ``max_len``, the middles of shallow X crossings."""
+    n = len(g.node_xy)
+    parent = list(range(n))
+
+    def find(a: int) -> int:
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    deg = g.degrees()
+    short = []
+    for i, (u, v, _, length) in enumerate(g.edges):
+        if deg[u] >= 3 and deg[v] >= 3 and (
+            length < merge_len or (length < max_len and _is_shallow_x(g, i, deg, width, window))
+        ):
+            short.append(i)
+            parent[find(u)] = find(v)
+    if not short:
+        return
+    members: dict[int, list[int]] = {}
+    for a in range(n):
+        members.setdefault(find(a), []).append(a)
+    for root, mem in members.items():
+        if len(mem) < 2:
+            continue
+        xy = np.array([g.node_xy[m] for m in mem])
+        centre = xy.mean(axis=0)
+        g.node_xy[root] = centre
+        g.node_span[root] = float(2 * np.hypot(*(xy - centre).T).max())
+        g.node_junction[root] = True
+    short_set = set(short)
+    edges = []
+    for i, (u, v, pts, length) in enumerate(g.edges):
+        if i in short_set:
+            continue
+        edges.append([find(u), find(v), pts, length])
+    g.edges = edges
+    # pin holes: closed branches shorter than the merge length at a junction
+    g.edges = [e for e in g.edges if not (e[0] == e[1] and e[3] < 2 * merge_len and g.node_junction[e[0]])]
+
+
+def _keep_component(g: _Graph, start: int) -> float:
+    """Keep the branches connected to node ``start``; return the dropped length."""
+    n = len(g.node_xy)
+    u = np.array([e[0] for e in g.edges], int)
+    v = np.array([e[1] for e in g.edges], int)
+    adj = coo_matrix((np.ones(len(u)), (u, v)), shape=(n, n))
+    _, label = connected_components(adj, directed=False)
+    seen = set(np.flatnonzero(label == label[start]).tolist())
+    dropped = sum(e[3] for e in g.edges if e[0] not in seen)
+    g.edges = [e for e in g.edges if e[0] in seen]
+    return dropped
+
+
+def _widen_zones(g: _Graph, radius: np.ndarray, crop: np.ndarray, width: float, ratio: float = 1.2) -> None:
+    """Grow each junction zone to where its branches are single tubes again.
+
+    Where two passes of the tendril meet at a small angle, the mask is wider
+    than one tube over ``(w / 2) / sin(angle / 2)`` or more from the crossing,
+    and the skeleton there follows neither pass. Along every branch leaving a
+    junction, the zone ends where the distance to the background (computed in
+    a window around the junction) falls back to ``ratio`` times the branch's
+    own median (the single tube's), for at least 3 pixels; the zone radius is
+    the largest such distance from the junction's centre (capped at 6 w,
+    enough for a 10 degree crossing).
+    """
+    H, W = crop.shape
+    half = int(np.ceil(8 * width)) + 4
+    for n in np.nonzero(radius > 0)[0]:
+        cx, cy = g.node_xy[n]
+        x0, y0 = max(int(cx) - half, 0), max(int(cy) - half, 0)
+        x1, y1 = min(int(cx) + half + 1, W), min(int(cy) + half + 1, H)
+        dt = cv2.distanceTransform(crop[y0:y1, x0:x1], cv2.DIST_L2, cv2.DIST_MASK_5)
+        grow = radius[n]
+        for u, v, pts, _ in g.edges:
+            for node_end, path in ((u, pts), (v, pts[::-1])):
+                if node_end != n:
+                    continue
+                c, r = path[:, 0].astype(int) - x0, path[:, 1].astype(int) - y0
+                inside = (c >= 0) & (c < x1 - x0) & (r >= 0) & (r < y1 - y0)
+                run = int(np.argmin(inside)) if not inside.all() else len(path)
+                if run < 6:
+                    continue
+                d = dt[r[:run], c[:run]]
+                dist = np.hypot(path[:run, 0] - cx, path[:run, 1] - cy)
+                far = d[dist > 2 * width]
+                ref = float(np.median(far)) if len(far) >= 3 else float(np.median(d))
+                thin = d <= ratio * ref
+                ok = thin[:-2] & thin[1:-1] & thin[2:]
+                if ok.any():
+                    grow = max(grow, float(dist[int(np.argmax(ok))]))
+        radius[n] = min(grow, max(radius[n], 6 * width))
