@@ -206,7 +206,7 @@ def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentO
             stamp.unlink()
         out.mkdir(parents=True, exist_ok=True)
         _stderr_to(out / "batch.log")
-        from tendrilkit.pipeline import run_reconstruct
+        from tendrilkit.runner import run_reconstruct
 
         _log(f"{exp.name}: reconstructing {path.name}")
         t = time.perf_counter()

@@ -66,10 +66,12 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def _cmd_reconstruct(args: argparse.Namespace) -> int:
-    from tendrilkit.pipeline import run_reconstruct
+    from tendrilkit.runner import run_reconstruct
 
-    return run_reconstruct(Path(args.experiment), Path(args.out), workers=args.workers,
-                           progress=not args.quiet, overrides=_ACCEPT if args.accept_calibration else None)
+    summary = run_reconstruct(Path(args.experiment), Path(args.out), workers=args.workers,
+                              progress=not args.quiet, overrides=_ACCEPT if args.accept_calibration else None)
+    print(summary)  # the command's last line
+    return summary.exit_code
 
 
 def _cmd_overlay(args: argparse.Namespace) -> int:

@@ -21,7 +21,7 @@ import warnings
 import numpy as np
 
 from tendrilkit.exceptions import ExperimentError, FrameError, TendrilLostError
-from tendrilkit.params import check_against_images
+from tendrilkit.params import check_against_images, stage_options
 from tendrilkit.segmentation import segment_view
 
 __all__ = ["check_inputs", "check_marks_on_frame", "check_video_fps"]
@@ -106,8 +106,8 @@ def check_marks_on_frame(exp, images: list[np.ndarray | None]) -> None:
             continue
         bp = np.asarray(marks.base_point, float)
         try:
-            s = segment_view(img, roi=marks.roi, keep_out=None, base_point_xy=bp, channel=seg.channel,
-                             threshold=seg.threshold, opening_radius_px=0, min_component_px=seg.min_component_px)
+            s = segment_view(img, roi=marks.roi, keep_out=None, base_point_xy=bp,
+                             **{**stage_options(exp, "segmentation"), "opening_radius_px": 0})
         except TendrilLostError:
             raise ExperimentError(
                 f"{where}views[{i}].roi: {list(marks.roi)} holds no dark structure in frame {exp.frames.start} of "

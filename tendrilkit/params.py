@@ -40,6 +40,109 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
+# ---------------------------------------------------------------- one route for options
+#: The function each stage's options are keywords of (``module:function``).
+STAGE_FUNCTIONS = {
+    "segmentation": "tendrilkit.segmentation:segment_view",
+    "ordering": "tendrilkit.skeleton:order_skeleton",
+    "correspondence": "tendrilkit.correspondence:match_epipolar",
+    "triangulation": "tendrilkit.triangulation:triangulate",
+    "multiview": "tendrilkit.multiview:reconstruct_multiview",
+    "fit": "tendrilkit.pwc:fit_piecewise_clothoid",
+}
+#: The experiment sections each stage reads, with the prefix of their keys'
+#: keyword names: a key is the stage function's keyword of the same name, a
+#: key of a section shared with another stage is prefixed with the section's
+#: name (``smoothing.length_mm`` is the fit's ``smoothing_length_mm``).
+STAGE_SECTIONS = {
+    "segmentation": (("segmentation", ""),),
+    "ordering": (("skeleton", ""), ("ordering", "")),
+    "correspondence": (("correspondence", ""),),
+    "triangulation": (("triangulation", ""),),
+    "multiview": (("reconstruction", ""),),
+    "fit": (("fit", ""), ("smoothing", "smoothing_")),
+}
+#: Keys the composer (:mod:`tendrilkit.pipeline`, :mod:`tendrilkit.runner`) acts on
+#: itself, which choose between functions or steps: not stage keywords; their
+#: defaults live here.
+SWITCHES = {
+    "correspondence": ("method",),
+    "triangulation": ("to_curves", "base_from_marks"),
+    "reconstruction": ("method", "chunk_frames"),
+}
+
+
+def stage_signature_defaults(stage: str) -> dict[str, Any]:
+    """The keyword defaults of a stage's function (:data:`STAGE_FUNCTIONS`).
+
+    The one place an experiment option's default lives is its stage
+    function's signature; the sections below read it from there
+    (:func:`_default`), so the experiment file, the pipeline, the notebooks
+    and a direct call of the function agree.
+    """
+    import importlib
+    import inspect
+
+    module, name = STAGE_FUNCTIONS[stage].split(":")
+    fn = getattr(importlib.import_module(module), name)
+    return {k: p.default for k, p in inspect.signature(fn).parameters.items()
+            if p.default is not inspect.Parameter.empty}
+
+
+def _default(stage: str, keyword: str) -> Any:
+    """The default of ``keyword`` in the signature of ``stage``'s function (imported when first needed)."""
+    return stage_signature_defaults(stage)[keyword]
+
+
+def stage_options(exp: "Experiment", stage: str) -> dict[str, Any]:
+    """The keyword options of a stage's function (:data:`STAGE_FUNCTIONS`) from an experiment.
+
+    The one route from the experiment file to the stages: the pipeline and
+    the notebooks call e.g. ``segment_view(image, ..., **stage_options(exp,
+    "segmentation"))``. Every key of the stage's sections
+    (:data:`STAGE_SECTIONS`) except the composer's :data:`SWITCHES` is
+    passed, under its own name (another section's key: prefixed with the
+    section's name).
+
+    Parameters
+    ----------
+    exp : Experiment
+    stage : {"segmentation", "ordering", "correspondence", "triangulation", "multiview", "fit"}
+
+    Returns
+    -------
+    dict
+        Keyword name to value (plain data: ``overrides`` as dicts).
+
+    Examples
+    --------
+    >>> exp = parse_experiment(example_experiment_data())
+    >>> sorted(stage_options(exp, "correspondence"))
+    ['depth_smoothing', 'max_distance_px']
+    >>> stage_options(exp, "fit")["smoothing_length_mm"] is None
+    True
+    """
+    if stage not in STAGE_SECTIONS:
+        raise ValueError(f"stage must be one of {', '.join(STAGE_SECTIONS)}, got {stage!r}")
+    out: dict[str, Any] = {}
+    for section, prefix in STAGE_SECTIONS[stage]:
+        for key, value in getattr(exp, section).model_dump().items():
+            if key not in SWITCHES.get(section, ()):
+                out[prefix + key] = value
+    return out
+
+
+def example_experiment_data() -> dict:
+    """A minimal valid experiment mapping (two views; paths need not exist): for examples and tests."""
+    return {
+        "name": "example", "stimulation_site": "S1", "fps": 1.0, "reference_view": 1,
+        "videos": ["v1.mp4", "v2.mp4"],
+        "marker": {"dictionary": "DICT_ARUCO_ORIGINAL", "id": 0, "length_mm": 24.0},
+        "cameras": [{"view": v, "fx": 1000.0, "fy": 1000.0, "cx": 320.0, "cy": 240.0} for v in (1, 2)],
+        "views": [{"view": v, "roi": [0, 0, 640, 480], "base_point": [320.0, 400.0]} for v in (1, 2)],
+    }
+
+
 PositiveFloat = Annotated[float, Field(gt=0)]
 NonNegFloat = Annotated[float, Field(ge=0)]
 #: A pixel distance or size of an option (tolerance, radius, window).
@@ -167,10 +270,11 @@ class Segmentation(_Strict):
     frames the component nearest the previous centroid.
     """
 
-    channel: Literal["blue", "hsv"] = "blue"
-    threshold: Literal["otsu"] | Annotated[int, Field(ge=0, le=255)] = "otsu"
-    opening_radius_px: int = Field(1, ge=0, le=1000)
-    min_component_px: int = Field(50, ge=0, le=10**9)
+    channel: Literal["blue", "hsv"] = Field(default_factory=lambda: _default("segmentation", "channel"))
+    threshold: Literal["otsu"] | Annotated[int, Field(ge=0, le=255)] = Field(
+        default_factory=lambda: _default("segmentation", "threshold"))
+    opening_radius_px: int = Field(default_factory=lambda: _default("segmentation", "opening_radius_px"), ge=0, le=1000)
+    min_component_px: int = Field(default_factory=lambda: _default("segmentation", "min_component_px"), ge=0, le=10**9)
 
 
 class Skeleton(_Strict):
@@ -186,10 +290,10 @@ class Skeleton(_Strict):
     where the keep-out box cuts the tendril).
     """
 
-    prune_px: OptionPx = 12.0
-    merge_width: float = Field(1.5, ge=0, le=1000)
-    smooth_px: OptionPx = 1.5
-    tip_inset: float = Field(1.0, ge=0, le=1000)
+    prune_px: OptionPx = Field(default_factory=lambda: _default("ordering", "prune_px"))
+    merge_width: float = Field(default_factory=lambda: _default("ordering", "merge_width"), ge=0, le=1000)
+    smooth_px: OptionPx = Field(default_factory=lambda: _default("ordering", "smooth_px"))
+    tip_inset: float = Field(default_factory=lambda: _default("ordering", "tip_inset"), ge=0, le=1000)
 
 
 class OrderingOverride(_Strict):
@@ -219,11 +323,13 @@ class Ordering(_Strict):
     the user, ``{frame, view, junction, branch}`` entries.
     """
 
-    method: Literal["smooth", "paper"] = "smooth"
-    tangent_window_px: float = Field(15.0, gt=0, le=L.MAX_OPTION_PX)
-    zone_width: float = Field(1.0, ge=0, le=1000)
-    max_unused_fraction: float = Field(0.1, ge=0, le=1)
-    overrides: list[OrderingOverride] = Field(default_factory=list, max_length=100_000)
+    method: Literal["smooth", "paper"] = Field(default_factory=lambda: _default("ordering", "method"))
+    tangent_window_px: float = Field(default_factory=lambda: _default("ordering", "tangent_window_px"), gt=0,
+                                     le=L.MAX_OPTION_PX)
+    zone_width: float = Field(default_factory=lambda: _default("ordering", "zone_width"), ge=0, le=1000)
+    max_unused_fraction: float = Field(default_factory=lambda: _default("ordering", "max_unused_fraction"), ge=0, le=1)
+    overrides: list[OrderingOverride] = Field(default_factory=lambda: list(_default("ordering", "overrides")),
+                                              max_length=100_000)
 
 
 class Correspondence(_Strict):
@@ -243,8 +349,9 @@ class Correspondence(_Strict):
     """
 
     method: Literal["epipolar", "frechet"] = "epipolar"
-    max_distance_px: float = Field(8.0, gt=0, le=L.MAX_OPTION_PX)
-    depth_smoothing: Weight = 100.0
+    max_distance_px: float = Field(default_factory=lambda: _default("correspondence", "max_distance_px"), gt=0,
+                                   le=L.MAX_OPTION_PX)
+    depth_smoothing: Weight = Field(default_factory=lambda: _default("correspondence", "depth_smoothing"))
 
 
 class Reconstruction(_Strict):
@@ -262,7 +369,7 @@ class Reconstruction(_Strict):
 
     method: Literal["chain", "multiview"] = "chain"
     chunk_frames: int = Field(30, ge=1)
-    segment_mm: float = Field(1.0, gt=0.1, le=10.0)
+    segment_mm: float = Field(default_factory=lambda: _default("multiview", "segment_mm"), gt=0.1, le=10.0)
 
 
 class Triangulation(_Strict):
@@ -282,7 +389,7 @@ class Triangulation(_Strict):
     first point without folding back, the curve is extended to them.
     """
 
-    refine: bool = True
+    refine: bool = Field(default_factory=lambda: _default("triangulation", "refine"))
     to_curves: bool = False
     base_from_marks: bool = True
 
@@ -300,7 +407,8 @@ class Smoothing(_Strict):
     fitted on the 3D points, so a strong smoothing costs little accuracy.
     """
 
-    length_mm: Annotated[float, Field(gt=0, le=L.MAX_LENGTH_MM)] | None = None
+    length_mm: Annotated[float, Field(gt=0, le=L.MAX_LENGTH_MM)] | None = Field(
+        default_factory=lambda: _default("fit", "smoothing_length_mm"))
 
 
 class Fit(_Strict):
@@ -320,14 +428,14 @@ class Fit(_Strict):
     (tendrilkit's addition; off = the paper's curvature-space fit).
     """
 
-    selection: Literal["auto", "fixed"] = "auto"
-    criterion: Literal["bic", "r2"] = "bic"
-    target_r2: float = Field(0.999, gt=0, lt=1)
-    penalty_kappa: Weight = 0.01
-    penalty_tau: Weight = 0.01
-    score: Literal["l2", "l1"] = "l2"
-    max_segments: int = Field(10, ge=1, le=1000)
-    refine: bool = True
+    selection: Literal["auto", "fixed"] = Field(default_factory=lambda: _default("fit", "selection"))
+    criterion: Literal["bic", "r2"] = Field(default_factory=lambda: _default("fit", "criterion"))
+    target_r2: float = Field(default_factory=lambda: _default("fit", "target_r2"), gt=0, lt=1)
+    penalty_kappa: Weight = Field(default_factory=lambda: _default("fit", "penalty_kappa"))
+    penalty_tau: Weight = Field(default_factory=lambda: _default("fit", "penalty_tau"))
+    score: Literal["l2", "l1"] = Field(default_factory=lambda: _default("fit", "score"))
+    max_segments: int = Field(default_factory=lambda: _default("fit", "max_segments"), ge=1, le=1000)
+    refine: bool = Field(default_factory=lambda: _default("fit", "refine"))
 
 
 class Calibration(_Strict):
@@ -736,6 +844,8 @@ def views_yaml_snippet(exp: Experiment) -> str:
 def load_intrinsics_file(path: str | Path) -> list[CameraIntrinsics]:
     """The ``cameras:`` entries of a YAML file (an intrinsics file of
     ``python -m tendrilkit intrinsics --write``, or an experiment file)."""
+    import yaml
+
     path = Path(path)
     if not path.is_file():
         raise ExperimentError(f"{path}: intrinsics file not found")

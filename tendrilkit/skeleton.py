@@ -966,20 +966,6 @@ def _smooth_resample(path: np.ndarray, sigma: float, spacing: float = 1.0) -> np
 
 # ---------------------------------------------------------------------------
 
-_SEG_KEYS = ("channel", "threshold", "opening_radius_px", "min_component_px")
-_ORDER_KEYS = (
-    "prune_px",
-    "method",
-    "tangent_window_px",
-    "overrides",
-    "zone_width",
-    "merge_width",
-    "smooth_px",
-    "tip_inset",
-    "max_unused_fraction",
-)
-
-
 def process_view(
     image_bgr: np.ndarray,
     *,
@@ -989,7 +975,8 @@ def process_view(
     prev_centroid_xy=None,
     frame: int = 0,
     view: int = 1,
-    **options,
+    segmentation: dict | None = None,
+    ordering: dict | None = None,
 ) -> ViewCenterline:
     """Segment, skeletonise and order one view of one frame.
 
@@ -1001,13 +988,11 @@ def process_view(
         As in :func:`tendrilkit.segmentation.segment_view`.
     frame, view : int
         Recorded in the decisions; select the ordering overrides.
-    **options
-        Keyword options of :func:`~tendrilkit.segmentation.segment_view`
-        (``channel``, ``threshold``, ``opening_radius_px``,
-        ``min_component_px``) and of :func:`order_skeleton` (``prune_px``,
-        ``method``, ``tangent_window_px``, ``overrides``, ...): the fields of
-        the experiment file's ``segmentation``, ``skeleton`` and ``ordering``
-        sections.
+    segmentation, ordering : dict, optional
+        Keyword options of :func:`~tendrilkit.segmentation.segment_view` and
+        of :func:`order_skeleton` (an experiment's:
+        ``tendrilkit.params.stage_options(exp, "segmentation")`` and
+        ``(exp, "ordering")``; None: the functions' defaults).
 
     Returns
     -------
@@ -1017,16 +1002,13 @@ def process_view(
     ------
     TendrilLostError, EmptySkeletonError, AmbiguousOrderingError
     """
-    unknown = sorted(set(options) - set(_SEG_KEYS) - set(_ORDER_KEYS))
-    if unknown:
-        raise TypeError(f"process_view() got unknown option(s) {unknown}")
     seg = segment_view(
         image_bgr,
         roi=roi,
         keep_out=keep_out,
         base_point_xy=base_point_xy,
         prev_centroid_xy=prev_centroid_xy,
-        **{k: options[k] for k in _SEG_KEYS if k in options},
+        **(segmentation or {}),
     )
     oc = order_skeleton(
         seg.mask_roi,
@@ -1034,7 +1016,7 @@ def process_view(
         base_point_xy=base_point_xy,
         frame=frame,
         view=view,
-        **{k: options[k] for k in _ORDER_KEYS if k in options},
+        **(ordering or {}),
     )
     return ViewCenterline(
         points_xy=oc.points_xy,

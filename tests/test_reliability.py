@@ -524,7 +524,7 @@ def test_video_replaced_by_another_of_the_same_size_is_noticed(tmp_path):
 
 
 def test_run_fingerprint_includes_frames_start_and_step():
-    from tendrilkit.pipeline import frame_fingerprint
+    from tendrilkit.runner import frame_fingerprint
 
     cams = [Camera(K=np.eye(3))] * 3
     base = parse_experiment(GOOD)
