@@ -14,19 +14,15 @@ from typing import Iterable, Iterator, TypeVar
 T = TypeVar("T")
 
 
-def progress_setting() -> bool | None:
-    """``TENDRILKIT_PROGRESS`` as True/False, or None when unset (tqdm decides: a terminal or not).
+def progress_setting(value: str | None = None) -> bool | None:
+    """``TENDRILKIT_PROGRESS`` (or ``value``) as True/False, or None when unset (tqdm decides: a terminal or not).
 
     Examples
     --------
-    >>> os.environ["TENDRILKIT_PROGRESS"] = "0"
-    >>> progress_setting()
-    False
-    >>> del os.environ["TENDRILKIT_PROGRESS"]
-    >>> progress_setting() is None
-    True
+    >>> progress_setting("0"), progress_setting("1")
+    (False, True)
     """
-    env = os.environ.get("TENDRILKIT_PROGRESS")
+    env = os.environ.get("TENDRILKIT_PROGRESS") if value is None else value
     if env is None:
         return None
     return env not in ("0", "", "false", "no")
