@@ -254,6 +254,8 @@ def _with_overrides(exp, overrides: dict | None):
     """The experiment with some optional sections changed, validated again."""
     if not overrides:
         return exp
+    from pydantic import ValidationError
+
     from tendrilkit.params import Experiment
 
     data = exp.model_dump()
@@ -264,7 +266,7 @@ def _with_overrides(exp, overrides: dict | None):
             data[key] = value
     try:
         new = Experiment.model_validate(data)
-    except Exception as e:  # pydantic's ValidationError: a programming mistake of the caller
+    except ValidationError as e:  # a programming mistake of the caller
         raise ValueError(f"overrides {overrides!r} do not validate: {e}") from None
     return new.model_copy(update={"source": exp.source})
 
