@@ -31,7 +31,8 @@ from bench_verify import summarise  # noqa: E402
 from tendrilkit.evidence import view_evidence  # noqa: E402
 from tendrilkit.io import open_views, read_cameras  # noqa: E402
 from tendrilkit.evaluation import accuracy_against_truth  # noqa: E402
-from tendrilkit.params import load_experiment, stage_options  # noqa: E402
+from tendrilkit.options import stage_options  # noqa: E402
+from tendrilkit.params import load_experiment  # noqa: E402
 from tendrilkit.verify import Thresholds, image_check_messages, temporal_checks, verify_curve  # noqa: E402
 
 

@@ -134,7 +134,7 @@ def fit_frame(points_mm: np.ndarray, options: dict | None = None, *, frame: int 
     """Fit one frame's centreline; the one code path of ``fit`` and ``reconstruct``.
 
     ``options``: keyword options of :func:`tendrilkit.pwc.fit_piecewise_clothoid`
-    (an experiment's are ``tendrilkit.params.stage_options(exp, "fit")``;
+    (an experiment's are ``tendrilkit.options.stage_options(exp, "fit")``;
     None: its defaults).
 
     Returns ``(fitted (n, 3) mm or None, segment rows, metric row)``: the rows

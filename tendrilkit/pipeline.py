@@ -1,7 +1,7 @@
 """Composition of the stages for one frame; the only place that catches per-frame failures.
 
 :func:`reconstruct_frame` composes, for one frame, the stages of the method
-with the options of :func:`tendrilkit.params.stage_options`: per view
+with the options of :func:`tendrilkit.options.stage_options`: per view
 segmentation and base-to-tip ordering (2D stage), matching across views
 (``correspondence.method``), triangulation, the gross-outlier filter
 (:mod:`tendrilkit.outlier_filter`), the extension to the base marks
@@ -77,7 +77,7 @@ from tendrilkit.correspondence import match_epipolar, match_frechet
 from tendrilkit.exceptions import DegenerateCurveError, ExperimentError, FrameError
 from tendrilkit.frenet import resample_curve
 from tendrilkit.outlier_filter import triangulation_inliers
-from tendrilkit.params import stage_options
+from tendrilkit.options import stage_options
 from tendrilkit.segmentation import segment_view
 from tendrilkit.skeleton import order_skeleton
 from tendrilkit.straightness import straightness_note

@@ -280,7 +280,7 @@ def _tendril_at_base(img, m, exp) -> str:
     from tendrilkit.exceptions import FrameError
     from tendrilkit.segmentation import segment_view
 
-    from tendrilkit.params import stage_options
+    from tendrilkit.options import stage_options
 
     try:
         s = segment_view(img, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point,

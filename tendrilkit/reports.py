@@ -322,7 +322,7 @@ def reprojection_panels(exp, results, frames: Sequence[int]) -> list[list[dict]]
     from tendrilkit.io import read_frames
     from tendrilkit.skeleton import process_view
 
-    from tendrilkit.params import stage_options
+    from tendrilkit.options import stage_options
 
     seg_opts, order_opts = stage_options(exp, "segmentation"), stage_options(exp, "ordering")
     rows = []

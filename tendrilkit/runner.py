@@ -89,7 +89,7 @@ import numpy as np
 
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import ExperimentError, FrameError
-from tendrilkit.params import stage_options
+from tendrilkit.options import stage_options
 from tendrilkit.assembly import assemble_tables, with_temporal_checks
 from tendrilkit.pipeline import RESULT_FILES, FrameResult, reconstruct_frame
 from tendrilkit.segmentation import segment_view

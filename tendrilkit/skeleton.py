@@ -991,7 +991,7 @@ def process_view(
     segmentation, ordering : dict, optional
         Keyword options of :func:`~tendrilkit.segmentation.segment_view` and
         of :func:`order_skeleton` (an experiment's:
-        ``tendrilkit.params.stage_options(exp, "segmentation")`` and
+        ``tendrilkit.options.stage_options(exp, "segmentation")`` and
         ``(exp, "ordering")``; None: the functions' defaults).
 
     Returns

@@ -27,7 +27,8 @@ from tendrilkit import cli
 from tendrilkit import limits as L
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import ExperimentError, OutputWriteError
-from tendrilkit.params import (check_against_images, folder_name_problem, load_experiment, parse_experiment,
+from tendrilkit.inputs import check_against_images
+from tendrilkit.params import (folder_name_problem, load_experiment, parse_experiment,
                                short_repr)
 from tests.test_params import GOOD
 
