@@ -54,17 +54,14 @@ Exit code
     Ctrl-C propagates ``KeyboardInterrupt`` (exit code 130 in the CLI; SIGTERM
     143) after the finished frames are on disk; a result file that cannot be
     written raises :class:`~tendrilkit.exceptions.OutputWriteError` (exit
-    code 74), the finished frames kept. The summary (:class:`ReconstructSummary`, printed by the command line) is
+    code 74), the finished frames kept. The summary
+    (:class:`ReconstructSummary`, printed by the command line) is
     ``N frames: X ok, Y doubtful, Z failed``.
 
 Verification
-    Every reconstructed frame is checked against every view's image
-    (:func:`tendrilkit.verify.verify_curve` on
-    :func:`tendrilkit.evidence.view_evidence`, inside the frame's worker) and,
-    at assembly time over the ordered frames, against its neighbours in time
-    (:func:`tendrilkit.assembly.with_temporal_checks`: the same whatever the chunks or workers).
-    A frame failing a check is ``doubtful``, the failed checks first in its
-    message; limits in the experiment's ``verification:`` section.
+    Per frame in :mod:`tendrilkit.pipeline`; against the neighbouring frames
+    at assembly (:func:`tendrilkit.assembly.with_temporal_checks`), over the
+    ordered frames: the same whatever the chunks or workers.
 
 Executor seam
     The chunks are submitted to an object with the
