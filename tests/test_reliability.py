@@ -154,6 +154,7 @@ def _key(path: tuple) -> str:
     return out
 
 
+@pytest.mark.slow
 @settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(changes=st.lists(st.tuples(st.sampled_from(NUMERIC), ABSURD), min_size=1, max_size=3))
 def test_absurd_numbers_in_every_numeric_key(tmp_path_factory, changes):
