@@ -101,8 +101,9 @@ def test() -> int:
     setup()
     _ensure_chromium()
     env = dict(os.environ, TENDRILKIT_PROGRESS="0", MPLBACKEND="Agg")
-    return _run([PY, "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests", "notebooks", "--nbval-lax",
-                 "-n", "2", "--dist", "loadfile"], env=env)
+    # tendrilkit: the docstrings' Examples run too (--doctest-modules)
+    return _run([PY, "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests", "notebooks", "tendrilkit",
+                 "--doctest-modules", "--nbval-lax", "-n", "2", "--dist", "loadfile"], env=env)
 
 
 def main(argv: list[str]) -> int:

@@ -54,7 +54,7 @@ def synthetic_view(kind: str = "crossing", width: int = 9, seed: int = 0):
 
 
 def time_view(img, roi, keep_out, base, repeat: int = 30, **options) -> dict:
-    process_view(img, roi=roi, keep_out=keep_out, base_point_xy=base, **options)  # warm-up (numba, caches)
+    process_view(img, roi=roi, keep_out=keep_out, base_point_xy=base, ordering=options)  # warm-up (numba, caches)
     tot, seg_t, ord_t, cpu = [], [], [], []
     for _ in range(repeat):
         t0 = time.perf_counter()
@@ -65,7 +65,7 @@ def time_view(img, roi, keep_out, base, repeat: int = 30, **options) -> dict:
         seg_t.append(t1 - t0)
         ord_t.append(t2 - t1)
         t0, c0 = time.perf_counter(), time.process_time()
-        process_view(img, roi=roi, keep_out=keep_out, base_point_xy=base, **options)
+        process_view(img, roi=roi, keep_out=keep_out, base_point_xy=base, ordering=options)
         tot.append(time.perf_counter() - t0)
         cpu.append(time.process_time() - c0)
     ms = lambda v: 1000 * float(np.median(v))  # noqa: E731

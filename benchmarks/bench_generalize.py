@@ -5,7 +5,7 @@
 
 For every seed: writes the random scene (``python -m tendrilkit phantom
 --scene random --seed N``, :mod:`tendrilkit.phantom.scenes`), reconstructs it with
-``pipeline.run_reconstruct`` and scores every processed frame against the
+``runner.run_reconstruct`` and scores every processed frame against the
 ground truth (:func:`tendrilkit.scoring.score_result`). Prints, overall and
 per scene factor: % of frames within 0.5 mm mean / 2 mm max / base and tip
 within 2 mm / all three, % failed, and the silent failures (frames reported
@@ -58,7 +58,7 @@ def one_scene(seed: int, scene: str, n_frames: int, out: str, method: str | None
     cv2.setNumThreads(1)
     from tendrilkit.exceptions import ExperimentError
     from tendrilkit.phantom import PhantomError
-    from tendrilkit.pipeline import run_reconstruct
+    from tendrilkit.runner import run_reconstruct
     from tendrilkit.phantom import write_scene_experiment
     from tendrilkit.scoring import score_frames, score_result
 

@@ -45,7 +45,7 @@ import types  # noqa: E402
 import tendrilkit.pipeline as _pipeline  # noqa: E402
 from tendrilkit.camera import Camera  # noqa: E402
 from tendrilkit.phantom import render_tube_views  # noqa: E402
-from tendrilkit.pipeline import _iter_chunk, _warm_up  # noqa: E402
+from tendrilkit.runner import _iter_chunk, _warm_up  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_reconstruct import time_frame as _time_frames  # noqa: E402  (one timing loop for both benchmarks)

@@ -6,7 +6,7 @@ For every seed (development range 0-9999 only: seeds >= 10000 are the final
 benchmark's and are refused), makes ``python -m tendrilkit phantom --scene
 random --seed N --frames N`` into ``DIR/<seed>/``, reconstructs it (one
 worker) and compares every frame with the truth
-(:func:`tendrilkit.pipeline.accuracy_against_truth`). Counts, over frames:
+(:func:`tendrilkit.evaluation.accuracy_against_truth`). Counts, over frames:
 
 * silent failures: ``ok`` with mean error > 1.5 mm (must be 0);
 * false alarms: ``doubtful`` with mean error <= 0.5 mm (at most 5 % of the
@@ -30,7 +30,8 @@ import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tendrilkit.pipeline import accuracy_against_truth, run_reconstruct  # noqa: E402
+from tendrilkit.evaluation import accuracy_against_truth  # noqa: E402
+from tendrilkit.runner import run_reconstruct  # noqa: E402
 
 
 def run_seed(seed: int, frames: int, work: Path) -> pd.DataFrame:

@@ -39,7 +39,8 @@ from tendrilkit.extrinsics import calibrate_experiment  # noqa: E402
 from tendrilkit.camera import Camera  # noqa: E402
 from tendrilkit.io import read_frames  # noqa: E402
 from tendrilkit.params import load_experiment  # noqa: E402
-from tendrilkit.pipeline import accuracy_against_truth, reconstruct_frame  # noqa: E402
+from tendrilkit.evaluation import accuracy_against_truth  # noqa: E402
+from tendrilkit.pipeline import reconstruct_frame  # noqa: E402
 
 
 def _shift_k(cam: Camera, dx: float) -> Camera:

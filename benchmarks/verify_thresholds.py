@@ -30,8 +30,9 @@ from bench_verify import summarise  # noqa: E402
 
 from tendrilkit.evidence import view_evidence  # noqa: E402
 from tendrilkit.io import open_views, read_cameras  # noqa: E402
+from tendrilkit.evaluation import accuracy_against_truth  # noqa: E402
+from tendrilkit.options import stage_options  # noqa: E402
 from tendrilkit.params import load_experiment  # noqa: E402
-from tendrilkit.pipeline import _options, accuracy_against_truth  # noqa: E402
 from tendrilkit.verify import Thresholds, image_check_messages, temporal_checks, verify_curve  # noqa: E402
 
 
@@ -51,7 +52,7 @@ def reverify(seed_dir: Path, th: Thresholds) -> pd.DataFrame:
     frames = pd.read_csv(res / "frames.csv")
     curves = pd.read_csv(res / "curves.csv")
     cams = read_cameras(res / "cameras.json")
-    seg_opts, _ = _options(exp)
+    seg_opts = stage_options(exp, "segmentation")
     acc = accuracy_against_truth(curves, pd.read_csv(gt / "gt_curves.csv"))
     srcs = open_views(list(exp.videos))
     rows, pts = [], []

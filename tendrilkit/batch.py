@@ -36,16 +36,24 @@ import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 from tendrilkit.exceptions import ExperimentError
 
-ROOT = Path(__file__).resolve().parents[1]
-NOTEBOOKS = ROOT / "notebooks"
+def default_notebooks_dir() -> Path:
+    """The notebook collection a batch runs when none is given (``batch --notebooks``).
+
+    ``notebooks/`` of the source checkout the package runs from, else
+    ``notebooks/`` of the working folder. Raises :class:`ExperimentError`
+    when neither exists (an installed package carries no notebooks).
+    """
+    for d in (Path(__file__).resolve().parents[1] / "notebooks", Path.cwd() / "notebooks"):
+        if d.is_dir():
+            return d
+    raise ExperimentError("batch: no notebooks/ folder next to tendrilkit or in the working folder; expected "
+                          "--notebooks DIR (the numbered notebooks, e.g. a clone's notebooks/)")
 
 
-def notebooks_dir() -> Path:
-    """The notebook collection a batch runs: ``notebooks/``, or ``$TENDRILKIT_NOTEBOOKS`` (``batch --notebooks``)."""
-    return Path(os.environ.get("TENDRILKIT_NOTEBOOKS") or NOTEBOOKS)
 CROSS_SITE = "07_compare_sites.ipynb"
 PROVENANCE_PACKAGES = ("tendrilkit", "numpy", "scipy", "pandas", "opencv-python-headless", "scikit-image",
                        "skan", "numba", "matplotlib", "plotly", "papermill", "pydantic")
@@ -63,9 +71,24 @@ class ExperimentOutcome:
     frames_doubtful: int = 0
 
 
-def experiment_notebooks() -> list[Path]:
-    """The per-experiment notebooks, in number order."""
-    return sorted(p for p in notebooks_dir().glob("[0-9][0-9]_*.ipynb") if p.name != CROSS_SITE)
+@dataclass(frozen=True)
+class BatchSummary:
+    """What :func:`run_batch` did; ``str()`` is the table the command prints."""
+
+    outcomes: tuple[ExperimentOutcome, ...]
+
+    @property
+    def exit_code(self) -> int:
+        """0 if every experiment finished (or was finished earlier), else 1."""
+        return 0 if all(o.status in ("done", "skipped") for o in self.outcomes) else 1
+
+    def __str__(self) -> str:
+        return format_summary(list(self.outcomes))
+
+
+def experiment_notebooks(notebooks: Path) -> list[Path]:
+    """The per-experiment notebooks of the folder ``notebooks``, in number order."""
+    return sorted(p for p in Path(notebooks).glob("[0-9][0-9]_*.ipynb") if p.name != CROSS_SITE)
 
 
 def _sha256(paths: list[Path]) -> str:
@@ -76,23 +99,24 @@ def _sha256(paths: list[Path]) -> str:
     return h.hexdigest()
 
 
-def fingerprint(experiment_path: Path, exp_dict: dict) -> str:
+def fingerprint(experiment_path: Path, exp_dict: dict, notebooks: Path) -> str:
     """What decides whether a finished experiment must run again."""
     from tendrilkit import __version__
 
     h = hashlib.sha256()
     h.update(json.dumps(exp_dict, sort_keys=True, default=str).encode())
-    h.update(_sha256(experiment_notebooks()).encode())
+    h.update(_sha256(experiment_notebooks(notebooks)).encode())
     h.update(__version__.encode())
     return h.hexdigest()
 
 
-def git_commit() -> str | None:
+def git_commit(folder: Path) -> str | None:
+    """The commit (``-dirty`` if changed) of the git checkout holding ``folder``, or None."""
     try:
-        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, timeout=10)
+        out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=folder, capture_output=True, text=True, timeout=10)
         if out.returncode != 0:
             return None
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT,
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=folder,
                                capture_output=True, text=True, timeout=10).stdout.strip()
         return out.stdout.strip() + ("-dirty" if dirty else "")
     except (OSError, subprocess.SubprocessError):
@@ -111,14 +135,15 @@ def package_versions() -> dict[str, str]:
     return out
 
 
-def provenance(exp_dict: dict, experiment_path: Path) -> dict:
-    """Resolved parameters, package versions and git commit (no timestamps: reports stay byte-stable)."""
+def provenance(exp_dict: dict, experiment_path: Path, notebooks: Path) -> dict:
+    """Resolved parameters, package versions and git commit of the notebooks' checkout (no timestamps:
+    reports stay byte-stable)."""
     return {
         "experiment_file": str(experiment_path),
         "resolved_parameters": exp_dict,
         "packages": package_versions(),
-        "git_commit": git_commit(),
-        "notebooks": [p.name for p in experiment_notebooks()],
+        "git_commit": git_commit(notebooks),
+        "notebooks": [p.name for p in experiment_notebooks(notebooks)],
     }
 
 
@@ -134,7 +159,7 @@ def execute_notebook(src: Path, dst: Path, parameters: dict, *, cwd: Path, stati
     from tendrilkit.io import atomic_path
 
     dst.parent.mkdir(parents=True, exist_ok=True)
-    parameters = {k: _relative(v, cwd) for k, v in parameters.items()}
+    parameters = {k: _relative(v, cwd, Path(cwd).resolve().parent) for k, v in parameters.items()}
     saved = os.environ.get("MPLBACKEND")
     os.environ["MPLBACKEND"] = "module://matplotlib_inline.backend_inline"
     try:
@@ -154,11 +179,12 @@ def execute_notebook(src: Path, dst: Path, parameters: dict, *, cwd: Path, stati
     write_html(dst, static_dir=static_dir)
 
 
-def _relative(value, cwd: Path):
-    """A path parameter (or a list of them) inside the repository, relative to ``cwd``; other values as they are."""
+def _relative(value, cwd: Path, root: Path):
+    """A path parameter (or a list of them) inside the project folder ``root``, relative to ``cwd``; other
+    values as they are."""
     if isinstance(value, list):
-        return [_relative(v, cwd) for v in value]
-    if isinstance(value, str) and os.path.isabs(value) and Path(value).resolve().is_relative_to(ROOT):
+        return [_relative(v, cwd, root) for v in value]
+    if isinstance(value, str) and os.path.isabs(value) and Path(value).resolve().is_relative_to(root):
         return os.path.relpath(value, Path(cwd).resolve())
     return value
 
@@ -180,8 +206,9 @@ def write_html(notebook: Path, *, static_dir: Path | None = None) -> Path:
     return out
 
 
-def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentOutcome:
+def _run_one(experiment_path: str, reports_dir: str, force: bool, notebooks: str) -> ExperimentOutcome:
     """Everything for one experiment; runs in a worker process."""
+    notebooks = Path(notebooks)
     os.environ.setdefault("TENDRILKIT_PROGRESS", "0")
     from tendrilkit.io import write_json, write_text
     from tendrilkit.params import experiment_to_dict, load_experiment
@@ -197,7 +224,7 @@ def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentO
         if out.parent != Path(reports_dir).resolve():  # the name is checked: never outside the reports folder
             raise ExperimentError(f"{path}: name: {exp.name!r} is not a folder name inside {reports_dir}")
         stamp = out / ".done"
-        fp = fingerprint(path, exp_dict)
+        fp = fingerprint(path, exp_dict, notebooks)
         if not force and stamp.is_file() and stamp.read_text().strip() == fp:
             ok, doubtful, failed = _frame_counts(out / "results")
             return ExperimentOutcome(name, str(path), "skipped", time.perf_counter() - t0, ok, failed, "finished earlier",
@@ -206,20 +233,20 @@ def _run_one(experiment_path: str, reports_dir: str, force: bool) -> ExperimentO
             stamp.unlink()
         out.mkdir(parents=True, exist_ok=True)
         _stderr_to(out / "batch.log")
-        from tendrilkit.pipeline import run_reconstruct
+        from tendrilkit.runner import run_reconstruct
 
         _log(f"{exp.name}: reconstructing {path.name}")
         t = time.perf_counter()
-        run_reconstruct(path, out / "results", workers=1, progress=False)
+        run_reconstruct(path, out / "results", workers=1, progress=False)  # its summary: from frames.csv below
         ok, doubtful, failed = _frame_counts(out / "results")
         _log(f"{exp.name}: reconstructed, {ok + doubtful + failed} frames: {ok} ok, {doubtful} doubtful, "
              f"{failed} failed ({time.perf_counter() - t:.0f} s)")
         params = {"experiment_path": str(path), "results_dir": str(out / "results"), "figures_dir": str(out / "figures")}
-        for nb in experiment_notebooks():
+        for nb in experiment_notebooks(notebooks):
             t = time.perf_counter()
-            execute_notebook(nb, out / nb.name, params, cwd=notebooks_dir(), static_dir=out.parent / "_static")
+            execute_notebook(nb, out / nb.name, params, cwd=notebooks, static_dir=out.parent / "_static")
             _log(f"{exp.name}: {nb.name} executed ({time.perf_counter() - t:.0f} s)")
-        write_json(provenance(exp_dict, path), out / "provenance.json")
+        write_json(provenance(exp_dict, path, notebooks), out / "provenance.json")
         _finish_pages(out, exp.name)
         _clean_log(out / "batch.log")
         write_text(fp + "\n", stamp)
@@ -259,7 +286,8 @@ _KERNEL_NOISE = ("Kernel is running over TCP without encryption",)
 
 def _log(line: str) -> None:
     """One line of a batch worker's log (its stderr is ``reports/<name>/batch.log``)."""
-    print(line, file=sys.stderr, flush=True)
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
 
 
 def _clean_log(path: Path) -> None:
@@ -288,9 +316,9 @@ def _frame_counts(results: Path) -> tuple[int, int, int]:
     return int((st == "ok").sum()), int((st == "doubtful").sum()), int((~st.isin(["ok", "doubtful"])).sum())
 
 
-def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path) -> ExperimentOutcome | None:
-    """The cross-site notebook over every finished experiment."""
-    src = notebooks_dir() / CROSS_SITE
+def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path, notebooks: Path) -> ExperimentOutcome | None:
+    """The cross-site notebook of the folder ``notebooks`` over every finished experiment."""
+    src = Path(notebooks) / CROSS_SITE
     finished = [o for o in outcomes if o.status in ("done", "skipped")]
     if not src.is_file() or not finished:
         return None
@@ -368,8 +396,31 @@ def check_batch_names(experiments: list[Path]) -> None:
         seen[name] = Path(p)
 
 
-def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False, workers: int | None = None) -> int:
-    """Run every experiment's notebooks into ``reports_dir``; see the module docstring."""
+def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False, workers: int | None = None,
+              notebooks: Path | None = None, on_outcome: Callable[[ExperimentOutcome], None] | None = None
+              ) -> BatchSummary:
+    """Run every experiment's notebooks into ``reports_dir``; see the module docstring.
+
+    Parameters
+    ----------
+    experiments : list of Path
+        Experiment files.
+    reports_dir : Path
+        The reports folder (``<name>/`` per experiment, ``comparison/``).
+    force : bool, keyword-only
+        Run finished experiments again.
+    workers : int, optional
+        Experiments in parallel (default: every core, at most one per experiment).
+    notebooks : Path, optional
+        The notebook collection (default: :func:`default_notebooks_dir`).
+    on_outcome : callable, optional
+        Called with each experiment's :class:`ExperimentOutcome` as it finishes
+        (the command line prints a line).
+
+    Returns
+    -------
+    BatchSummary
+    """
     from tendrilkit.io import check_writable_dir
     from tendrilkit.progress import progress
 
@@ -380,17 +431,19 @@ def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False
         raise ExperimentError(f"{missing[0]}: experiment file not found")
     check_batch_names(experiments)
     check_writable_dir(reports_dir)
-    if not experiment_notebooks():
-        raise ExperimentError(f"{notebooks_dir()}: no numbered notebooks found")
+    notebooks = Path(notebooks).resolve() if notebooks is not None else default_notebooks_dir()
+    if not experiment_notebooks(notebooks):
+        raise ExperimentError(f"{notebooks}: no numbered notebooks found")
     workers = max(1, min(workers or os.cpu_count() or 1, len(experiments)))
     outcomes: list[ExperimentOutcome] = []
     pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_signals)
     try:
-        futures = [pool.submit(_run_one, str(p), str(reports_dir), force) for p in experiments]
+        futures = [pool.submit(_run_one, str(p), str(reports_dir), force, str(notebooks)) for p in experiments]
         for fut in progress(as_completed(futures), total=len(futures), desc="experiments"):
             o = fut.result()
             outcomes.append(o)
-            print(f"{o.name}: {o.status}{' - ' + o.message if o.message else ''}", file=sys.stderr, flush=True)
+            if on_outcome is not None:
+                on_outcome(o)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: stop the running experiments too (their finished frames stay)
         for proc in list(getattr(pool, "_processes", {}).values()):
             proc.terminate()
@@ -398,7 +451,7 @@ def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False
         raise
     pool.shutdown()
     outcomes.sort(key=lambda o: o.name)
-    comp = run_comparison(outcomes, Path(reports_dir))
+    comp = run_comparison(outcomes, Path(reports_dir), notebooks)
     if comp is not None:
         outcomes.append(comp)
     from tendrilkit.reports import write_batch_index
@@ -406,5 +459,4 @@ def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False
     write_batch_index(reports_dir, [{"name": o.name, "status": o.status, "message": o.message,
                                      "frames": f"{o.frames_ok} / {o.frames_failed}" if o.name != "comparison" else ""}
                                     for o in outcomes])
-    print(format_summary(outcomes))
-    return 0 if all(o.status in ("done", "skipped") for o in outcomes) else 1
+    return BatchSummary(tuple(outcomes))

@@ -66,17 +66,21 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def _cmd_reconstruct(args: argparse.Namespace) -> int:
-    from tendrilkit.pipeline import run_reconstruct
+    from tendrilkit.runner import run_reconstruct
 
-    return run_reconstruct(Path(args.experiment), Path(args.out), workers=args.workers,
-                           progress=not args.quiet, overrides=_ACCEPT if args.accept_calibration else None)
+    summary = run_reconstruct(Path(args.experiment), Path(args.out), workers=args.workers,
+                              progress=not args.quiet, overrides=_ACCEPT if args.accept_calibration else None)
+    print(summary)  # the command's last line
+    return summary.exit_code
 
 
 def _cmd_overlay(args: argparse.Namespace) -> int:
     from tendrilkit.qc import run_overlay
 
-    return run_overlay(Path(args.experiment), Path(args.results), video=args.video, sheet=args.sheet,
-                       fps=args.fps, height_px=args.height)
+    summary = run_overlay(Path(args.experiment), Path(args.results), video=args.video, sheet=args.sheet,
+                          fps=args.fps, height_px=args.height)
+    print(summary)
+    return 0
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
@@ -90,12 +94,14 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 def _cmd_batch(args: argparse.Namespace) -> int:
     from tendrilkit.batch import run_batch
 
-    if args.notebooks:
-        import os
+    def report(o) -> None:  # each experiment as it finishes, on stderr (the table goes to stdout)
+        print(f"{o.name}: {o.status}{' - ' + o.message if o.message else ''}", file=sys.stderr, flush=True)
 
-        os.environ["TENDRILKIT_NOTEBOOKS"] = str(Path(args.notebooks).resolve())
-    return run_batch([Path(p) for p in args.experiments], Path(args.reports), force=args.force,
-                     workers=args.workers)
+    summary = run_batch([Path(p) for p in args.experiments], Path(args.reports), force=args.force,
+                        workers=args.workers, notebooks=Path(args.notebooks) if args.notebooks else None,
+                        on_outcome=report)
+    print(summary)
+    return summary.exit_code
 
 
 _ACCEPT_HELP = ("use the calibration even if marker corners reproject beyond calibration.max_corner_rms_px "

@@ -27,7 +27,7 @@ the matched point in every view as a ``(n_views, k, 2)`` array of *observed*
        to ``k`` points, each other view's curve to ``m = oversample * k``
        points (uniform arc length, undistorted pixels). With the symmetric
        epipolar distance :math:`c_{ij}` between reference point ``i`` and
-       point ``j`` of the other view (truncated at ``max_cost_px``), the
+       point ``j`` of the other view (truncated at ``max_distance_px``), the
        programme finds non-decreasing positions :math:`j_1 \\le j_2 \\le
        \\dots` minimising
 
@@ -40,7 +40,7 @@ the matched point in every view as a ``(n_views, k, 2)`` array of *observed*
        quadratic step term makes the position advance uniformly where the
        epipolar cost is flat (an epipolar line running along the curve).
        Reference points at either end may stay unmatched (cost
-       ``max_cost_px`` each) and the other curve may start and end anywhere:
+       ``max_distance_px`` each) and the other curve may start and end anywhere:
        the views see the base and the tip a little differently, and the match
        keeps their common part.
     2. *Depth along the reference ray, all views together.* Each reference
@@ -58,7 +58,7 @@ the matched point in every view as a ``(n_views, k, 2)`` array of *observed*
        of residual per mm of depth): well-observed points keep their depth,
        the others are interpolated from their neighbours along the curve.
     4. The matched point in each view is the point of its curve nearest the
-       projection of :math:`X(d)`; a view farther than ``max_cost_px`` from
+       projection of :math:`X(d)`; a view farther than ``max_distance_px`` from
        it, unmatched by the programme, or whose curve ends before the
        projection (that view does not see this part: the keep-out box hides a
        different length of base in every view) gets NaN, in steps 2-3 too.
@@ -425,12 +425,12 @@ def match_epipolar(
     reference: int,
     k: int = 200,
     oversample: int = 2,
-    max_cost_px: float = 8.0,
+    max_distance_px: float = 8.0,
     beta: float = 0.2,
     max_step_factor: float = 5.0,
     window: int = 12,
     iterations: int = 8,
-    smooth: float = 100.0,
+    depth_smoothing: float = 100.0,
 ) -> np.ndarray:
     """Match the ordered curves by epipolar geometry (see the module notes).
 
@@ -447,7 +447,7 @@ def match_epipolar(
         Matched points.
     oversample : int
         The other views are resampled to ``oversample * k`` points.
-    max_cost_px : float
+    max_distance_px : float
         Epipolar distances are truncated here; it is also the cost of leaving
         a reference point unmatched at either end, and the largest distance
         (px) of a projected point to a view's curve for a match.
@@ -460,7 +460,7 @@ def match_epipolar(
         nearest curve point.
     iterations : int
         Gauss-Newton iterations on the depths.
-    smooth : float
+    depth_smoothing : float
         Weight of the second-difference penalty on the depths, relative to
         the information of a typical point (the median): larger smooths
         more; where the depth is unobservable it is interpolated whatever
@@ -502,8 +502,8 @@ def match_epipolar(
         und = cams[v].undistort_points(obs)
         dense_obs[v], dense_und[v] = obs, und
         F = fundamental_matrix(cam0, cams[v])
-        C = np.minimum(epipolar_distance(F, ref_und, und), max_cost_px)
-        p = _monotone_dp(np.ascontiguousarray(C), float(max_cost_px), float(beta), float(r), max_step).astype(float)
+        C = np.minimum(epipolar_distance(F, ref_und, und), max_distance_px)
+        p = _monotone_dp(np.ascontiguousarray(C), float(max_distance_px), float(beta), float(r), max_step).astype(float)
         p[p < 0] = np.nan
         pos[v] = p
 
@@ -567,7 +567,7 @@ def match_epipolar(
             J = np.einsum("ij,ij->i", nrm, dp)
             dist = np.hypot(e[:, 0], e[:, 1])
             w = np.where(dist <= delta, 1.0, delta / np.maximum(dist, 1e-12))
-            use = np.isfinite(pos[v]) & (dist <= 3 * max_cost_px) & ~_beyond_ends(t, dist, len(dense_und[v]))
+            use = np.isfinite(pos[v]) & (dist <= 3 * max_distance_px) & ~_beyond_ends(t, dist, len(dense_und[v]))
             w = np.where(use, w, 0.0)
             g += w * J * rr
             H += w * J * J
@@ -587,7 +587,7 @@ def match_epipolar(
     if ok.sum() >= 3:
         w = np.where(ok, info, 0.0)
         scale = np.median(w[ok]) if np.any(w[ok] > 0) else 1.0  # typical point: weight 1
-        d_s = whittaker_smooth(np.where(ok, d, 0.0), lam=smooth, weights=w / max(scale, 1e-12) + 1e-9 * ok)
+        d_s = whittaker_smooth(np.where(ok, d, 0.0), lam=depth_smoothing, weights=w / max(scale, 1e-12) + 1e-9 * ok)
         d = np.where(ok, d_s, d)
 
     # final matches: nearest curve points to the projections
@@ -600,7 +600,7 @@ def match_epipolar(
         p = cams[v].project(X, distort=False)
         t, near, _, _ = nearest_on_polyline(p, dense_und[v], start=t_cur[v], window=window)
         dist = np.hypot(*(p - near).T)
-        good = np.isfinite(pos[v]) & (dist <= max_cost_px) & matched & ~_beyond_ends(t, dist, len(dense_und[v]))
+        good = np.isfinite(pos[v]) & (dist <= max_distance_px) & matched & ~_beyond_ends(t, dist, len(dense_und[v]))
         t = np.where(good, t, np.nan)
         out[v] = point_at_index(dense_obs[v], t)
         any_match |= good

@@ -5,9 +5,10 @@ Two families:
 - :class:`ExperimentError`: the user's input is wrong (experiment file, paths,
   videos, output folder). The command line prints its message as one line and
   exits with code 2.
-- :class:`FrameError`: one frame cannot be processed (tendril lost, marker not
-  seen, degenerate curve...). The pipeline records the frame as ``failed`` with
-  the message and goes on with the next frame.
+- :class:`FrameError`: one frame cannot be processed (tendril lost, skeleton
+  unusable, degenerate curve...). The pipeline records the frame as ``failed`` with
+  the message and goes on with the next frame. A calibration that fails
+  (no marker seen...) stops the run: it is an :class:`ExperimentError`.
 """
 
 
@@ -29,10 +30,6 @@ class FrameError(TendrilkitError):
 
 class FrameReadError(FrameError):
     """A frame of one view is missing or cannot be decoded."""
-
-
-class MarkerNotFoundError(FrameError):
-    """The world marker is not detected in a view."""
 
 
 class TendrilLostError(FrameError):

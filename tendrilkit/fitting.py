@@ -35,7 +35,7 @@ frame of more than 5000 points (:mod:`tendrilkit.limits`).
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -44,7 +44,7 @@ import pandas as pd
 from tendrilkit import limits as L
 from tendrilkit.exceptions import DegenerateCurveError, ExperimentError
 
-__all__ = ["FitOptions", "FitSummary", "run_fit", "fit_curves", "fit_frame"]
+__all__ = ["FitSummary", "run_fit", "fit_curves", "fit_frame"]
 
 CURVE_COLUMNS = ("frame", "time_s", "point", "x_mm", "y_mm", "z_mm")
 METRIC_COLUMNS = (
@@ -55,33 +55,6 @@ METRIC_COLUMNS = (
 SEGMENT_COLUMNS = ("frame", "kind", "segment", "s0_mm", "s1_mm", "value_s0", "value_s1")
 #: Largest curves.csv read, bytes (10,000 frames of 200 points are about 120 MB).
 MAX_CURVES_BYTES = 2_000_000_000
-
-
-@dataclass(frozen=True)
-class FitOptions:
-    """Options of :func:`tendrilkit.pwc.fit_piecewise_clothoid` used by ``fit``.
-
-    Defaults are those of the experiment file's ``fit:`` and ``smoothing:``
-    sections (:mod:`tendrilkit.params`); see :func:`from_params`.
-    """
-
-    selection: str = "auto"
-    criterion: str = "bic"
-    target_r2: float = 0.999
-    penalty_kappa: float = 0.01
-    penalty_tau: float = 0.01
-    score: str = "l2"
-    smoothing_length_mm: float | None = None
-    max_segments: int = 10
-    refine: bool = True
-
-    @classmethod
-    def from_params(cls, fit, smoothing) -> "FitOptions":
-        """From an experiment's ``fit`` (:class:`tendrilkit.params.Fit`) and ``smoothing`` sections."""
-        return cls(selection=fit.selection, criterion=getattr(fit, "criterion", "bic"),
-                   target_r2=fit.target_r2, penalty_kappa=fit.penalty_kappa, penalty_tau=fit.penalty_tau,
-                   score=fit.score, smoothing_length_mm=smoothing.length_mm,
-                   max_segments=getattr(fit, "max_segments", 10), refine=getattr(fit, "refine", True))
 
 
 @dataclass(frozen=True)
@@ -156,9 +129,13 @@ def _read_curves(path: Path) -> pd.DataFrame:
     return df
 
 
-def fit_frame(points_mm: np.ndarray, options: FitOptions | None = None, *, frame: int = 0,
+def fit_frame(points_mm: np.ndarray, options: dict | None = None, *, frame: int = 0,
               time_s: float = float("nan")) -> tuple[np.ndarray | None, list[dict], dict]:
     """Fit one frame's centreline; the one code path of ``fit`` and ``reconstruct``.
+
+    ``options``: keyword options of :func:`tendrilkit.pwc.fit_piecewise_clothoid`
+    (an experiment's are ``tendrilkit.options.stage_options(exp, "fit")``;
+    None: its defaults).
 
     Returns ``(fitted (n, 3) mm or None, segment rows, metric row)``: the rows
     of ``pwc_segments.csv`` and ``pwc_metrics.csv`` for this frame. A frame
@@ -166,7 +143,7 @@ def fit_frame(points_mm: np.ndarray, options: FitOptions | None = None, *, frame
     """
     from tendrilkit.pwc import fit_piecewise_clothoid  # numba: only once the input is known good
 
-    options = FitOptions() if options is None else options
+    options = {} if options is None else dict(options)
     pts = np.asarray(points_mm, float)
     row = {c: np.nan for c in METRIC_COLUMNS}
     row.update(frame=int(frame), time_s=float(time_s), n_points=int(len(pts)), message="")
@@ -179,7 +156,7 @@ def fit_frame(points_mm: np.ndarray, options: FitOptions | None = None, *, frame
         if n_distinct < L.MIN_FIT_POINTS:
             raise DegenerateCurveError(f"curve has {n_distinct} distinct point(s); at least {L.MIN_FIT_POINTS} "
                                        f"are needed")
-        fit = fit_piecewise_clothoid(pts, n_points=len(pts), **asdict(options))
+        fit = fit_piecewise_clothoid(pts, n_points=len(pts), **options)
     except (DegenerateCurveError, ValueError, np.linalg.LinAlgError, FloatingPointError) as e:
         row.update(status="failed", message=f"{type(e).__name__}: {e}")
         return None, [], row
@@ -209,7 +186,7 @@ def metrics_table(rows: list[dict]) -> pd.DataFrame:
     return mets
 
 
-def fit_curves(curves: pd.DataFrame, options: FitOptions | None = None) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+def fit_curves(curves: pd.DataFrame, options: dict | None = None) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
     """Fit every frame of a curves table; returns ``(pwc_curves, segments, metrics)`` tables."""
     curves_out, seg_rows, met_rows = [], [], []
     for frame, g in curves.sort_values(["frame", "point"]).groupby("frame", sort=True):
@@ -231,7 +208,7 @@ def _write_atomic(df: pd.DataFrame, path: Path) -> None:
         df.to_csv(fh, index=False, float_format="%.9g")
 
 
-def run_fit(curves_csv: Path, out_dir: Path, *, options: FitOptions | None = None) -> FitSummary:
+def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None) -> FitSummary:
     """Refit the piece-wise clothoid to every frame of ``curves_csv``; write the tables to ``out_dir``.
 
     Parameters
@@ -240,8 +217,9 @@ def run_fit(curves_csv: Path, out_dir: Path, *, options: FitOptions | None = Non
         A ``curves.csv`` (columns ``frame, time_s, point, x_mm, y_mm, z_mm``).
     out_dir : Path
         Output folder (created).
-    options : FitOptions, keyword-only
-        Fit options (default: the experiment-file defaults).
+    options : dict, keyword-only
+        Keyword options of :func:`tendrilkit.pwc.fit_piecewise_clothoid`
+        (default: its defaults, which are the experiment file's).
 
     Returns
     -------

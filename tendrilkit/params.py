@@ -10,7 +10,10 @@ by :mod:`tendrilkit.safe_yaml`.
 Required keys are exactly those of EXPERIMENT_FORMAT.md. The optional sections
 ``segmentation``, ``skeleton``, ``ordering``, ``correspondence``,
 ``reconstruction``, ``triangulation``, ``smoothing``, ``fit`` and ``calibration`` hold tendrilkit's
-own choices; each key has a documented default (see the classes below).
+own choices; each key is documented in the classes below. A key that is a
+stage function's option takes its default from that function's signature
+(:func:`tendrilkit.options.stage_default`); :func:`tendrilkit.options.stage_options`
+hands the options to the stages.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from pydantic import (
 
 from tendrilkit import limits as L
 from tendrilkit.exceptions import ExperimentError
+from tendrilkit.options import stage_default
 from tendrilkit.safe_yaml import parse_yaml, read_experiment_text, short_repr  # noqa: F401 - re-exported
 
 SITES = ("S1", "S2", "S3", "S4")
@@ -38,6 +42,17 @@ SITES = ("S1", "S2", "S3", "S4")
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+def example_experiment_data() -> dict:
+    """A minimal valid experiment mapping (two views; paths need not exist): for examples and tests."""
+    return {
+        "name": "example", "stimulation_site": "S1", "fps": 1.0, "reference_view": 1,
+        "videos": ["v1.mp4", "v2.mp4"],
+        "marker": {"dictionary": "DICT_ARUCO_ORIGINAL", "id": 0, "length_mm": 24.0},
+        "cameras": [{"view": v, "fx": 1000.0, "fy": 1000.0, "cx": 320.0, "cy": 240.0} for v in (1, 2)],
+        "views": [{"view": v, "roi": [0, 0, 640, 480], "base_point": [320.0, 400.0]} for v in (1, 2)],
+    }
 
 
 PositiveFloat = Annotated[float, Field(gt=0)]
@@ -167,10 +182,11 @@ class Segmentation(_Strict):
     frames the component nearest the previous centroid.
     """
 
-    channel: Literal["blue", "hsv"] = "blue"
-    threshold: Literal["otsu"] | Annotated[int, Field(ge=0, le=255)] = "otsu"
-    opening_radius_px: int = Field(1, ge=0, le=1000)
-    min_component_px: int = Field(50, ge=0, le=10**9)
+    channel: Literal["blue", "hsv"] = Field(default_factory=lambda: stage_default("segmentation", "channel"))
+    threshold: Literal["otsu"] | Annotated[int, Field(ge=0, le=255)] = Field(
+        default_factory=lambda: stage_default("segmentation", "threshold"))
+    opening_radius_px: int = Field(default_factory=lambda: stage_default("segmentation", "opening_radius_px"), ge=0, le=1000)
+    min_component_px: int = Field(default_factory=lambda: stage_default("segmentation", "min_component_px"), ge=0, le=10**9)
 
 
 class Skeleton(_Strict):
@@ -186,10 +202,10 @@ class Skeleton(_Strict):
     where the keep-out box cuts the tendril).
     """
 
-    prune_px: OptionPx = 12.0
-    merge_width: float = Field(1.5, ge=0, le=1000)
-    smooth_px: OptionPx = 1.5
-    tip_inset: float = Field(1.0, ge=0, le=1000)
+    prune_px: OptionPx = Field(default_factory=lambda: stage_default("ordering", "prune_px"))
+    merge_width: float = Field(default_factory=lambda: stage_default("ordering", "merge_width"), ge=0, le=1000)
+    smooth_px: OptionPx = Field(default_factory=lambda: stage_default("ordering", "smooth_px"))
+    tip_inset: float = Field(default_factory=lambda: stage_default("ordering", "tip_inset"), ge=0, le=1000)
 
 
 class OrderingOverride(_Strict):
@@ -219,11 +235,13 @@ class Ordering(_Strict):
     the user, ``{frame, view, junction, branch}`` entries.
     """
 
-    method: Literal["smooth", "paper"] = "smooth"
-    tangent_window_px: float = Field(15.0, gt=0, le=L.MAX_OPTION_PX)
-    zone_width: float = Field(1.0, ge=0, le=1000)
-    max_unused_fraction: float = Field(0.1, ge=0, le=1)
-    overrides: list[OrderingOverride] = Field(default_factory=list, max_length=100_000)
+    method: Literal["smooth", "paper"] = Field(default_factory=lambda: stage_default("ordering", "method"))
+    tangent_window_px: float = Field(default_factory=lambda: stage_default("ordering", "tangent_window_px"), gt=0,
+                                     le=L.MAX_OPTION_PX)
+    zone_width: float = Field(default_factory=lambda: stage_default("ordering", "zone_width"), ge=0, le=1000)
+    max_unused_fraction: float = Field(default_factory=lambda: stage_default("ordering", "max_unused_fraction"), ge=0, le=1)
+    overrides: list[OrderingOverride] = Field(default_factory=lambda: list(stage_default("ordering", "overrides")),
+                                              max_length=100_000)
 
 
 class Correspondence(_Strict):
@@ -243,8 +261,9 @@ class Correspondence(_Strict):
     """
 
     method: Literal["epipolar", "frechet"] = "epipolar"
-    max_distance_px: float = Field(8.0, gt=0, le=L.MAX_OPTION_PX)
-    depth_smoothing: Weight = 100.0
+    max_distance_px: float = Field(default_factory=lambda: stage_default("correspondence", "max_distance_px"), gt=0,
+                                   le=L.MAX_OPTION_PX)
+    depth_smoothing: Weight = Field(default_factory=lambda: stage_default("correspondence", "depth_smoothing"))
 
 
 class Reconstruction(_Strict):
@@ -262,7 +281,7 @@ class Reconstruction(_Strict):
 
     method: Literal["chain", "multiview"] = "chain"
     chunk_frames: int = Field(30, ge=1)
-    segment_mm: float = Field(1.0, gt=0.1, le=10.0)
+    segment_mm: float = Field(default_factory=lambda: stage_default("multiview", "segment_mm"), gt=0.1, le=10.0)
 
 
 class Triangulation(_Strict):
@@ -282,7 +301,7 @@ class Triangulation(_Strict):
     first point without folding back, the curve is extended to them.
     """
 
-    refine: bool = True
+    refine: bool = Field(default_factory=lambda: stage_default("triangulation", "refine"))
     to_curves: bool = False
     base_from_marks: bool = True
 
@@ -300,7 +319,8 @@ class Smoothing(_Strict):
     fitted on the 3D points, so a strong smoothing costs little accuracy.
     """
 
-    length_mm: Annotated[float, Field(gt=0, le=L.MAX_LENGTH_MM)] | None = None
+    length_mm: Annotated[float, Field(gt=0, le=L.MAX_LENGTH_MM)] | None = Field(
+        default_factory=lambda: stage_default("fit", "smoothing_length_mm"))
 
 
 class Fit(_Strict):
@@ -320,14 +340,14 @@ class Fit(_Strict):
     (tendrilkit's addition; off = the paper's curvature-space fit).
     """
 
-    selection: Literal["auto", "fixed"] = "auto"
-    criterion: Literal["bic", "r2"] = "bic"
-    target_r2: float = Field(0.999, gt=0, lt=1)
-    penalty_kappa: Weight = 0.01
-    penalty_tau: Weight = 0.01
-    score: Literal["l2", "l1"] = "l2"
-    max_segments: int = Field(10, ge=1, le=1000)
-    refine: bool = True
+    selection: Literal["auto", "fixed"] = Field(default_factory=lambda: stage_default("fit", "selection"))
+    criterion: Literal["bic", "r2"] = Field(default_factory=lambda: stage_default("fit", "criterion"))
+    target_r2: float = Field(default_factory=lambda: stage_default("fit", "target_r2"), gt=0, lt=1)
+    penalty_kappa: Weight = Field(default_factory=lambda: stage_default("fit", "penalty_kappa"))
+    penalty_tau: Weight = Field(default_factory=lambda: stage_default("fit", "penalty_tau"))
+    score: Literal["l2", "l1"] = Field(default_factory=lambda: stage_default("fit", "score"))
+    max_segments: int = Field(default_factory=lambda: stage_default("fit", "max_segments"), ge=1, le=1000)
+    refine: bool = Field(default_factory=lambda: stage_default("fit", "refine"))
 
 
 class Calibration(_Strict):
@@ -648,79 +668,6 @@ def experiment_to_dict(exp: Experiment) -> dict:
     return exp.model_dump(mode="json")
 
 
-def check_against_images(exp: Experiment, sizes_wh: list[tuple[int, int]]) -> None:
-    """Check the intrinsics and the per-view marks against the views' image sizes (width, height) px.
-
-    Raises :class:`ExperimentError` naming the view and key when:
-
-    - the principal point lies outside the image or further than a quarter
-      of its width (height) from its centre, or a focal length is not between
-      0.2 and 40 times the image width, or ``fy / fx`` is not between 1/2 and
-      2 (intrinsics made for another image size, or a typo);
-    - an ROI, a keep-out box or a base point lies outside its image, or the
-      ROI is too small to hold a tendril;
-    - the base point lies outside the ROI; the keep-out box does not overlap
-      the ROI, covers half of it or more, or lies away from the base point
-      (further than its own diagonal, at least 20 px).
-
-    The marks against the first frame's content are checked by
-    :func:`tendrilkit.inputs.check_marks_on_frame`.
-    """
-    where = f"{exp.source}: " if exp.source is not None else ""
-    if len(sizes_wh) != exp.n_views:
-        raise ExperimentError(f"{where}videos: expected {exp.n_views} readable videos, got {len(sizes_wh)}")
-    for i, (cam, (w, h)) in enumerate(zip(exp.cameras, sizes_wh)):
-        key = f"{where}cameras[{i}]"
-        if not (0 <= cam.cx <= w and 0 <= cam.cy <= h):
-            raise ExperimentError(f"{key}: principal point ({cam.cx:g}, {cam.cy:g}) is outside the {w}x{h} image of "
-                                  f"view {cam.view}; intrinsics made for another image size?")
-        if abs(cam.cx - w / 2) > L.MAX_PRINCIPAL_OFFSET * w or abs(cam.cy - h / 2) > L.MAX_PRINCIPAL_OFFSET * h:
-            raise ExperimentError(f"{key}: principal point ({cam.cx:g}, {cam.cy:g}) is far from the centre "
-                                  f"({w / 2:g}, {h / 2:g}) of the {w}x{h} image of view {cam.view} (expected within "
-                                  f"{L.MAX_PRINCIPAL_OFFSET:g} of its width and height); intrinsics made for another "
-                                  f"image size?")
-        for name, f in (("fx", cam.fx), ("fy", cam.fy)):
-            if not L.MIN_FOCAL_PER_WIDTH * w <= f <= L.MAX_FOCAL_PER_WIDTH * w:
-                raise ExperimentError(f"{key}.{name}: {f:g} px is not a plausible focal length for the {w}x{h} image "
-                                      f"of view {cam.view} (expected {L.MIN_FOCAL_PER_WIDTH:g} to "
-                                      f"{L.MAX_FOCAL_PER_WIDTH:g} times the width)")
-        if not 1 / L.MAX_ASPECT <= cam.fy / cam.fx <= L.MAX_ASPECT:
-            raise ExperimentError(f"{key}: fy / fx = {cam.fy / cam.fx:.3g}; expected square-ish pixels "
-                                  f"(1/{L.MAX_ASPECT:g} to {L.MAX_ASPECT:g})")
-    for i, (marks, (w, h)) in enumerate(zip(exp.views, sizes_wh)):
-        x, y, bw, bh = marks.roi
-        if x < 0 or y < 0 or x + bw > w or y + bh > h:
-            raise ExperimentError(f"{where}views[{i}].roi: {list(marks.roi)} reaches outside the {w}x{h} image of view {marks.view}")
-        if bw < 8 or bh < 8:
-            raise ExperimentError(f"{where}views[{i}].roi: {list(marks.roi)} is too small (at least 8x8 px)")
-        if marks.keep_out is not None:
-            kx, ky, kw, kh = marks.keep_out
-            if kx < 0 or ky < 0 or kx + kw > w or ky + kh > h:
-                raise ExperimentError(f"{where}views[{i}].keep_out: {list(marks.keep_out)} reaches outside the {w}x{h} image of view {marks.view}")
-        bx, by = marks.base_point
-        if not (0 <= bx < w and 0 <= by < h):
-            raise ExperimentError(f"{where}views[{i}].base_point: {list(marks.base_point)} is outside the {w}x{h} image of view {marks.view}")
-        if not (x <= bx <= x + bw and y <= by <= y + bh):
-            raise ExperimentError(f"{where}views[{i}].base_point: {list(marks.base_point)} is outside the roi {list(marks.roi)} of view {marks.view}")
-        if marks.keep_out is not None:
-            kx, ky, kw, kh = marks.keep_out
-            ox = max(0, min(x + bw, kx + kw) - max(x, kx))
-            oy = max(0, min(y + bh, ky + kh) - max(y, ky))
-            if ox * oy == 0:
-                raise ExperimentError(f"{where}views[{i}].keep_out: {list(marks.keep_out)} does not overlap the roi "
-                                      f"{list(marks.roi)} of view {marks.view}; expected a box between tendril and stem, at the base point")
-            if ox * oy >= 0.5 * bw * bh:
-                raise ExperimentError(f"{where}views[{i}].keep_out: {list(marks.keep_out)} covers "
-                                      f"{100 * ox * oy / (bw * bh):.0f} % of the roi {list(marks.roi)} of view {marks.view}; "
-                                      f"expected a small box between tendril and stem, at the base point")
-            gap = float(np.hypot(max(kx - bx, 0, bx - (kx + kw)), max(ky - by, 0, by - (ky + kh))))
-            reach = max(20.0, float(np.hypot(kw, kh)))
-            if gap > reach:
-                raise ExperimentError(f"{where}views[{i}].keep_out: {list(marks.keep_out)} is {gap:.0f} px from the "
-                                      f"base point {list(marks.base_point)} of view {marks.view}; expected the box "
-                                      f"between tendril and stem, at the base point (within {reach:.0f} px)")
-
-
 def views_yaml_snippet(exp: Experiment) -> str:
     """The ``views:`` section of an experiment as YAML, to paste into a params file."""
     lines = ["views:"]
@@ -736,6 +683,8 @@ def views_yaml_snippet(exp: Experiment) -> str:
 def load_intrinsics_file(path: str | Path) -> list[CameraIntrinsics]:
     """The ``cameras:`` entries of a YAML file (an intrinsics file of
     ``python -m tendrilkit intrinsics --write``, or an experiment file)."""
+    import yaml
+
     path = Path(path)
     if not path.is_file():
         raise ExperimentError(f"{path}: intrinsics file not found")

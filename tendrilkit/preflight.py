@@ -281,11 +281,11 @@ def _tendril_at_base(img, m, exp) -> str:
     from tendrilkit.exceptions import FrameError
     from tendrilkit.segmentation import segment_view
 
-    seg = exp.segmentation
+    from tendrilkit.options import stage_options
+
     try:
-        s = segment_view(img, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, channel=seg.channel,
-                         threshold=seg.threshold, opening_radius_px=seg.opening_radius_px,
-                         min_component_px=seg.min_component_px)
+        s = segment_view(img, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point,
+                         **stage_options(exp, "segmentation"))
     except FrameError as e:
         return f"no tendril in the roi ({e})"
     mask = s.mask_roi.astype(np.uint8)
@@ -307,7 +307,8 @@ def _tendril_at_base(img, m, exp) -> str:
 
 
 def _trial(exp, cameras, srcs, n_trial: int) -> list:
-    from tendrilkit.pipeline import _next_state, _read_views, reconstruct_frame
+    from tendrilkit.pipeline import reconstruct_frame
+    from tendrilkit.runner import _next_state, _read_views
 
     n = max(s.frame_count for s in srcs)
     fr = exp.frames

@@ -136,7 +136,7 @@ def overlay_video_frames(exp, cameras: list, frames: pd.DataFrame, curves: pd.Da
 
 
 def run_overlay(experiment_path: str | Path, results_dir: str | Path, *, video: str | Path | None = None,
-                sheet: str | Path | None = None, fps: float = 4.0, height_px: int = 480) -> int:
+                sheet: str | Path | None = None, fps: float = 4.0, height_px: int = 480) -> str:
     """``python -m tendrilkit overlay``: an overlay video and/or a contact sheet of a finished run.
 
     Parameters
@@ -157,8 +157,8 @@ def run_overlay(experiment_path: str | Path, results_dir: str | Path, *, video: 
 
     Returns
     -------
-    int
-        0.
+    str
+        What was written, one line per file (the command prints it).
 
     Raises
     ------
@@ -178,11 +178,12 @@ def run_overlay(experiment_path: str | Path, results_dir: str | Path, *, video: 
                               f"the experiment {exp.n_views}")
     if video is None and sheet is None:
         sheet = Path(results_dir) / CONTACT_SHEET
+    lines: list[str] = []
     if sheet is not None:
         shown = write_contact_sheet(exp, res.cameras, res.frames, res.curves, res.pwc_curves, sheet)
-        print(f"contact sheet: {sheet} ({len(shown)} frames)")
+        lines.append(f"contact sheet: {sheet} ({len(shown)} frames)")
     if video is not None:
         n = write_video(overlay_video_frames(exp, res.cameras, res.frames, res.curves, res.pwc_curves,
                                              height_px=height_px), video, fps=fps)
-        print(f"overlay video: {video} ({n} frames)")
-    return 0
+        lines.append(f"overlay video: {video} ({n} frames)")
+    return "\n".join(lines)

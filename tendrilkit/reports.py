@@ -322,7 +322,9 @@ def reprojection_panels(exp, results, frames: Sequence[int]) -> list[list[dict]]
     from tendrilkit.io import read_frames
     from tendrilkit.skeleton import process_view
 
-    opts = {**exp.segmentation.model_dump(), **exp.skeleton.model_dump(), **exp.ordering.model_dump()}
+    from tendrilkit.options import stage_options
+
+    seg_opts, order_opts = stage_options(exp, "segmentation"), stage_options(exp, "ordering")
     rows = []
     for f in frames:
         f = int(f)
@@ -336,7 +338,8 @@ def reprojection_panels(exp, results, frames: Sequence[int]) -> list[list[dict]]
         for img, marks, cam in zip(images, exp.views, results.cameras):
             try:
                 skel = process_view(img, roi=marks.roi, keep_out=marks.keep_out, base_point_xy=marks.base_point,
-                                    frame=f, view=marks.view, **opts).points_xy
+                                    frame=f, view=marks.view, segmentation=seg_opts,
+                                    ordering=order_opts).points_xy
             except FrameError:
                 skel = None
             panel = {"image": img, "roi": marks.roi, "skeleton_xy": skel, "label": f"frame {f}, view {marks.view}"}

@@ -51,7 +51,7 @@ def score_frames(curves: pd.DataFrame, frames: pd.DataFrame, truth: pd.DataFrame
         by frame; distances NaN (and every ``within`` False) where the frame
         has no curve.
     """
-    from tendrilkit.pipeline import accuracy_against_truth
+    from tendrilkit.evaluation import accuracy_against_truth
 
     acc = accuracy_against_truth(curves, truth) if len(curves) else pd.DataFrame(
         columns=["frame", "mean_mm", "max_mm", "base_mm", "tip_mm"])

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from tendrilkit.exceptions import ExperimentError
-from tendrilkit.fitting import METRIC_COLUMNS, SEGMENT_COLUMNS, FitOptions, run_fit
+from tendrilkit.fitting import METRIC_COLUMNS, SEGMENT_COLUMNS, run_fit
 from tendrilkit.pwc.datasets import mean_distance_mm, random_pwc_curve
 
 REPO = Path(__file__).resolve().parents[1]
@@ -65,7 +65,7 @@ def test_run_fit_writes_the_three_tables(tmp_path):
 def test_fixed_options(tmp_path):
     csv = tmp_path / "curves.csv"
     write_curves(csv, seeds=(3,), degenerate=False)
-    opts = FitOptions(selection="fixed", penalty_kappa=0.05, penalty_tau=0.05, refine=False)
+    opts = {"selection": "fixed", "penalty_kappa": 0.05, "penalty_tau": 0.05, "refine": False}
     run_fit(csv, tmp_path / "out", options=opts)
     met = pd.read_csv(tmp_path / "out" / "pwc_metrics.csv")
     assert met["penalty_kappa"].iloc[0] == 0.05

@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 
 from tendrilkit import cli
 from tendrilkit.exceptions import ExperimentError
-from tendrilkit.params import check_against_images, load_experiment, parse_experiment
+from tendrilkit.inputs import check_against_images
+from tendrilkit.params import load_experiment, parse_experiment
 from tests.test_params import GOOD
 
 KEYS = ["name", "stimulation_site", "videos", "fps", "reference_view", "frames", "cameras", "marker", "views",

@@ -151,7 +151,7 @@ def test_workers_identical_and_accurate(tmp_path):
     assert r1.stdout.strip().splitlines()[-1].endswith(" 0 failed"), r1.stdout
     for name in ("curves.csv", "frames.csv", "reprojection.csv", "pwc_curves.csv"):
         assert (tmp_path / "w1" / name).read_bytes() == (tmp_path / "w2" / name).read_bytes(), name
-    from tendrilkit.pipeline import accuracy_against_truth
+    from tendrilkit.evaluation import accuracy_against_truth
 
     acc = accuracy_against_truth(pd.read_csv(tmp_path / "w1" / "curves.csv"),
                                  pd.read_csv(tmp_path / "exp" / "ground_truth" / "gt_curves.csv"))

@@ -154,6 +154,7 @@ def test_extrinsics_count_must_match(tmp_path):
         parse_experiment(data)
 
 
+@pytest.mark.slow
 def test_command_line_prints_one_line_and_exits_2(tmp_path):
     f = _write(tmp_path, _mutate(("cameras", 0, "fx"), "abc"))
     out = subprocess.run([sys.executable, "-m", "tendrilkit", "calibrate", str(f), "--out", str(tmp_path / "o")],

@@ -153,6 +153,7 @@ def test_committed_params_match_the_generator():
         assert parse_experiment(yaml.safe_load(text)).name == f"phantom-{site}"
 
 
+@pytest.mark.slow
 def test_design_and_marks_do_not_depend_on_the_sequence_length():
     short = P.make_phantom("S4", n_frames=3, seed=0)
     default = P.make_phantom("S4", seed=0)

@@ -152,7 +152,7 @@ def test_random_scene_ground_truth_is_consistent_and_deterministic(tmp_path):
 @pytest.mark.slow
 def test_todays_method_on_easy_scenes(tmp_path):
     """What the method reaches on a clean scene (measured, asserted as reached; not a target)."""
-    from tendrilkit.pipeline import run_reconstruct
+    from tendrilkit.runner import run_reconstruct
     from tendrilkit.phantom import write_scene_experiment
     from tendrilkit.scoring import score_result
 

@@ -111,6 +111,7 @@ def test_bad_input_names_argument():
         pl.plot_view_overlay(np.zeros((2, 2, 4)), roi=[0, 0, 1, 1], keep_out=None, base_point_xy=[0, 0])
 
 
+@pytest.mark.slow
 def test_saved_files_are_byte_identical(seq, tmp_path):
     # every format on a 2D figure; SVG (the format kept in reports' git) on 3D and mesh figures
     for name, formats in (("change", None), ("tip", ("svg",)), ("maps", ("svg",))):

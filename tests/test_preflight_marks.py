@@ -48,7 +48,8 @@ def test_marks_on_the_hand_made_file_says_ok(scene, tmp_path, capsys):
 
 def test_marks_suggested_for_missing_and_careless_marks_reconstruct_as_well(scene, tmp_path, capsys):
     from tendrilkit.phantom import read_ground_truth
-    from tendrilkit.pipeline import accuracy_against_truth, run_reconstruct
+    from tendrilkit.evaluation import accuracy_against_truth
+    from tendrilkit.runner import run_reconstruct
     from tendrilkit.io import read_csv
 
     exp = load_experiment(scene)
@@ -80,7 +81,7 @@ def test_marks_suggested_for_missing_and_careless_marks_reconstruct_as_well(scen
                 assert "view 1: roi suggested" in out and "view 2: base_point suggested" in out
                 assert "keep_out suggested" in out.split("view 3:")[1]
             path.write_text(fixed)
-        assert run_reconstruct(path, tmp_path / f"r_{name}", workers=1, progress=False, fit=False) == 0
+        assert run_reconstruct(path, tmp_path / f"r_{name}", workers=1, progress=False, fit=False).exit_code == 0
         curves = read_csv(tmp_path / f"r_{name}" / "curves.csv")
         acc = accuracy_against_truth(curves, truth)
         # beyond the base end (the first 5 of 200 points): the base itself is where the marks

@@ -98,6 +98,31 @@ def test_workers_identical_and_resume(phantom_run):
     assert (base / "out1" / "curves.csv").read_bytes() == (base / "out2" / "curves.csv").read_bytes()
 
 
+@pytest.mark.slow
+def test_an_executor_of_the_caller_gives_the_same_tables(phantom_run):
+    """The executor seam: chunks submitted to another concurrent.futures.Executor (as a Dask
+    ``Client.get_executor()`` would be) give the tables of the own process pool, byte for byte."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from tendrilkit.runner import run_reconstruct
+
+    base, exp, _ = phantom_run
+    submitted = []
+
+    class Recording(ThreadPoolExecutor):
+        def submit(self, fn, /, *args, **kwargs):
+            submitted.append(args[0][0])  # the chunk's frames
+            return super().submit(fn, *args, **kwargs)
+
+    with Recording(2) as pool:
+        summary = run_reconstruct(exp, base / "out_exec", workers=2, progress=False, contact_sheet=False,
+                                  executor=pool)
+    assert summary.exit_code == 0 and str(summary) == "3 frames: 3 ok, 0 doubtful, 0 failed"
+    assert {f for chunk in submitted for f in chunk} == {0, 1, 2}  # every chunk went through it
+    for name in ("curves.csv", "pwc_curves.csv", "frames.csv", "reprojection.csv", "ordering.csv"):
+        assert (base / "out1" / name).read_bytes() == (base / "out_exec" / name).read_bytes(), name
+
+
 # ------------------------------------------------------------ fast: one frame
 def _synthetic_frame():
     """Three views of a curled tube through the IJCV25 rig, and its experiment."""

@@ -27,7 +27,8 @@ from tendrilkit import cli
 from tendrilkit import limits as L
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import ExperimentError, OutputWriteError
-from tendrilkit.params import (check_against_images, folder_name_problem, load_experiment, parse_experiment,
+from tendrilkit.inputs import check_against_images
+from tendrilkit.params import (folder_name_problem, load_experiment, parse_experiment,
                                short_repr)
 from tests.test_params import GOOD
 
@@ -153,6 +154,7 @@ def _key(path: tuple) -> str:
     return out
 
 
+@pytest.mark.slow
 @settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(changes=st.lists(st.tuples(st.sampled_from(NUMERIC), ABSURD), min_size=1, max_size=3))
 def test_absurd_numbers_in_every_numeric_key(tmp_path_factory, changes):
@@ -524,7 +526,7 @@ def test_video_replaced_by_another_of_the_same_size_is_noticed(tmp_path):
 
 
 def test_run_fingerprint_includes_frames_start_and_step():
-    from tendrilkit.pipeline import frame_fingerprint
+    from tendrilkit.runner import frame_fingerprint
 
     cams = [Camera(K=np.eye(3))] * 3
     base = parse_experiment(GOOD)

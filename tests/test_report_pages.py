@@ -52,6 +52,7 @@ def page(tmp_path_factory):
     return out / "99_test.html"
 
 
+@pytest.mark.slow
 def test_page_is_offline_clean_and_shows_its_figures(page):
     text = page.read_text()
     assert not re.search(r"<script[^>]+src=\"https?://", text), "a script from the internet"

@@ -182,8 +182,8 @@ def test_process_view_on_a_colour_image():
     check(res, full_truth)
     assert res.n_crossings == 1 and res.decisions[0].view == 3
     assert res.area_px > 1000 and roi[0] < res.centroid_xy[0] < roi[0] + roi[2]
-    with pytest.raises(TypeError, match="unknown option"):
-        process_view(img, roi=roi, keep_out=keep_out, base_point_xy=(505, y0), prune=3)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'prune'"):  # an unknown option, named
+        process_view(img, roi=roi, keep_out=keep_out, base_point_xy=(505, y0), ordering={"prune": 3})
     with pytest.raises(TendrilLostError):
         process_view(np.full_like(img, 230), roi=roi, keep_out=keep_out, base_point_xy=(505, y0))
 

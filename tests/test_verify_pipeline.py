@@ -44,7 +44,7 @@ def corrupted_run(tmp_path_factory):
     """An S3 phantom of 4 frames as image folders; frame 2 of view 1 corrupted; reconstructed with 1 worker."""
     from tendrilkit.io import open_views
     from tendrilkit.phantom import write_phantom_experiment
-    from tendrilkit.pipeline import run_reconstruct
+    from tendrilkit.runner import run_reconstruct
 
     base = tmp_path_factory.mktemp("verify_e2e")
     exp_path = Path(write_phantom_experiment("S3", base / "exp", n_frames=4, seed=11))
@@ -66,7 +66,9 @@ def corrupted_run(tmp_path_factory):
     exp2.write_text(text)
     buf = io.StringIO()
     with contextlib.redirect_stdout(buf):
-        code = run_reconstruct(exp2, base / "out", workers=1, progress=False)
+        summary = run_reconstruct(exp2, base / "out", workers=1, progress=False)
+        code = summary.exit_code
+        print(summary)
     return base, code, buf.getvalue()
 
 

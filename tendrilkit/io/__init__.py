@@ -101,7 +101,8 @@ class FrameSource:
             if img.shape[:2] != (self.height, self.width):
                 raise FrameReadError(f"{self._files[index].name}: frame {index} is {img.shape[1]}x{img.shape[0]}, expected {self.width}x{self.height}")
             return img
-        assert self._cap is not None
+        if self._cap is None:
+            raise FrameReadError(f"{self.path.name}: frame {index} cannot be read (the source is closed)")
         if index == 0 and self._first is not None and self._next == 1:
             return self._first.copy()
         if 0 < self._next < index <= self._next + MAX_GRAB_FRAMES:

@@ -10,20 +10,6 @@ from tendrilkit.skeleton.walk import order_skeleton
 
 __all__ = ["process_view"]
 
-_SEG_KEYS = ("channel", "threshold", "opening_radius_px", "min_component_px")
-_ORDER_KEYS = (
-    "prune_px",
-    "method",
-    "tangent_window_px",
-    "overrides",
-    "zone_width",
-    "merge_width",
-    "smooth_px",
-    "tip_inset",
-    "max_unused_fraction",
-)
-
-
 def process_view(
     image_bgr: np.ndarray,
     *,
@@ -33,7 +19,8 @@ def process_view(
     prev_centroid_xy=None,
     frame: int = 0,
     view: int = 1,
-    **options,
+    segmentation: dict | None = None,
+    ordering: dict | None = None,
 ) -> ViewCenterline:
     """Segment, skeletonise and order one view of one frame.
 
@@ -45,13 +32,11 @@ def process_view(
         As in :func:`tendrilkit.segmentation.segment_view`.
     frame, view : int
         Recorded in the decisions; select the ordering overrides.
-    **options
-        Keyword options of :func:`~tendrilkit.segmentation.segment_view`
-        (``channel``, ``threshold``, ``opening_radius_px``,
-        ``min_component_px``) and of :func:`order_skeleton` (``prune_px``,
-        ``method``, ``tangent_window_px``, ``overrides``, ...): the fields of
-        the experiment file's ``segmentation``, ``skeleton`` and ``ordering``
-        sections.
+    segmentation, ordering : dict, optional
+        Keyword options of :func:`~tendrilkit.segmentation.segment_view` and
+        of :func:`order_skeleton` (an experiment's:
+        ``tendrilkit.options.stage_options(exp, "segmentation")`` and
+        ``(exp, "ordering")``; None: the functions' defaults).
 
     Returns
     -------
@@ -61,16 +46,13 @@ def process_view(
     ------
     TendrilLostError, EmptySkeletonError, AmbiguousOrderingError
     """
-    unknown = sorted(set(options) - set(_SEG_KEYS) - set(_ORDER_KEYS))
-    if unknown:
-        raise TypeError(f"process_view() got unknown option(s) {unknown}")
     seg = segment_view(
         image_bgr,
         roi=roi,
         keep_out=keep_out,
         base_point_xy=base_point_xy,
         prev_centroid_xy=prev_centroid_xy,
-        **{k: options[k] for k in _SEG_KEYS if k in options},
+        **(segmentation or {}),
     )
     oc = order_skeleton(
         seg.mask_roi,
@@ -78,7 +60,7 @@ def process_view(
         base_point_xy=base_point_xy,
         frame=frame,
         view=view,
-        **{k: options[k] for k in _ORDER_KEYS if k in options},
+        **(ordering or {}),
     )
     return ViewCenterline(
         points_xy=oc.points_xy,

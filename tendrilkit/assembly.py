@@ -1,0 +1,106 @@
+"""Assembly of the result tables from the per-frame results (EXPERIMENT_FORMAT.md).
+
+:func:`with_temporal_checks` applies the checks against neighbouring frames
+over the ordered results, then :func:`assemble_tables` builds every table of
+:data:`tendrilkit.pipeline.RESULT_FILES` but ``calibration_markers.csv``,
+rows sorted by frame (then point, view, ...). Both run once over all frames,
+so that neither depends on chunks or workers.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+
+from tendrilkit.pipeline import FrameResult, quality_columns
+
+__all__ = ["assemble_tables", "with_temporal_checks"]
+
+
+def with_temporal_checks(results: list[FrameResult], verification=None) -> list[FrameResult]:
+    """The results with the checks against neighbouring frames applied (:func:`tendrilkit.verify.temporal_checks`).
+
+    Run at assembly time over the ordered results (so that it does not depend
+    on chunks or workers): fills ``length_change_pct``, ``shape_change_mm``
+    and ``dt_prev_s`` and turns an ``ok`` frame that jumps into ``doubtful``.
+    """
+    from dataclasses import replace
+
+    from tendrilkit.verify import Thresholds, temporal_checks
+
+    th = Thresholds.from_params(verification) if verification is not None else Thresholds()
+    results = sorted(results, key=lambda r: r.frame)
+    figs, msgs = temporal_checks([r.frame for r in results], [r.time_s for r in results],
+                                 [r.points_mm if r.status != "failed" else None for r in results],
+                                 [r.status == "ok" for r in results], th)
+    out = []
+    for r, fig, msg in zip(results, figs, msgs):
+        if r.status == "failed":
+            out.append(r)
+            continue
+        status = "doubtful" if (msg or r.status == "doubtful") else "ok"
+        notes = r.message.split("; ")[len(r.checks):] if r.message else []
+        message = "; ".join(list(r.checks) + list(msg) + notes)  # the failed checks first, then the notes
+        out.append(replace(r, status=status, message=message, quality={**r.quality, **fig}))
+    return out
+
+
+def assemble_tables(results: list[FrameResult], n_views: int) -> dict[str, pd.DataFrame]:
+    """The result tables of a run, by file name (``curves.csv``, ``frames.csv``, ...), from its frames' results.
+
+    Parameters
+    ----------
+    results : list of FrameResult
+        Every selected frame's result (any order).
+    n_views : int
+        Views of the experiment (the per-view columns of ``frames.csv``).
+
+    Returns
+    -------
+    dict of str to pandas.DataFrame
+    """
+    from tendrilkit.fitting import SEGMENT_COLUMNS, metrics_table
+
+    cur, pwc, rows, rep, dec, segs, mets = [], [], [], [], [], [], []
+    qcols = quality_columns(n_views)
+    for r in sorted(results, key=lambda r: r.frame):
+        row = {"frame": r.frame, "time_s": r.time_s, "status": r.status, "message": r.message}
+        row.update({c: (r.quality.get(c) if r.quality else None) for c in qcols})
+        rows.append(row)
+        for arr, dest in ((r.points_mm, cur), (r.pwc_mm, pwc)):
+            if arr is not None:
+                n = len(arr)
+                dest.append(pd.DataFrame({"frame": r.frame, "time_s": r.time_s, "point": np.arange(n),
+                                          "x_mm": arr[:, 0], "y_mm": arr[:, 1], "z_mm": arr[:, 2]}))
+        for t in r.reprojection:
+            rep.append({"frame": r.frame, **t})
+        for d in r.decisions:
+            dec.append({**d, "candidates": json.dumps(d.get("candidates"))})
+        segs.extend(r.pwc_segments)
+        mets.extend(r.pwc_metrics)
+    ccols = ["frame", "time_s", "point", "x_mm", "y_mm", "z_mm"]
+
+    def cat(parts):
+        return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=ccols)
+
+    frames = pd.DataFrame(rows, columns=["frame", "time_s", "status", "message"] + qcols)
+    for c in qcols:
+        frames[c] = pd.to_numeric(frames[c], errors="coerce")
+    frames["base_extended"] = frames["base_extended"].astype("boolean")
+    for c in ["views_used", "views_checked", "n_matched", "pwc_segments_kappa", "pwc_segments_tau"] + [f"n_crossings_v{v}" for v in range(1, n_views + 1)]:
+        frames[c] = frames[c].astype("Int64")
+    rcols = ["frame", "view", "section", "mean_px", "std_px", "max_px", "n_points"]
+    reproj = pd.DataFrame(rep, columns=rcols)
+    if len(reproj):
+        order = {"base": 0, "tip": 1, "entire": 2}
+        reproj = reproj.assign(_o=reproj.section.map(order)).sort_values(["frame", "view", "_o"]).drop(columns="_o")
+    dcols = ["frame", "view", "junction", "junction_x_px", "junction_y_px", "candidates", "chosen", "method"]
+    ordering = pd.DataFrame(dec, columns=dcols)
+    if len(ordering):
+        ordering = ordering.sort_values(["frame", "view", "junction"], kind="stable")
+    return {"curves.csv": cat(cur), "pwc_curves.csv": cat(pwc), "frames.csv": frames,
+            "reprojection.csv": reproj.reset_index(drop=True), "ordering.csv": ordering.reset_index(drop=True),
+            "pwc_segments.csv": pd.DataFrame(segs, columns=list(SEGMENT_COLUMNS)),
+            "pwc_metrics.csv": metrics_table(mets)}
