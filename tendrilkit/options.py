@@ -12,6 +12,8 @@ choose between functions or steps are the composer's :data:`SWITCHES`.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import ast
 import importlib
 import importlib.util
@@ -67,9 +69,9 @@ def _signature_defaults(stage: str) -> tuple:
     elsewhere). ``tests/test_options_route.py`` checks both agree.
     """
     module, name = STAGE_FUNCTIONS[stage].split(":")
-    spec = importlib.util.find_spec(module)
-    if spec is not None and spec.origin and spec.origin.endswith(".py"):
-        with open(spec.origin, encoding="utf-8") as f:
+    origin = _source_file(module)
+    if origin is not None:
+        with open(origin, encoding="utf-8") as f:
             tree = ast.parse(f.read())
         for node in tree.body:
             if isinstance(node, ast.FunctionDef) and node.name == name:
@@ -80,6 +82,18 @@ def _signature_defaults(stage: str) -> tuple:
     fn = getattr(importlib.import_module(module), name)
     return tuple((k, p.default) for k, p in inspect.signature(fn).parameters.items()
                  if p.default is not inspect.Parameter.empty)
+
+
+def _source_file(module: str) -> Path | None:
+    """The source file of a ``tendrilkit`` module, found without importing it (nor its parent package)."""
+    parts = module.split(".")
+    if parts[0] != "tendrilkit":
+        return None
+    base = Path(__file__).resolve().parent.joinpath(*parts[1:])
+    for cand in (base.with_suffix(".py"), base / "__init__.py"):
+        if cand.is_file():
+            return cand
+    return None
 
 
 def _literal_defaults(args: ast.arguments) -> tuple:
