@@ -26,7 +26,7 @@
    ``pwc_metrics.csv``       per frame R^2 and SSE (mm^2) of the fit, entire / base / tip
                              quarter, penalties and segment counts, as ``tendrilkit fit``
    ``frames.csv``            ``frame, time_s, status, message`` and the quality figures
-                             of :func:`quality_columns`
+                             of :func:`tendrilkit.schema.quality_columns`
    ``reprojection.csv``      ``frame, view, section, mean_px, std_px, max_px, n_points``:
                              the paper's Table 1 for every frame (section ``base`` /
                              ``tip`` quarters of the 3D arc length, ``entire``)
@@ -131,6 +131,8 @@ from tendrilkit.camera import Camera
 from tendrilkit.correspondence import match_epipolar, match_frechet
 from tendrilkit.exceptions import DegenerateCurveError, ExperimentError, FrameError
 from tendrilkit.frenet import resample_curve
+from tendrilkit import schema
+from tendrilkit.schema import quality_columns
 from tendrilkit.pwc import fit_piecewise_clothoid
 from tendrilkit.segmentation import segment_view
 from tendrilkit.skeleton import order_skeleton
@@ -224,34 +226,6 @@ class FrameResult:
                    reprojection=d["reprojection"], decisions=d["decisions"], centroids=d["centroids"],
                    n_components=d["n_components"], pwc_segments=d.get("pwc_segments", []),
                    pwc_metrics=d.get("pwc_metrics", []), checks=d.get("checks", []))
-
-
-def quality_columns(n_views: int) -> list[str]:
-    """The quality columns of ``frames.csv``, in order, for ``n_views`` views.
-
-    ``views_used`` (views whose 2D stage succeeded), ``n_matched`` (reference
-    points matched and triangulated), ``base_extended`` (the curve was
-    extended to the triangulated base marks), ``length_mm`` (centreline length),
-    ``reproj_mean_px_v<i>`` / ``reproj_std_px_v<i>`` / ``reproj_max_px_v<i>``
-    (distance of the projected centreline to view i's skeleton, entire
-    tendril), ``tri_err_px_v<i>`` (mean reprojection error of the matched
-    points at triangulation), ``pwc_r2``, ``pwc_sse_mm2``, ``pwc_rmse_mm``,
-    ``pwc_segments_kappa``, ``pwc_segments_tau``, ``n_crossings_v<i>``; then
-    the checks of :mod:`tendrilkit.verify`: ``views_checked``,
-    ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s`` and per view
-    ``on_tendril_frac_v<i>``, ``off_tendril_max_px_v<i>``,
-    ``skeleton_mean_px_v<i>``, ``coverage_frac_v<i>``, ``base_px_v<i>``.
-    """
-    cols = ["views_used", "n_matched", "base_extended", "length_mm"]
-    for v in range(1, n_views + 1):
-        cols += [f"reproj_mean_px_v{v}", f"reproj_std_px_v{v}", f"reproj_max_px_v{v}"]
-    cols += [f"tri_err_px_v{v}" for v in range(1, n_views + 1)]
-    cols += ["pwc_r2", "pwc_sse_mm2", "pwc_rmse_mm", "pwc_segments_kappa", "pwc_segments_tau"]
-    cols += [f"n_crossings_v{v}" for v in range(1, n_views + 1)]
-    from tendrilkit.verify import VERIFY_COLUMNS_FRAME, view_columns
-
-    cols += list(VERIFY_COLUMNS_FRAME) + view_columns(n_views)  # the checks of tendrilkit.verify
-    return cols
 
 
 # ------------------------------------------------------------------ one frame
@@ -717,10 +691,11 @@ def _load_done(out: Path, frames: list[int], fp: str) -> dict[int, FrameResult]:
 
 
 def _assemble(results: list[FrameResult], n_views: int, n_points: int) -> dict[str, pd.DataFrame]:
-    from tendrilkit.fitting import SEGMENT_COLUMNS, metrics_table
+    from tendrilkit.fitting import metrics_table
 
     cur, pwc, rows, rep, dec, segs, mets = [], [], [], [], [], [], []
     qcols = quality_columns(n_views)
+    ftable = schema.frames_table(n_views)
     for r in sorted(results, key=lambda r: r.frame):
         row = {"frame": r.frame, "time_s": r.time_s, "status": r.status, "message": r.message}
         row.update({c: (r.quality.get(c) if r.quality else None) for c in qcols})
@@ -736,29 +711,26 @@ def _assemble(results: list[FrameResult], n_views: int, n_points: int) -> dict[s
             dec.append({**d, "candidates": json.dumps(d.get("candidates"))})
         segs.extend(r.pwc_segments)
         mets.extend(r.pwc_metrics)
-    ccols = ["frame", "time_s", "point", "x_mm", "y_mm", "z_mm"]
-
     def cat(parts):
-        return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=ccols)
+        return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(schema.CURVES.columns))
 
-    frames = pd.DataFrame(rows, columns=["frame", "time_s", "status", "message"] + qcols)
+    frames = pd.DataFrame(rows, columns=list(ftable.columns))
     for c in qcols:
         frames[c] = pd.to_numeric(frames[c], errors="coerce")
-    frames["base_extended"] = frames["base_extended"].astype("boolean")
-    for c in ["views_used", "views_checked", "n_matched", "pwc_segments_kappa", "pwc_segments_tau"] + [f"n_crossings_v{v}" for v in range(1, n_views + 1)]:
+    for c in ftable.of_kind("bool"):
+        frames[c] = frames[c].astype("boolean")
+    for c in ftable.of_kind("Int"):
         frames[c] = frames[c].astype("Int64")
-    rcols = ["frame", "view", "section", "mean_px", "std_px", "max_px", "n_points"]
-    reproj = pd.DataFrame(rep, columns=rcols)
+    reproj = pd.DataFrame(rep, columns=list(schema.REPROJECTION.columns))
     if len(reproj):
         order = {"base": 0, "tip": 1, "entire": 2}
         reproj = reproj.assign(_o=reproj.section.map(order)).sort_values(["frame", "view", "_o"]).drop(columns="_o")
-    dcols = ["frame", "view", "junction", "junction_x_px", "junction_y_px", "candidates", "chosen", "method"]
-    ordering = pd.DataFrame(dec, columns=dcols)
+    ordering = pd.DataFrame(dec, columns=list(schema.ORDERING.columns))
     if len(ordering):
         ordering = ordering.sort_values(["frame", "view", "junction"], kind="stable")
     return {"curves.csv": cat(cur), "pwc_curves.csv": cat(pwc), "frames.csv": frames,
             "reprojection.csv": reproj.reset_index(drop=True), "ordering.csv": ordering.reset_index(drop=True),
-            "pwc_segments.csv": pd.DataFrame(segs, columns=list(SEGMENT_COLUMNS)),
+            "pwc_segments.csv": pd.DataFrame(segs, columns=list(schema.PWC_SEGMENTS.columns)),
             "pwc_metrics.csv": metrics_table(mets)}
 
 
@@ -832,8 +804,8 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     """
     from tendrilkit.calibration import calibrate_experiment
     from tendrilkit.inputs import check_inputs
-    from tendrilkit.io import (check_writable_dir, file_stamp, open_views, read_cameras, write_cameras, write_csv,
-                               write_frame_record, write_json)
+    from tendrilkit.io import (check_writable_dir, file_stamp, open_views, read_cameras, write_cameras,
+                               write_frame_record, write_json, write_result)
     from tendrilkit.params import load_experiment
     from tendrilkit.progress import progress as progress_bar
 
@@ -871,7 +843,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         calib = calibrate_experiment(exp)
         cameras = calib.cameras
         write_cameras(cameras, out / "cameras.json")
-        write_csv(calib.markers, out / "calibration_markers.csv")
+        write_result(calib.markers, out / "calibration_markers.csv", schema.CALIBRATION_MARKERS)
         write_json({"stamp": cal_stamp}, stamp_path)
 
     fp = frame_fingerprint(exp, cameras, video_info)
@@ -958,7 +930,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     results = with_temporal_checks([done[f] for f in frames], exp.verification)
     tables = _assemble(results, V, exp.points)
     for name, df in tables.items():
-        write_csv(df, out / name)
+        write_result(df, out / name, schema.frames_table(V) if name == "frames.csv" else schema.RESULT_TABLES[name])
     if contact_sheet:
         from tendrilkit.qc import CONTACT_SHEET, write_contact_sheet
 
