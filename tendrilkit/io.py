@@ -102,7 +102,8 @@ class FrameSource:
             if img.shape[:2] != (self.height, self.width):
                 raise FrameReadError(f"{self._files[index].name}: frame {index} is {img.shape[1]}x{img.shape[0]}, expected {self.width}x{self.height}")
             return img
-        assert self._cap is not None
+        if self._cap is None:
+            raise FrameReadError(f"{self.path.name}: frame {index} cannot be read (the video was closed)")
         if index == 0 and self._first is not None and self._next == 1:
             return self._first.copy()
         if 0 < self._next < index <= self._next + MAX_GRAB_FRAMES:
@@ -244,12 +245,16 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             tmp_path.unlink()
 
 
-#: How every result CSV prints a float (the one writer's precision, README "Result files").
-FLOAT_FORMAT = "%.6f"
+#: How every result CSV prints a float: ``None``, the shortest text that reads back as the same
+#: double (Python's ``repr``), so no law loses a digit at any magnitude (README "Results").
+FLOAT_FORMAT: str | None = None
 
 
-def write_csv(df: pd.DataFrame, path: str | Path, *, float_format: str = FLOAT_FORMAT) -> None:
-    """Write a table atomically, without index, floats at :data:`FLOAT_FORMAT`."""
+def write_csv(df: pd.DataFrame, path: str | Path, *, float_format: str | None = FLOAT_FORMAT) -> None:
+    """Write a table atomically, without index, floats as :data:`FLOAT_FORMAT` (exact round trip).
+
+    ``float_format`` (e.g. ``"%.10g"``) is for tables meant for readers, not for result files.
+    """
     with atomic_path(path) as tmp:
         df.to_csv(tmp, index=False, float_format=float_format, lineterminator="\n")
 
@@ -322,9 +327,10 @@ def read_csv(path: str | Path, *, required: tuple[str, ...] = (), table: Table |
 
 
 def _floats_as_float(df: pd.DataFrame, table: Table) -> pd.DataFrame:
-    """``df`` with the ``float`` columns of ``table`` it has as float (``%.10g`` prints 2.0 as ``2``)."""
+    """``df`` with the ``float`` columns of ``table`` it has as float (a column of whole numbers
+    written by another program, or a table without rows, is read with another type)."""
     for c in table.of_kind("float"):
-        if c in df.columns and df[c].dtype.kind in "iub":
+        if c in df.columns and (df[c].dtype.kind in "iu" or len(df) == 0):
             df[c] = df[c].astype(float)
     return df
 
