@@ -43,7 +43,7 @@ __all__ = [
     "KINDS", "Table", "CURVES", "PWC_CURVES", "REPROJECTION", "ORDERING", "PWC_SEGMENTS", "PWC_METRICS",
     "CALIBRATION_MARKERS", "FRAMES_HEAD", "frames_table", "frames_columns", "quality_columns",
     "FRAME_RECORD_KEYS", "FRAME_FILE_KEYS", "RESULT_TABLES",
-    "SHAPE_CHANGE", "SPLIT_POINTS", "TIP_TRAJECTORY", "REGION_RESPONSE", "TABLE1",
+    "SHAPE_CHANGE", "SPLIT_POINTS", "SEGMENT_COUNTS", "TIP_TRAJECTORY", "REGION_RESPONSE", "TABLE1",
     "TABLE3", "SITE_COMPARISON", "SECTIONS", "STATUSES",
 ]
 
@@ -197,6 +197,8 @@ SHAPE_CHANGE = _table("shape_change", ("frame", "int"), ("time_s", "float"), ("m
                       ("tip_displacement_mm", "float"), ("base_shift_mm", "float"), ("length_mm", "float"))
 #: :func:`tendrilkit.sequence.split_points` (``time_s`` and ``point`` added when asked).
 SPLIT_POINTS = _table("split_points", ("frame", "int"), ("kind", "str"), ("s_mm", "float"), ("s_norm", "float"))
+#: :func:`tendrilkit.sequence.segment_counts`.
+SEGMENT_COUNTS = _table("segment_counts", ("frame", "int"), ("n_kappa", "int"), ("n_tau", "int"))
 #: :func:`tendrilkit.sequence.tip_trajectory`.
 TIP_TRAJECTORY = _table("tip_trajectory", ("frame", "int"), ("time_s", "float"), ("x_mm", "float"),
                         ("y_mm", "float"), ("z_mm", "float"), ("step_mm", "float"), ("path_mm", "float"),

@@ -52,14 +52,14 @@ column for each of them, so a gap stays visible).
 from tendrilkit.sequence._common import SECTION_FRACTION, frame_status, resample_normalised
 from tendrilkit.sequence.change import (TipPathStats, region_response, shape_change, tip_path_stats,
                                         tip_trajectory)
-from tendrilkit.sequence.laws import KTMaps, curvature_torsion_maps, split_points
+from tendrilkit.sequence.laws import KTMaps, curvature_torsion_maps, segment_counts, split_points
 from tendrilkit.sequence.sites import ExperimentSummary, compare_sites, summarize_experiment
 from tendrilkit.sequence.tables import projection_errors, table1, table2, table3
 from tendrilkit.sequence.timing import ResponseTimes, response_times, running_median
 
 __all__ = [
     "SECTION_FRACTION", "frame_status", "resample_normalised",
-    "split_points", "KTMaps", "curvature_torsion_maps",
+    "split_points", "segment_counts", "KTMaps", "curvature_torsion_maps",
     "shape_change", "TipPathStats", "tip_trajectory", "tip_path_stats", "region_response",
     "ResponseTimes", "response_times", "running_median",
     "ExperimentSummary", "summarize_experiment", "compare_sites",

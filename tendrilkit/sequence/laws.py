@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from tendrilkit.exceptions import DegenerateCurveError
-from tendrilkit.schema import SPLIT_POINTS
+from tendrilkit.schema import SEGMENT_COUNTS, SPLIT_POINTS
 from tendrilkit.sequence._common import _checked, _eval_law, _frames_filter, _mark, _report, _segments, _split_curves
 
 
@@ -74,6 +74,14 @@ def split_points(segments: pd.DataFrame, *, frames: pd.DataFrame | None = None, 
         out["point"] = np.rint(out["s_norm"].to_numpy() * (int(points) - 1)).astype(int)
     out = out.sort_values(["frame", "kind", "s_mm"], kind="stable").reset_index(drop=True)
     return _mark(out, _report(excluded, "split_points"))
+
+
+def segment_counts(segments: pd.DataFrame) -> pd.DataFrame:
+    """Number of curvature and torsion segments per frame: ``frame, n_kappa, n_tau``."""
+    s = _segments(segments)
+    n = s.groupby(["frame", "kind"]).size().unstack("kind").reindex(columns=["kappa", "tau"]).fillna(0).astype(int)
+    n.columns = list(SEGMENT_COUNTS.columns[1:])
+    return n.reset_index()
 
 
 # ---------------------------------------------------------------- maps
