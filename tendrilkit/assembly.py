@@ -14,7 +14,9 @@ import json
 import numpy as np
 import pandas as pd
 
-from tendrilkit.pipeline import FrameResult, quality_columns
+from tendrilkit import schema
+from tendrilkit.pipeline import FrameResult
+from tendrilkit.schema import quality_columns
 
 __all__ = ["assemble_tables", "with_temporal_checks"]
 
@@ -61,10 +63,11 @@ def assemble_tables(results: list[FrameResult], n_views: int) -> dict[str, pd.Da
     -------
     dict of str to pandas.DataFrame
     """
-    from tendrilkit.fitting import SEGMENT_COLUMNS, metrics_table
+    from tendrilkit.fitting import metrics_table
 
     cur, pwc, rows, rep, dec, segs, mets = [], [], [], [], [], [], []
     qcols = quality_columns(n_views)
+    ftable = schema.frames_table(n_views)
     for r in sorted(results, key=lambda r: r.frame):
         row = {"frame": r.frame, "time_s": r.time_s, "status": r.status, "message": r.message}
         row.update({c: (r.quality.get(c) if r.quality else None) for c in qcols})
@@ -80,27 +83,24 @@ def assemble_tables(results: list[FrameResult], n_views: int) -> dict[str, pd.Da
             dec.append({**d, "candidates": json.dumps(d.get("candidates"))})
         segs.extend(r.pwc_segments)
         mets.extend(r.pwc_metrics)
-    ccols = ["frame", "time_s", "point", "x_mm", "y_mm", "z_mm"]
-
     def cat(parts):
-        return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=ccols)
+        return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(schema.CURVES.columns))
 
-    frames = pd.DataFrame(rows, columns=["frame", "time_s", "status", "message"] + qcols)
+    frames = pd.DataFrame(rows, columns=list(ftable.columns))
     for c in qcols:
         frames[c] = pd.to_numeric(frames[c], errors="coerce")
-    frames["base_extended"] = frames["base_extended"].astype("boolean")
-    for c in ["views_used", "views_checked", "n_matched", "pwc_segments_kappa", "pwc_segments_tau"] + [f"n_crossings_v{v}" for v in range(1, n_views + 1)]:
+    for c in ftable.of_kind("bool"):
+        frames[c] = frames[c].astype("boolean")
+    for c in ftable.of_kind("Int"):
         frames[c] = frames[c].astype("Int64")
-    rcols = ["frame", "view", "section", "mean_px", "std_px", "max_px", "n_points"]
-    reproj = pd.DataFrame(rep, columns=rcols)
+    reproj = pd.DataFrame(rep, columns=list(schema.REPROJECTION.columns))
     if len(reproj):
         order = {"base": 0, "tip": 1, "entire": 2}
         reproj = reproj.assign(_o=reproj.section.map(order)).sort_values(["frame", "view", "_o"]).drop(columns="_o")
-    dcols = ["frame", "view", "junction", "junction_x_px", "junction_y_px", "candidates", "chosen", "method"]
-    ordering = pd.DataFrame(dec, columns=dcols)
+    ordering = pd.DataFrame(dec, columns=list(schema.ORDERING.columns))
     if len(ordering):
         ordering = ordering.sort_values(["frame", "view", "junction"], kind="stable")
     return {"curves.csv": cat(cur), "pwc_curves.csv": cat(pwc), "frames.csv": frames,
             "reprojection.csv": reproj.reset_index(drop=True), "ordering.csv": ordering.reset_index(drop=True),
-            "pwc_segments.csv": pd.DataFrame(segs, columns=list(SEGMENT_COLUMNS)),
+            "pwc_segments.csv": pd.DataFrame(segs, columns=list(schema.PWC_SEGMENTS.columns)),
             "pwc_metrics.csv": metrics_table(mets)}

@@ -3,8 +3,9 @@
 ``python -m tendrilkit fit CURVES.csv --out DIR`` calls :func:`run_fit`, which
 reads the centrelines (columns of ``../shared/EXPERIMENT_FORMAT.md``: ``frame``,
 ``time_s``, ``point``, ``x_mm``, ``y_mm``, ``z_mm``), fits each frame with
-:func:`tendrilkit.pwc.fit_piecewise_clothoid` and writes, atomically (a
-temporary file in ``DIR`` then :func:`os.replace`):
+:func:`tendrilkit.pwc.fit_piecewise_clothoid` and writes, with the one writer
+of every result file (:func:`tendrilkit.io.write_result`: atomic, columns of
+:mod:`tendrilkit.schema`, floats at :data:`tendrilkit.io.FLOAT_FORMAT`):
 
 ``pwc_curves.csv``
     The same columns: the fitted curve registered onto each frame's
@@ -42,17 +43,11 @@ import numpy as np
 import pandas as pd
 
 from tendrilkit import limits as L
+from tendrilkit.schema import CURVES, PWC_CURVES, PWC_METRICS, PWC_SEGMENTS
 from tendrilkit.exceptions import DegenerateCurveError, ExperimentError
 
 __all__ = ["FitSummary", "run_fit", "fit_curves", "fit_frame"]
 
-CURVE_COLUMNS = ("frame", "time_s", "point", "x_mm", "y_mm", "z_mm")
-METRIC_COLUMNS = (
-    "frame", "time_s", "status", "message", "n_points", "length_mm", "penalty_kappa", "penalty_tau",
-    "n_kappa", "n_tau", "r2_entire", "r2_base", "r2_tip", "sse_entire_mm2", "sse_base_mm2",
-    "sse_tip_mm2", "rmse_mm", "max_error_mm", "tau_undefined_fraction",
-)
-SEGMENT_COLUMNS = ("frame", "kind", "segment", "s0_mm", "s1_mm", "value_s0", "value_s1")
 #: Largest curves.csv read, bytes (10,000 frames of 200 points are about 120 MB).
 MAX_CURVES_BYTES = 2_000_000_000
 
@@ -90,7 +85,7 @@ def _read_curves(path: Path) -> pd.DataFrame:
         raise ExperimentError(f"{path}: cannot read as CSV ({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''})") from None
     missing = [c for c in ("frame", "point", "x_mm", "y_mm", "z_mm") if c not in df.columns]
     if missing:
-        raise ExperimentError(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(CURVE_COLUMNS)}")
+        raise ExperimentError(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(CURVES.columns)}")
     if "time_s" not in df.columns:
         df["time_s"] = np.nan
     for c in ("frame", "point", "x_mm", "y_mm", "z_mm", "time_s"):
@@ -145,7 +140,7 @@ def fit_frame(points_mm: np.ndarray, options: dict | None = None, *, frame: int 
 
     options = {} if options is None else dict(options)
     pts = np.asarray(points_mm, float)
-    row = {c: np.nan for c in METRIC_COLUMNS}
+    row = {c: np.nan for c in PWC_METRICS.columns}
     row.update(frame=int(frame), time_s=float(time_s), n_points=int(len(pts)), message="")
     try:
         if pts.ndim != 2 or pts.shape[1:] != (3,):
@@ -180,8 +175,8 @@ def curves_table(frame: int, time_s: float, points_mm: np.ndarray) -> pd.DataFra
 
 
 def metrics_table(rows: list[dict]) -> pd.DataFrame:
-    mets = pd.DataFrame(rows, columns=list(METRIC_COLUMNS))
-    for c in ("n_points", "n_kappa", "n_tau"):
+    mets = pd.DataFrame(rows, columns=list(PWC_METRICS.columns))
+    for c in PWC_METRICS.of_kind("Int"):
         mets[c] = mets[c].astype("Int64")
     return mets
 
@@ -196,16 +191,9 @@ def fit_curves(curves: pd.DataFrame, options: dict | None = None) -> tuple[pd.Da
         seg_rows.extend(segs)
         if fitted is not None:
             curves_out.append(curves_table(int(frame), t_s, fitted))
-    pwc = pd.concat(curves_out, ignore_index=True) if curves_out else pd.DataFrame(columns=list(CURVE_COLUMNS))
-    segs = pd.DataFrame(seg_rows, columns=list(SEGMENT_COLUMNS))
+    pwc = pd.concat(curves_out, ignore_index=True) if curves_out else pd.DataFrame(columns=list(PWC_CURVES.columns))
+    segs = pd.DataFrame(seg_rows, columns=list(PWC_SEGMENTS.columns))
     return pwc, segs, metrics_table(met_rows)
-
-
-def _write_atomic(df: pd.DataFrame, path: Path) -> None:
-    from tendrilkit.io import atomic_path
-
-    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
-        df.to_csv(fh, index=False, float_format="%.9g")
 
 
 def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None) -> FitSummary:
@@ -232,13 +220,13 @@ def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None) -> 
     """
     t0 = time.perf_counter()
     curves_csv, out_dir = Path(curves_csv), Path(out_dir)
-    from tendrilkit.io import check_writable_dir
+    from tendrilkit.io import check_writable_dir, write_result
 
     curves = _read_curves(curves_csv)
     check_writable_dir(out_dir)
     pwc, segs, mets = fit_curves(curves, options)
     paths = (out_dir / "pwc_curves.csv", out_dir / "pwc_segments.csv", out_dir / "pwc_metrics.csv")
-    for df, p in zip((pwc, segs, mets), paths):
-        _write_atomic(df, p)
+    for df, p, table in zip((pwc, segs, mets), paths, (PWC_CURVES, PWC_SEGMENTS, PWC_METRICS)):
+        write_result(df, p, table)
     ok = int((mets["status"] == "ok").sum())
     return FitSummary(len(mets), ok, len(mets) - ok, time.perf_counter() - t0, *paths)

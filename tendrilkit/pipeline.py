@@ -25,7 +25,7 @@ sorted by frame (then point, view, ...), floats with 6 decimals:
    ``pwc_metrics.csv``       per frame R^2 and SSE (mm^2) of the fit, entire / base / tip
                              quarter, penalties and segment counts, as ``tendrilkit fit``
    ``frames.csv``            ``frame, time_s, status, message`` and the quality figures
-                             of :func:`quality_columns`
+                             of :func:`tendrilkit.schema.quality_columns`
    ``reprojection.csv``      ``frame, view, section, mean_px, std_px, max_px, n_points``:
                              the paper's Table 1 for every frame (section ``base`` /
                              ``tip`` quarters of the 3D arc length, ``entire``)
@@ -76,8 +76,10 @@ from tendrilkit.camera import Camera
 from tendrilkit.correspondence import match_epipolar, match_frechet
 from tendrilkit.exceptions import DegenerateCurveError, ExperimentError, FrameError
 from tendrilkit.frenet import resample_curve
+from tendrilkit import schema
 from tendrilkit.outlier_filter import triangulation_inliers
 from tendrilkit.options import stage_options
+from tendrilkit.schema import quality_columns
 from tendrilkit.segmentation import segment_view
 from tendrilkit.skeleton import order_skeleton
 from tendrilkit.straightness import straightness_note
@@ -171,34 +173,6 @@ class FrameResult:
                    reprojection=d["reprojection"], decisions=d["decisions"], centroids=d["centroids"],
                    n_components=d["n_components"], pwc_segments=d.get("pwc_segments", []),
                    pwc_metrics=d.get("pwc_metrics", []), checks=d.get("checks", []))
-
-
-def quality_columns(n_views: int) -> list[str]:
-    """The quality columns of ``frames.csv``, in order, for ``n_views`` views.
-
-    ``views_used`` (views whose 2D stage succeeded), ``n_matched`` (reference
-    points matched and triangulated), ``base_extended`` (the curve was
-    extended to the triangulated base marks), ``length_mm`` (centreline length),
-    ``reproj_mean_px_v<i>`` / ``reproj_std_px_v<i>`` / ``reproj_max_px_v<i>``
-    (distance of the projected centreline to view i's skeleton, entire
-    tendril), ``tri_err_px_v<i>`` (mean reprojection error of the matched
-    points at triangulation), ``pwc_r2``, ``pwc_sse_mm2``, ``pwc_rmse_mm``,
-    ``pwc_segments_kappa``, ``pwc_segments_tau``, ``n_crossings_v<i>``; then
-    the checks of :mod:`tendrilkit.verify`: ``views_checked``,
-    ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s`` and per view
-    ``on_tendril_frac_v<i>``, ``off_tendril_max_px_v<i>``,
-    ``skeleton_mean_px_v<i>``, ``coverage_frac_v<i>``, ``base_px_v<i>``.
-    """
-    cols = ["views_used", "n_matched", "base_extended", "length_mm"]
-    for v in range(1, n_views + 1):
-        cols += [f"reproj_mean_px_v{v}", f"reproj_std_px_v{v}", f"reproj_max_px_v{v}"]
-    cols += [f"tri_err_px_v{v}" for v in range(1, n_views + 1)]
-    cols += ["pwc_r2", "pwc_sse_mm2", "pwc_rmse_mm", "pwc_segments_kappa", "pwc_segments_tau"]
-    cols += [f"n_crossings_v{v}" for v in range(1, n_views + 1)]
-    from tendrilkit.verify import VERIFY_COLUMNS_FRAME, view_columns
-
-    cols += list(VERIFY_COLUMNS_FRAME) + view_columns(n_views)  # the checks of tendrilkit.verify
-    return cols
 
 
 # ------------------------------------------------------------------ one frame

@@ -84,6 +84,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tendrilkit import schema
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import ExperimentError, FrameError
 from tendrilkit.options import stage_options
@@ -315,7 +316,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     """
     from tendrilkit.extrinsics import calibrate_experiment
     from tendrilkit.inputs import check_inputs
-    from tendrilkit.io import (check_writable_dir, file_stamp, open_views, read_cameras, write_cameras, write_csv,
+    from tendrilkit.io import (check_writable_dir, file_stamp, open_views, read_cameras, write_cameras, write_result,
                                write_frame_record, write_json)
     from tendrilkit.params import load_experiment
     from tendrilkit.progress import progress as progress_bar
@@ -354,7 +355,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         calib = calibrate_experiment(exp)
         cameras = calib.cameras
         write_cameras(cameras, out / "cameras.json")
-        write_csv(calib.markers, out / "calibration_markers.csv")
+        write_result(calib.markers, out / "calibration_markers.csv", schema.CALIBRATION_MARKERS)
         write_json({"stamp": cal_stamp}, stamp_path)
 
     fp = frame_fingerprint(exp, cameras, video_info)
@@ -445,7 +446,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     results = with_temporal_checks([done[f] for f in frames], exp.verification)
     tables = assemble_tables(results, V)
     for name, df in tables.items():
-        write_csv(df, out / name)
+        write_result(df, out / name, schema.frames_table(V) if name == "frames.csv" else schema.RESULT_TABLES[name])
     if contact_sheet:
         from tendrilkit.qc import CONTACT_SHEET, write_contact_sheet
 

@@ -11,8 +11,9 @@ import pandas as pd
 import pytest
 
 from tendrilkit.exceptions import ExperimentError
-from tendrilkit.fitting import METRIC_COLUMNS, SEGMENT_COLUMNS, run_fit
+from tendrilkit.fitting import run_fit
 from tendrilkit.pwc.datasets import mean_distance_mm, random_pwc_curve
+from tendrilkit.schema import PWC_METRICS, PWC_SEGMENTS
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -46,7 +47,7 @@ def test_run_fit_writes_the_three_tables(tmp_path):
         assert P.shape == (200, 3)
         assert mean_distance_mm(P, tc.dense_mm) < 0.3
     segs = pd.read_csv(tmp_path / "out" / "pwc_segments.csv")
-    assert list(segs.columns) == list(SEGMENT_COLUMNS)
+    assert list(segs.columns) == list(PWC_SEGMENTS.columns)
     assert set(segs["kind"]) == {"kappa", "tau"}
     for (f, kind), g in segs.groupby(["frame", "kind"]):
         g = g.sort_values("segment")
@@ -54,7 +55,7 @@ def test_run_fit_writes_the_three_tables(tmp_path):
         assert np.allclose(g["s1_mm"].to_numpy()[:-1], g["s0_mm"].to_numpy()[1:])      # contiguous
         assert np.allclose(g["value_s1"].to_numpy()[:-1], g["value_s0"].to_numpy()[1:])  # continuous
     met = pd.read_csv(tmp_path / "out" / "pwc_metrics.csv")
-    assert list(met.columns) == list(METRIC_COLUMNS)
+    assert list(met.columns) == list(PWC_METRICS.columns)
     ok = met[met["status"] == "ok"]
     assert (ok["r2_entire"] >= 0.999).all()
     bad = met[met["status"] == "failed"].iloc[0]

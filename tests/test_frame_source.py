@@ -97,3 +97,11 @@ def test_reading_past_the_end_with_a_step_is_a_frame_error(numbered_video):
             src.read(N_FRAMES + 2)
         # the source is still usable afterwards (seeks)
         assert frame_number(src.read(1)) == 1
+
+
+def test_reading_a_closed_video_is_a_frame_error(numbered_video):
+    path, _ = numbered_video
+    src = tio.FrameSource(path)
+    src.close()
+    with pytest.raises(FrameReadError, match="closed"):
+        src.read(3)

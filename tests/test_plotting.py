@@ -9,6 +9,7 @@ from matplotlib.figure import Figure
 
 from tendrilkit import io, plotting as pl
 from tendrilkit import sequence as sq
+from tendrilkit.schema import REPROJECTION, SECTIONS
 
 from tests.test_sequence import make_sequence
 
@@ -29,8 +30,8 @@ def seq():
 
 
 def _rep():
-    rows = [(f, v, s, 1.0 + f / 100 + v, 0.3) for f in (0, 100, 199) for v in (1, 2, 3) for s in sq.SECTIONS]
-    return pd.DataFrame(rows, columns=list(sq.REPROJECTION_COLUMNS))
+    rows = [(f, v, s, 1.0 + f / 100 + v, 0.3) for f in (0, 100, 199) for v in (1, 2, 3) for s in SECTIONS]
+    return pd.DataFrame(rows, columns=list(REPROJECTION.require("frame", "view", "section", "mean_px", "std_px")))
 
 
 def _sites():
@@ -140,8 +141,9 @@ def test_plotly_html_is_byte_identical(seq, tmp_path):
 
 
 def test_error_bars_never_below_zero():
-    rows = [(0, v, s, 0.2, 0.9) for v in (1, 2) for s in sq.SECTIONS]
-    fig = pl.plot_reprojection_bars(sq.table1(pd.DataFrame(rows, columns=list(sq.REPROJECTION_COLUMNS))))
+    rows = [(0, v, s, 0.2, 0.9) for v in (1, 2) for s in SECTIONS]
+    cols = REPROJECTION.require("frame", "view", "section", "mean_px", "std_px")
+    fig = pl.plot_reprojection_bars(sq.table1(pd.DataFrame(rows, columns=list(cols))))
     for ax in fig.axes:
         for coll in ax.collections:  # the error bars' vertical segments
             for seg in getattr(coll, "get_segments", lambda: [])():

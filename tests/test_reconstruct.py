@@ -141,7 +141,8 @@ def synthetic():
 
 
 def test_reconstruct_frame_ok(synthetic):
-    from tendrilkit.pipeline import quality_columns, reconstruct_frame
+    from tendrilkit.pipeline import reconstruct_frame
+    from tendrilkit.schema import quality_columns
 
     images, cams, exp, X = synthetic
     r = reconstruct_frame(images, cams, exp, frame=3, fit=False)

@@ -10,6 +10,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from tendrilkit import sequence as sq
+from tendrilkit.schema import CURVES, PWC_SEGMENTS, REPROJECTION, SECTIONS, SITE_COMPARISON
 
 # ------------------------------------------------------------------ generator
 L_MM = 120.0
@@ -50,8 +51,8 @@ def make_sequence(n_frames=60, noise_mm=0.0, seed=0, static=False, n=100):
         for kind, v in (("kappa", a * KAPPA_END), ("tau", a * TAU_END)):
             for j in range(len(KNOTS) - 1):
                 seg_rows.append((f, kind, j, KNOTS[j], KNOTS[j + 1], v[j], v[j + 1]))
-    curves = pd.DataFrame(rows, columns=list(sq.CURVE_COLUMNS))
-    segments = pd.DataFrame(seg_rows, columns=list(sq.SEGMENT_COLUMNS))
+    curves = pd.DataFrame(rows, columns=list(CURVES.columns))
+    segments = pd.DataFrame(seg_rows, columns=list(PWC_SEGMENTS.columns))
     return curves, segments
 
 
@@ -187,9 +188,9 @@ def test_missing_column_names_argument():
     with pytest.raises(ValueError, match="curves: missing column"):
         sq.shape_change(pd.DataFrame({"frame": [0], "x": [1.0]}))
     curves, _ = make_sequence(n_frames=2, static=True)
-    renamed = curves.rename(columns={"x_mm": "X"})
-    ch = sq.shape_change(renamed, columns={"x_mm": "X"})
-    assert len(ch) == 2
+    with pytest.raises(ValueError, match="curves: missing column.*x_mm"):  # no other spellings (tendrilkit.schema)
+        sq.shape_change(curves.rename(columns={"x_mm": "X"}))
+    assert len(sq.shape_change(curves)) == 2
 
 
 # ------------------------------------------------------------------ split points, maps
@@ -310,7 +311,7 @@ def test_compare_sites(clean):
         "a-tendril": sq.summarize_experiment(static, name="a-tendril", site="S1"),
     }
     table = sq.compare_sites(res)
-    assert list(table.columns) == list(sq.SITE_COMPARISON_COLUMNS)
+    assert list(table.columns) == list(SITE_COMPARISON.columns)
     assert table["site"].tolist() == ["S1", "S3"]
     s1, s3 = table.iloc[0], table.iloc[1]
     assert not s1["responded"] and np.isnan(s1["onset_s"])
@@ -326,9 +327,9 @@ def _reprojection():
     rows = []
     for f in range(10):
         for v in (1, 2, 3):
-            for k, sec in enumerate(sq.SECTIONS):
-                rows.append((f, v, sec, f + v + k / 10, 0.1 * v))
-    return pd.DataFrame(rows, columns=list(sq.REPROJECTION_COLUMNS))
+            for k, sec in enumerate(SECTIONS):
+                rows.append((f, v, sec, f + v + k / 10, 0.1 * v, f + v + k / 10 + 0.3, 50))
+    return pd.DataFrame(rows, columns=list(REPROJECTION.columns))
 
 
 def test_table1_defaults_to_first_middle_last_ok():
@@ -361,14 +362,14 @@ def test_table2_from_projection_errors(clean):
     assert t2["frame"].tolist() == [0, 0, 59, 59] and np.all(t2["mean_entire_px"] > 0)
 
 
-def test_table3_aliases_and_mapping():
-    fm = pd.DataFrame({"frame": [0, 1, 2, 3, 4], "pwc_r2": [0.99] * 5, "sse": [0.1] * 5,
-                       "n_segments_kappa": [6] * 5, "mystery_tau": [3] * 5})
-    t3 = sq.table3(fm, columns={"n_tau": "mystery_tau"})
+def test_table3_columns_in_the_papers_order():
+    fm = pd.DataFrame({"frame": [0, 1, 2, 3, 4], "r2_entire": [0.99] * 5, "sse_entire_mm2": [0.1] * 5,
+                       "n_kappa": [6] * 5, "n_tau": [3] * 5})
+    t3 = sq.table3(fm)
     assert list(t3.columns) == ["frame", "n_kappa", "n_tau", "r2_entire", "sse_entire_mm2"]
     assert t3["frame"].tolist() == [0, 2, 4]
     fm["status"] = ["ok", "ok", "failed", "ok", "ok"]
-    assert sq.table3(fm, columns={"n_tau": "mystery_tau"})["frame"].tolist() == [0, 3, 4]
+    assert sq.table3(fm)["frame"].tolist() == [0, 3, 4]
     with pytest.raises(ValueError, match="fit_metrics: none of"):
         sq.table3(pd.DataFrame({"frame": [0], "other": [1]}))
 

@@ -29,6 +29,7 @@ import pandas as pd
 
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import ExperimentError, FrameReadError, OutputWriteError
+from tendrilkit.schema import FRAMES_HEAD, RESULT_TABLES, Table, frames_table
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 #: A video read jumping forward by at most this many frames steps over them with
@@ -244,10 +245,43 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             tmp_path.unlink()
 
 
-def write_csv(df: pd.DataFrame, path: str | Path, *, float_format: str = "%.6f") -> None:
-    """Write a table atomically, without index, floats at fixed precision."""
+#: How every result CSV prints a float: ``None``, the shortest text that reads back as the same
+#: double (Python's ``repr``), so no law loses a digit at any magnitude (README "Results").
+FLOAT_FORMAT: str | None = None
+
+
+def write_csv(df: pd.DataFrame, path: str | Path, *, float_format: str | None = FLOAT_FORMAT) -> None:
+    """Write a table atomically, without index, floats as :data:`FLOAT_FORMAT` (exact round trip).
+
+    ``float_format`` (e.g. ``"%.10g"``) is for tables meant for readers, not for result files.
+    """
     with atomic_path(path) as tmp:
         df.to_csv(tmp, index=False, float_format=float_format, lineterminator="\n")
+
+
+def write_result(df: pd.DataFrame, path: str | Path, table: Table) -> None:
+    """Write a result table atomically, after checking its columns against its schema.
+
+    Parameters
+    ----------
+    df : DataFrame
+        Columns exactly ``table.columns``, in that order.
+    path : path of the CSV file
+    table : :class:`tendrilkit.schema.Table`
+
+    Raises
+    ------
+    ValueError
+        When the columns differ from the schema's (a bug of the producer, not
+        of the user's input): names the table and the first difference.
+    """
+    got = tuple(map(str, df.columns))
+    if got != table.columns:
+        missing = [c for c in table.columns if c not in got]
+        extra = [c for c in got if c not in table.columns]
+        why = (f"missing {missing}" if missing else f"unexpected {extra}" if extra else "columns out of order")
+        raise ValueError(f"{table.name}: columns differ from tendrilkit.schema ({why})")
+    write_csv(df, path)
 
 
 def write_json(obj, path: str | Path) -> None:
@@ -270,9 +304,16 @@ def read_text(path: str | Path) -> str:
         raise ExperimentError(f"{path}: cannot read the file ({e.__class__.__name__})") from None
 
 
-def read_csv(path: str | Path, *, required: tuple[str, ...] = ()) -> pd.DataFrame:
-    """Read a result table; a missing file or column is an :class:`ExperimentError`."""
+def read_csv(path: str | Path, *, required: tuple[str, ...] = (), table: Table | None = None) -> pd.DataFrame:
+    """Read a result table; a missing file or column is an :class:`ExperimentError`.
+
+    With ``table`` (a :class:`tendrilkit.schema.Table`), every column of the
+    schema is required and its ``float`` columns are read as floats (a column
+    whose values all print as integers stays a float column).
+    """
     path = Path(path)
+    if table is not None:
+        required = tuple(required) + tuple(c for c in table.columns if c not in required)
     if not path.is_file():
         raise ExperimentError(f"{path}: file not found")
     try:
@@ -282,6 +323,15 @@ def read_csv(path: str | Path, *, required: tuple[str, ...] = ()) -> pd.DataFram
     missing = [c for c in required if c not in df.columns]
     if missing:
         raise ExperimentError(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(required)}")
+    return _floats_as_float(df, table) if table is not None else df
+
+
+def _floats_as_float(df: pd.DataFrame, table: Table) -> pd.DataFrame:
+    """``df`` with the ``float`` columns of ``table`` it has as float (a column of whole numbers
+    written by another program, or a table without rows, is read with another type)."""
+    for c in table.of_kind("float"):
+        if c in df.columns and (df[c].dtype.kind in "iu" or len(df) == 0):
+            df[c] = df[c].astype(float)
     return df
 
 
@@ -546,7 +596,13 @@ def read_results(folder: str | Path) -> Results:
 
     def opt(name: str) -> pd.DataFrame | None:
         p = folder / f"{name}.csv"
-        return read_csv(p) if p.is_file() else None
+        if not p.is_file():
+            return None
+        if name != "frames":
+            return read_csv(p, table=RESULT_TABLES[p.name])
+        df = read_csv(p, table=FRAMES_HEAD)  # its quality columns depend on the number of views
+        n_views = sum(str(c).startswith("tri_err_px_v") for c in df.columns)
+        return _floats_as_float(df, frames_table(n_views))
 
     cams = folder / "cameras.json"
     return Results(
