@@ -288,8 +288,9 @@ def _frame_counts(results: Path) -> tuple[int, int, int]:
     return int((st == "ok").sum()), int((st == "doubtful").sum()), int((~st.isin(["ok", "doubtful"])).sum())
 
 
-def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path) -> ExperimentOutcome | None:
-    """The cross-site notebook over every finished experiment."""
+def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path, *,
+                   executor=None) -> ExperimentOutcome | None:
+    """The cross-site notebook over every finished experiment (in its own process, or a task of ``executor``)."""
     src = notebooks_dir() / CROSS_SITE
     finished = [o for o in outcomes if o.status in ("done", "skipped")]
     if not src.is_file() or not finished:
@@ -302,8 +303,11 @@ def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path) -> Expe
         "figures_dir": str(out / "figures"),
     }
     try:
-        with ProcessPoolExecutor(max_workers=1) as pool:  # its own process: the kernel's chatter goes to a log
-            pool.submit(_compare_in_worker, str(src), str(out), params).result()
+        if executor is not None:
+            executor.submit(_compare_in_worker, str(src), str(out), params).result()
+        else:
+            with ProcessPoolExecutor(max_workers=1) as pool:  # its own process: the kernel's chatter goes to a log
+                pool.submit(_compare_in_worker, str(src), str(out), params).result()
         return ExperimentOutcome("comparison", "", "done", time.perf_counter() - t0)
     except Exception as e:
         first = str(e).strip().splitlines()[0] if str(e).strip() else ""
@@ -368,8 +372,14 @@ def check_batch_names(experiments: list[Path]) -> None:
         seen[name] = Path(p)
 
 
-def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False, workers: int | None = None) -> int:
-    """Run every experiment's notebooks into ``reports_dir``; see the module docstring."""
+def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False, workers: int | None = None,
+              executor=None) -> int:
+    """Run every experiment's notebooks into ``reports_dir``; see the module docstring.
+
+    ``executor`` (a :class:`concurrent.futures.Executor`, e.g. a Dask
+    cluster's, :class:`tendrilkit.distributed.Cluster`) runs the experiments
+    and the cross-site notebook instead of a local process pool.
+    """
     from tendrilkit.io import check_writable_dir
     from tendrilkit.progress import progress
 
@@ -384,7 +394,7 @@ def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False
         raise ExperimentError(f"{notebooks_dir()}: no numbered notebooks found")
     workers = max(1, min(workers or os.cpu_count() or 1, len(experiments)))
     outcomes: list[ExperimentOutcome] = []
-    pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_signals)
+    pool = executor if executor is not None else ProcessPoolExecutor(max_workers=workers, initializer=_worker_signals)
     try:
         futures = [pool.submit(_run_one, str(p), str(reports_dir), force) for p in experiments]
         for fut in progress(as_completed(futures), total=len(futures), desc="experiments"):
@@ -392,13 +402,18 @@ def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False
             outcomes.append(o)
             print(f"{o.name}: {o.status}{' - ' + o.message if o.message else ''}", file=sys.stderr, flush=True)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: stop the running experiments too (their finished frames stay)
+        if executor is not None:
+            for fut in futures:
+                fut.cancel()
+            raise
         for proc in list(getattr(pool, "_processes", {}).values()):
             proc.terminate()
         pool.shutdown(wait=False, cancel_futures=True)
         raise
-    pool.shutdown()
+    if executor is None:
+        pool.shutdown()
     outcomes.sort(key=lambda o: o.name)
-    comp = run_comparison(outcomes, Path(reports_dir))
+    comp = run_comparison(outcomes, Path(reports_dir), executor=executor)
     if comp is not None:
         outcomes.append(comp)
     from tendrilkit.reports import write_batch_index

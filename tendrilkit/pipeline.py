@@ -114,6 +114,8 @@ Verification
 
 from __future__ import annotations
 
+import concurrent.futures
+import contextlib
 import hashlib
 import json
 import math
@@ -129,7 +131,7 @@ import pandas as pd
 
 from tendrilkit.camera import Camera
 from tendrilkit.correspondence import match_epipolar, match_frechet
-from tendrilkit.exceptions import DegenerateCurveError, ExperimentError, FrameError
+from tendrilkit.exceptions import DegenerateCurveError, ExperimentError, FrameError, FrameReadError
 from tendrilkit.frenet import resample_curve
 from tendrilkit.pwc import fit_piecewise_clothoid
 from tendrilkit.segmentation import segment_view
@@ -623,6 +625,29 @@ def _worker_init() -> None:
     cv2.setNumThreads(1)
 
 
+def _local_pool(workers: int, fit: bool):
+    """tendrilkit's process pool of ``workers`` processes (fork where it exists: the compiled kernels inherited)."""
+    if "fork" in mp.get_all_start_methods():
+        ctx = mp.get_context("fork")
+        _warm_up(fit)  # compile once here; the forked workers inherit the compiled kernels
+    else:
+        ctx = mp.get_context("spawn")
+    return ctx.Pool(workers, initializer=_worker_init)
+
+
+class _PoolExecutor(concurrent.futures.Executor):
+    """The :class:`concurrent.futures.Executor` interface over a :class:`multiprocessing.pool.Pool`."""
+
+    def __init__(self, pool) -> None:
+        self._pool = pool
+
+    def submit(self, fn, /, *args, **kwargs) -> concurrent.futures.Future:
+        fut: concurrent.futures.Future = concurrent.futures.Future()
+        fut.set_running_or_notify_cancel()
+        self._pool.apply_async(fn, args, kwargs, callback=fut.set_result, error_callback=fut.set_exception)
+        return fut
+
+
 def _speculation_holds(true_state: list, first: FrameResult, exp=None, sources=None) -> bool:
     """Whether a chunk computed from no previous centroid equals the one from ``true_state``.
 
@@ -792,7 +817,7 @@ def _with_overrides(exp, overrides: dict | None):
 
 def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers: int | None = None,
                     progress: bool = True, fit: bool = True, overrides: dict | None = None,
-                    contact_sheet: bool = True) -> int:
+                    contact_sheet: bool = True, executor=None) -> int:
     """``python -m tendrilkit reconstruct``: every selected frame of an experiment.
 
     Parameters
@@ -817,6 +842,11 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         Write ``qc_contact_sheet.png`` (:func:`tendrilkit.qc.write_contact_sheet`):
         the doubtful frames and a sample of ok ones, the reconstruction
         projected onto every view.
+    executor : concurrent.futures.Executor, optional
+        Where the chunks run (e.g. a Dask cluster's,
+        :class:`tendrilkit.distributed.Cluster`); ``workers`` is then its
+        number of workers. Default: tendrilkit's process pool (in-process for
+        one worker). The results do not depend on it.
 
     Returns
     -------
@@ -913,21 +943,17 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
 
     def produce():
         """Finished frames in frame order, each already tracked from the true previous centroids."""
-        if workers == 1:
+        if workers == 1 and executor is None:
             for chunk in chunks:
                 yield from _iter_chunk(chunk, state_before(chunk[0]), exp, cameras, fit)
             return
-        if "fork" in mp.get_all_start_methods():
-            ctx = mp.get_context("fork")
-            _warm_up(fit)  # compile once here; the forked workers inherit the compiled kernels
-        else:
-            ctx = mp.get_context("spawn")
-        with ctx.Pool(workers, initializer=_worker_init) as pool, _Sources(exp) as sources:
-            if multiview:
-                jobs = pool.imap(_run_chunk, [(c, state_before(c[0]), exp, cameras, fit) for c in chunks])
-            else:
-                jobs = pool.imap(_run_chunk, [(c, [None] * V, exp, cameras, fit) for c in chunks])
-            for chunk, results in zip(chunks, jobs):
+        with (_local_pool(workers, fit) if executor is None else contextlib.nullcontext()) as pool, \
+                _Sources(exp) as sources:
+            ex = executor if executor is not None else _PoolExecutor(pool)
+            jobs = [ex.submit(_run_chunk, (c, state_before(c[0]) if multiview else [None] * V, exp, cameras, fit))
+                    for c in chunks]
+            for chunk, job in zip(chunks, jobs):
+                results = job.result()
                 state = state_before(chunk[0]) if not multiview else None
                 if not multiview and not _speculation_holds(state, results[0], exp, sources):
                     # recompute from the true state until both chains carry the same tracking state:
@@ -938,7 +964,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
                         spec_states.append(st)
                     fixed = []
                     for i, f in enumerate(chunk):
-                        res = pool.apply(_run_chunk, (([f], state, exp, cameras, fit),))[0]
+                        res = ex.submit(_run_chunk, ([f], state, exp, cameras, fit)).result()[0]
                         fixed.append(res)
                         state = _next_state(state, res)
                         if state == spec_states[i]:
@@ -1055,10 +1081,8 @@ def _iter_chunk(frames, state, exp, cameras, fit):
 
     The state is the previous frame's centroids per view (chain) or curve (multiview).
     """
-    from tendrilkit.io import open_views
-
     multiview = exp.reconstruction.method == "multiview"
-    sources = open_views(list(exp.videos))
+    sources = [_open_or_unreadable(p) for p in exp.videos]
     try:
         for f in frames:
             images, errors = _read_views(sources, f)
@@ -1073,6 +1097,29 @@ def _iter_chunk(frames, state, exp, cameras, fit):
     finally:
         for s in sources:
             s.close()
+
+
+class _Unreadable:
+    """A view whose video this process cannot open: every frame read fails with the reason."""
+
+    def __init__(self, reason: str) -> None:
+        self.reason = reason
+
+    def read(self, frame: int):
+        raise FrameReadError(f"cannot open the video here ({self.reason})")
+
+    def close(self) -> None:
+        pass
+
+
+def _open_or_unreadable(path):
+    """The view's frame source, or (e.g. a cluster worker that does not see the file) an :class:`_Unreadable`."""
+    from tendrilkit.io import FrameSource
+
+    try:
+        return FrameSource(path)
+    except ExperimentError as e:
+        return _Unreadable(str(e))
 
 
 # ------------------------------------------------------------------ accuracy
