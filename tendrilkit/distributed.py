@@ -124,8 +124,9 @@ class Cluster:
     ----------
     spec : SchedulerSpec
         ``local`` or ``remote``.
-    connect_timeout_s, worker_timeout_s : float
-        How long to wait for the scheduler, then for a first worker.
+    connect_timeout_s, worker_timeout_s : float, optional
+        Seconds to wait for the scheduler, then for a first worker (default
+        :data:`CONNECT_TIMEOUT_S`, :data:`WORKER_TIMEOUT_S`).
 
     Attributes
     ----------
@@ -139,13 +140,13 @@ class Cluster:
         The Dask dashboard's address, when the scheduler serves one.
     """
 
-    def __init__(self, spec: SchedulerSpec, *, connect_timeout_s: float = CONNECT_TIMEOUT_S,
-                 worker_timeout_s: float = WORKER_TIMEOUT_S) -> None:
+    def __init__(self, spec: SchedulerSpec, *, connect_timeout_s: float | None = None,
+                 worker_timeout_s: float | None = None) -> None:
         if spec.kind not in ("local", "remote"):
             raise ValueError(f"Cluster: expected a local or remote scheduler, got {spec.kind!r}")
         self.spec = spec
-        self.connect_timeout_s = float(connect_timeout_s)
-        self.worker_timeout_s = float(worker_timeout_s)
+        self.connect_timeout_s = float(CONNECT_TIMEOUT_S if connect_timeout_s is None else connect_timeout_s)
+        self.worker_timeout_s = float(WORKER_TIMEOUT_S if worker_timeout_s is None else worker_timeout_s)
         self.client = None
         self._local = None
 
