@@ -38,7 +38,7 @@ SCHEDULER_ENV = "TENDRILKIT_SCHEDULER"
 CONNECT_TIMEOUT_S = 10.0
 WORKER_TIMEOUT_S = 60.0
 _MAX_LOCAL_WORKERS = 256
-_ADDRESS = re.compile(r"^(?:[a-z][a-z0-9+.-]*://)?[^\s/:]+(?::\d{1,5})?/?$", re.IGNORECASE)
+_ADDRESS = re.compile(r"^(?:[a-z][a-z0-9+.-]*://\S+|[^\s/:]+(?::\d{1,5})?)$", re.IGNORECASE)
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,11 +168,11 @@ class Cluster:
                                   f"`dask scheduler` (and `dask worker ADDRESS`) or use --scheduler local:N") from None
         try:
             self.client.wait_for_workers(1, timeout=self.worker_timeout_s)
-        except (OSError, TimeoutError) as e:
+        except (OSError, TimeoutError):
             self.__exit__(None, None, None)
-            raise ExperimentError(f"scheduler {self.spec.address}: no worker connected within "
-                                  f"{self.worker_timeout_s:.0f} s; start some with `dask worker "
-                                  f"{self.spec.address}`") from None
+            where = self.spec.address or f"local:{self.spec.n_workers}"
+            raise ExperimentError(f"scheduler {where}: no worker connected within {self.worker_timeout_s:.0f} s; "
+                                  f"start some with `dask worker {where}`") from None
         self.client.register_plugin(WorkerSetup(), name=WorkerSetup.name)
         return self
 

@@ -58,7 +58,7 @@ def test_parse_scheduler():
     for text in ("tcp://10.0.0.5:8786", "10.0.0.5:8786", "tls://sched.lab.org:8786", "sched"):
         spec = parse_scheduler(text)
         assert (spec.kind, spec.address) == ("remote", text)
-    for bad in ("local", "local:0", "local:x", "local:9999", "", "tcp://a b:1", "http://host:1/path"):
+    for bad in ("local", "local:0", "local:x", "local:9999", "", "tcp://a b:1", "host:port", "tcp://"):
         with pytest.raises(ExperimentError, match="scheduler"):
             parse_scheduler(bad)
 
@@ -91,6 +91,15 @@ def test_unreachable_scheduler_is_one_line_and_exit_2(tmp_path, capsys, monkeypa
     assert cli.main(["batch", str(exp), "--reports", str(tmp_path / "r")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "expected local:N" in err[0], err
+
+
+def test_a_scheduler_without_workers_is_one_clear_error():
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as lc:
+        with pytest.raises(ExperimentError, match="no worker connected within 1 s"):
+            with Cluster(parse_scheduler(lc.scheduler_address), worker_timeout_s=1.0):
+                pass
 
 
 def test_cluster_rejects_the_pool_spec():
@@ -144,7 +153,6 @@ def test_local_clusters_and_a_resumed_run_give_the_pools_bytes(reference, tmp_pa
 
 @pytest.mark.slow
 def test_a_worker_killed_mid_run_loses_nothing_and_changes_nothing(reference, tmp_path):
-    from tendrilkit.distributed import parse_scheduler
     from tendrilkit.pipeline import run_reconstruct
 
     exp, ref = reference
