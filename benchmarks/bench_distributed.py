@@ -24,6 +24,12 @@ Needs ``data/phantoms`` (``python -m tendrilkit phantom --site all --out data/ph
    worker reads (its chunks' frames of the three views, with the decode from
    the previous key frame that a seek costs).
 
+Measured (2026-11-29, 2 cores shared with seven other jobs, load average 14-23; --rounds 2
+--batch-frames 15): per-task overhead pool 0.9 ms, local:1 77 ms, local:2 48 ms; 60 frames:
+pool 0.50, local:1 0.33, local:2 0.41 frames/s (local:2 / pool 1.23, rounds 1.47 and 0.90:
+the load, not the cluster, dominates); batch (not interleaved) pool 0.46, local:1 0.17,
+local:2 0.21 frames/s. Tables byte-identical across modes. Rerun on a quiet machine.
+
 Cluster start-up (spawning workers, importing, compiling the kernels once) is
 timed separately and not counted in the frames/s: it is paid once per command.
 Prints the load average before and after: figures on a shared machine are
