@@ -108,6 +108,7 @@ def test_cluster_rejects_the_pool_spec():
 
 
 # ------------------------------------------------------------------ video not readable where the chunk runs
+@pytest.mark.slow
 def test_a_process_that_cannot_open_a_video_fails_that_view_with_the_reason(reference, tmp_path):
     from tendrilkit.io import read_cameras
     from tendrilkit.params import load_experiment
