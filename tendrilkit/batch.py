@@ -316,8 +316,9 @@ def _frame_counts(results: Path) -> tuple[int, int, int]:
     return int((st == "ok").sum()), int((st == "doubtful").sum()), int((~st.isin(["ok", "doubtful"])).sum())
 
 
-def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path, notebooks: Path) -> ExperimentOutcome | None:
-    """The cross-site notebook of the folder ``notebooks`` over every finished experiment."""
+def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path, notebooks: Path, *,
+                   executor=None) -> ExperimentOutcome | None:
+    """The cross-site notebook of the folder ``notebooks`` over every finished experiment (in its own process, or a task of ``executor``)."""
     src = Path(notebooks) / CROSS_SITE
     finished = [o for o in outcomes if o.status in ("done", "skipped")]
     if not src.is_file() or not finished:
@@ -330,8 +331,11 @@ def run_comparison(outcomes: list[ExperimentOutcome], reports_dir: Path, noteboo
         "figures_dir": str(out / "figures"),
     }
     try:
-        with ProcessPoolExecutor(max_workers=1) as pool:  # its own process: the kernel's chatter goes to a log
-            pool.submit(_compare_in_worker, str(src), str(out), params).result()
+        if executor is not None:
+            executor.submit(_compare_in_worker, str(src), str(out), params).result()
+        else:
+            with ProcessPoolExecutor(max_workers=1) as pool:  # its own process: the kernel's chatter goes to a log
+                pool.submit(_compare_in_worker, str(src), str(out), params).result()
         return ExperimentOutcome("comparison", "", "done", time.perf_counter() - t0)
     except Exception as e:
         first = str(e).strip().splitlines()[0] if str(e).strip() else ""
@@ -397,8 +401,8 @@ def check_batch_names(experiments: list[Path]) -> None:
 
 
 def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False, workers: int | None = None,
-              notebooks: Path | None = None, on_outcome: Callable[[ExperimentOutcome], None] | None = None
-              ) -> BatchSummary:
+              notebooks: Path | None = None, on_outcome: Callable[[ExperimentOutcome], None] | None = None,
+              executor=None) -> BatchSummary:
     """Run every experiment's notebooks into ``reports_dir``; see the module docstring.
 
     Parameters
@@ -416,6 +420,9 @@ def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False
     on_outcome : callable, optional
         Called with each experiment's :class:`ExperimentOutcome` as it finishes
         (the command line prints a line).
+    executor : concurrent.futures.Executor, optional
+        Runs the experiments and the cross-site notebook instead of a local
+        process pool (e.g. a Dask cluster's, :class:`tendrilkit.distributed.Cluster`).
 
     Returns
     -------
@@ -436,7 +443,7 @@ def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False
         raise ExperimentError(f"{notebooks}: no numbered notebooks found")
     workers = max(1, min(workers or os.cpu_count() or 1, len(experiments)))
     outcomes: list[ExperimentOutcome] = []
-    pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_signals)
+    pool = executor if executor is not None else ProcessPoolExecutor(max_workers=workers, initializer=_worker_signals)
     try:
         futures = [pool.submit(_run_one, str(p), str(reports_dir), force, str(notebooks)) for p in experiments]
         for fut in progress(as_completed(futures), total=len(futures), desc="experiments"):
@@ -445,13 +452,18 @@ def run_batch(experiments: list[Path], reports_dir: Path, *, force: bool = False
             if on_outcome is not None:
                 on_outcome(o)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: stop the running experiments too (their finished frames stay)
+        if executor is not None:
+            for fut in futures:
+                fut.cancel()
+            raise
         for proc in list(getattr(pool, "_processes", {}).values()):
             proc.terminate()
         pool.shutdown(wait=False, cancel_futures=True)
         raise
-    pool.shutdown()
+    if executor is None:
+        pool.shutdown()
     outcomes.sort(key=lambda o: o.name)
-    comp = run_comparison(outcomes, Path(reports_dir), notebooks)
+    comp = run_comparison(outcomes, Path(reports_dir), notebooks, executor=executor)
     if comp is not None:
         outcomes.append(comp)
     from tendrilkit.reports import write_batch_index

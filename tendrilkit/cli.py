@@ -65,11 +65,30 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cluster(args: argparse.Namespace):
+    """``--scheduler`` (or ``$TENDRILKIT_SCHEDULER``): a connected Dask cluster, or None for tendrilkit's pool."""
+    import contextlib
+
+    from tendrilkit.distributed import Cluster, scheduler_from
+
+    spec = scheduler_from(args.scheduler)
+    return contextlib.nullcontext() if spec is None else Cluster(spec)
+
+
+def _announce(cluster) -> None:
+    if cluster is not None and cluster.dashboard_link:
+        print(f"tendrilkit: Dask dashboard {cluster.dashboard_link}", file=sys.stderr, flush=True)
+
+
 def _cmd_reconstruct(args: argparse.Namespace) -> int:
     from tendrilkit.runner import run_reconstruct
 
-    summary = run_reconstruct(Path(args.experiment), Path(args.out), workers=args.workers,
-                              progress=not args.quiet, overrides=_ACCEPT if args.accept_calibration else None)
+    with _cluster(args) as cluster:
+        _announce(cluster)
+        summary = run_reconstruct(Path(args.experiment), Path(args.out),
+                                  workers=cluster.n_workers if cluster else args.workers, progress=not args.quiet,
+                                  overrides=_ACCEPT if args.accept_calibration else None,
+                                  executor=cluster.executor if cluster else None)
     print(summary)  # the command's last line
     return summary.exit_code
 
@@ -97,15 +116,22 @@ def _cmd_batch(args: argparse.Namespace) -> int:
     def report(o) -> None:  # each experiment as it finishes, on stderr (the table goes to stdout)
         print(f"{o.name}: {o.status}{' - ' + o.message if o.message else ''}", file=sys.stderr, flush=True)
 
-    summary = run_batch([Path(p) for p in args.experiments], Path(args.reports), force=args.force,
-                        workers=args.workers, notebooks=Path(args.notebooks) if args.notebooks else None,
-                        on_outcome=report)
+    with _cluster(args) as cluster:
+        _announce(cluster)
+        summary = run_batch([Path(p) for p in args.experiments], Path(args.reports), force=args.force,
+                            workers=cluster.n_workers if cluster else args.workers,
+                            notebooks=Path(args.notebooks) if args.notebooks else None,
+                            on_outcome=report, executor=cluster.executor if cluster else None)
     print(summary)
     return summary.exit_code
 
 
 _ACCEPT_HELP = ("use the calibration even if marker corners reproject beyond calibration.max_corner_rms_px "
                 "(same as max_corner_rms_px: null)")
+
+
+_SCHEDULER_HELP = ("run on a Dask cluster: tcp://HOST:PORT of a `dask scheduler`, local:N (a local cluster of N "
+                   "workers) or pool (tendrilkit's process pool; the default, unless $TENDRILKIT_SCHEDULER is set)")
 
 
 def _cmd_intrinsics(args: argparse.Namespace) -> int:
@@ -171,6 +197,7 @@ def build_parser() -> argparse.ArgumentParser:
     re_.add_argument("--workers", type=int, default=None, help="processes for frames (default: all cores)")
     re_.add_argument("--quiet", action="store_true", help="no progress bar")
     re_.add_argument("--accept-calibration", action="store_true", help=_ACCEPT_HELP)
+    re_.add_argument("--scheduler", default=None, metavar="ADDRESS", help=_SCHEDULER_HELP)
     re_.set_defaults(func=_cmd_reconstruct)
 
     ov = sub.add_parser("overlay", help="the reconstruction projected onto the views: a video and/or a contact sheet")
@@ -194,6 +221,7 @@ def build_parser() -> argparse.ArgumentParser:
     ba.add_argument("--force", action="store_true", help="rerun finished experiments")
     ba.add_argument("--workers", type=int, default=None)
     ba.add_argument("--notebooks", default=None, help="notebook collection to run (default: notebooks/)")
+    ba.add_argument("--scheduler", default=None, metavar="ADDRESS", help=_SCHEDULER_HELP)
     ba.set_defaults(func=_cmd_batch)
     it = sub.add_parser("intrinsics", help="calibrate one camera (K, distortion) from a video of a board")
     it.add_argument("source", help="video or folder of numbered images of the board")

@@ -86,7 +86,7 @@ import numpy as np
 
 from tendrilkit import schema
 from tendrilkit.camera import Camera
-from tendrilkit.exceptions import ExperimentError, FrameError
+from tendrilkit.exceptions import ExperimentError, FrameError, FrameReadError
 from tendrilkit.options import stage_options
 from tendrilkit.assembly import assemble_tables, with_temporal_checks
 from tendrilkit.pipeline import RESULT_FILES, FrameResult, reconstruct_frame
@@ -397,7 +397,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
 
     def produce():
         """Finished frames in frame order, each already tracked from the true previous centroids."""
-        if workers == 1:
+        if workers == 1 and executor is None:
             for chunk in chunks:
                 yield from _iter_chunk(chunk, state_before(chunk[0]), exp, cameras, fit)
             return
@@ -533,10 +533,8 @@ def _iter_chunk(frames, state, exp, cameras, fit):
 
     The state is the previous frame's centroids per view (chain) or curve (multiview).
     """
-    from tendrilkit.io import open_views
-
     multiview = exp.reconstruction.method == "multiview"
-    sources = open_views(list(exp.videos))
+    sources = [_open_or_unreadable(p) for p in exp.videos]
     try:
         for f in frames:
             images, errors = _read_views(sources, f)
@@ -551,3 +549,26 @@ def _iter_chunk(frames, state, exp, cameras, fit):
     finally:
         for s in sources:
             s.close()
+
+
+class _Unreadable:
+    """A view whose video this process cannot open: every frame read fails with the reason."""
+
+    def __init__(self, reason: str) -> None:
+        self.reason = reason
+
+    def read(self, frame: int):
+        raise FrameReadError(f"cannot open the video here ({self.reason})")
+
+    def close(self) -> None:
+        pass
+
+
+def _open_or_unreadable(path):
+    """The view's frame source, or (e.g. a cluster worker that does not see the file) an :class:`_Unreadable`."""
+    from tendrilkit.io import FrameSource
+
+    try:
+        return FrameSource(path)
+    except ExperimentError as e:
+        return _Unreadable(str(e))
