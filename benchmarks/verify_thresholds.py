@@ -88,6 +88,19 @@ def reverify(seed_dir: Path, th: Thresholds) -> pd.DataFrame:
     return t
 
 
+def _print_alarm_checks(alarms: pd.DataFrame) -> None:
+    """Which checks raise the false alarms: per check, the right frames it flags, and those it alone flags."""
+    kinds = [sorted({m.split(":")[0].strip() for m in str(msg).split("; ") if ":" in m}) for msg in alarms.message]
+    every, alone = {}, {}
+    for ks in kinds:
+        for k in ks:
+            every[k] = every.get(k, 0) + 1
+        if len(ks) == 1:
+            alone[ks[0]] = alone.get(ks[0], 0) + 1
+    print(f"false alarms by check ({len(alarms)} frames): " + ", ".join(
+        f"{k} {every[k]} (alone {alone.get(k, 0)})" for k in sorted(every, key=lambda k: -every[k])))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("work", type=Path)
@@ -121,6 +134,7 @@ def main() -> None:
         r, w = agg(right).astype(float), agg(wrong).astype(float)
         print(f"{stem:>20} ({worst} over views): right {np.nanpercentile(r, [0, 1, 5, 50, 95, 99, 100]).round(3) if len(r) else '-'}"
               f"  wrong {np.nanpercentile(w, [0, 5, 50, 95, 100]).round(3) if len(w) else '-'}")
+    _print_alarm_checks(right[right.status == "doubtful"])
     silent = t[(t.status == "ok") & (t.mean_mm > 1.5)]
     if len(silent):
         print("silent failures:")

@@ -74,6 +74,13 @@ from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
 __all__ = ["Thresholds", "view_columns", "verify_curve", "base_components", "tip_continuation", "image_check_messages", "temporal_checks",
            "VERIFY_COLUMNS_FRAME"]
 
+#: A branch of unexplained skeleton whose median inside distance exceeds this many times the tendril's
+#: (:func:`_tendril_radius_px`) is clutter (a leaf's blob, a thicker shoot), not a part of the tendril.
+WIDE_RATIO = 1.5
+#: A branch of unexplained skeleton within this distance of the ROI's border (px) comes from outside the
+#: region the tendril moves in (stem, shoot, stalk): not a part of the tendril.
+BORDER_PX = 2
+
 #: Frame-level verification columns of ``frames.csv`` (after the per-view ones of :func:`view_columns`).
 VERIFY_COLUMNS_FRAME = ("views_checked", "length_change_pct", "shape_change_mm", "dt_prev_s")
 
@@ -225,7 +232,9 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
         if len(dense) == 0:
             out[f"on_tendril_frac_v{v + 1}"] = 0.0
             continue
-        keep = ~ev.in_keep_out(dense)
+        # the view sees neither the keep-out box's inside nor what lies outside its image: those parts rest
+        # on the other views
+        keep = ~ev.in_keep_out(dense) & cam.in_image(dense)
         d = sample_distance(ev, dense)
         d_seen = d[keep]
         if d_seen.size:
@@ -233,19 +242,23 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             out[f"off_tendril_max_px_v{v + 1}"] = float(np.max(d_seen))
         out[f"base_px_v{v + 1}"] = float(np.hypot(*(xy[0] - ev.base_point_xy))) if np.all(np.isfinite(xy[0])) else None
         if ev.skeleton_xy is not None:
-            inside = keep & roi_contains(ev, dense)
-            out[f"coverage_frac_v{v + 1}"] = _coverage(ev, dense[inside], d[inside], tolerance_px,
-                                                       coverage_tolerance_px, cKDTree)
-            on = dense[inside & (d <= tolerance_px)]
+            seen = keep & roi_contains(ev, dense)
+            inside_px = _inside_distance(ev)
+            radius_px = _tendril_radius_px(ev, inside_px, dense[seen & (d <= tolerance_px)], coverage_tolerance_px)
+            out[f"coverage_frac_v{v + 1}"] = _coverage(ev, dense[seen], d[seen], tolerance_px,
+                                                       coverage_tolerance_px, cKDTree, inside_px, radius_px)
+            on = dense[seen & (d <= tolerance_px)]
             if len(on) and len(ev.skeleton_xy):
                 out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
-                out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px)
+                out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px,
+                                                                        inside_px=inside_px, radius_px=radius_px)
             out[f"base_on_tendril_frac_v{v + 1}"] = _base_on_tendril(ev, dense[keep], d[keep], tolerance_px)
     out["views_checked"] = checked
     return out
 
 
-def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float) -> float:
+def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *, inside_px: np.ndarray | None = None,
+                     radius_px: float = float("nan")) -> float:
     """Length in px of the tendril's skeleton that goes on beyond the projected tip, unexplained.
 
     From the skeleton pixels near the projected tip (within ``cov_tol + 3``
@@ -263,6 +276,14 @@ def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float) -> 
         The projected curve, resampled every pixel, base to tip, full-image px.
     cov_tol : float
         A skeleton pixel within this distance of the curve is explained.
+    inside_px : (h, w) float array, optional
+        Distance of every foreground pixel of the ROI crop to the
+        background, px (:func:`_inside_distance`).
+    radius_px : float
+        The tendril's half width in this view, px (:func:`_tendril_radius_px`).
+        With ``inside_px``, the path follows only skeleton pixels of a line
+        at most :data:`WIDE_RATIO` times as wide: the tendril going on is as
+        thin as the tendril; a leaf the tip rests on is not.
     """
     from scipy.spatial import cKDTree
 
@@ -271,6 +292,9 @@ def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float) -> 
         return 0.0
     dist, _ = cKDTree(dense_xy).query(sk, distance_upper_bound=cov_tol + 1e-9)
     free = ~np.isfinite(dist)
+    if inside_px is not None and np.isfinite(radius_px) and radius_px > 0:
+        off = ev.roi_offset_xy
+        free &= inside_px[(sk[:, 1] - off[1]).astype(int), (sk[:, 0] - off[0]).astype(int)] <= WIDE_RATIO * radius_px
     tip = dense_xy[-1]
     start = np.nonzero(free & (np.hypot(*(sk - tip).T) <= cov_tol + 3.0))[0]
     if len(start) == 0:
@@ -320,8 +344,50 @@ def _base_on_tendril(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: fl
     return float(np.mean(hit)) if hit else None
 
 
-def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float, tree_cls) -> float:
-    """Fraction of the skeleton of the components the curve runs on that lies near the curve."""
+def _inside_distance(ev: ViewEvidence) -> np.ndarray:
+    """(h, w) float32: distance of every foreground pixel to the background, px (about half the local width)."""
+    import cv2
+
+    return cv2.distanceTransform(ev.foreground.view(np.uint8), cv2.DIST_L2, 5)
+
+
+def _tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, cov_tol: float) -> float:
+    """The tendril's half width in this view, px: median inside distance of the skeleton pixels along the curve.
+
+    NaN when the curve explains no skeleton pixel. Clutter crossing the
+    tendril widens it only at the crossings; the median is the tendril's.
+    """
+    from scipy.spatial import cKDTree
+
+    sk = ev.skeleton_xy
+    if sk is None or len(sk) == 0 or len(dense) == 0:
+        return float("nan")
+    dist, _ = cKDTree(dense).query(sk, distance_upper_bound=cov_tol + 1e-9)
+    near = sk[np.isfinite(dist)]
+    if len(near) == 0:
+        return float("nan")
+    off = ev.roi_offset_xy
+    return float(np.median(inside[(near[:, 1] - off[1]).astype(int), (near[:, 0] - off[0]).astype(int)]))
+
+
+def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float, tree_cls,
+              inside: np.ndarray, radius_px: float) -> float:
+    """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
+
+    The skeleton pixels of the components the curve runs along (and of
+    those leaving the base) that the curve does not explain are split into
+    their 8-connected branches; a branch is the tendril's (a part the curve
+    missed) unless it is clutter that joined the tendril's pixels:
+
+    * it reaches the ROI's border: the stem, a shoot or a leaf's stalk come
+      from outside the region the tendril moves in; the tendril does not;
+    * it is wider than the tendril (median inside distance above
+      :data:`WIDE_RATIO` times the tendril's, :func:`_tendril_radius_px`):
+      a leaf's blob, a thicker shoot, not the tendril's thin line.
+
+    The coverage is the explained skeleton over explained plus the
+    tendril's unexplained branches.
+    """
     on = dense[d <= tol]
     if len(on) == 0 or len(ev.skeleton_xy) == 0:
         return 0.0
@@ -348,11 +414,32 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     sk = ev.skeleton_xy
     sr = (sk[:, 1] - off[1]).astype(int)
     sc = (sk[:, 0] - off[0]).astype(int)
-    sk = sk[np.isin(ev.labels[sr, sc], touched)]
+    mine = np.isin(ev.labels[sr, sc], touched)
+    sk, sr, sc = sk[mine], sr[mine], sc[mine]
     if len(sk) == 0:
         return 0.0
     dist, _ = tree_cls(dense).query(sk, distance_upper_bound=cov_tol + 1e-9)
-    return float(np.mean(np.isfinite(dist)))
+    near = np.isfinite(dist)
+    n_near = int(near.sum())
+    free = ~near
+    if not free.any():
+        return 1.0
+    import cv2
+
+    img = np.zeros((h, w), np.uint8)
+    img[sr[free], sc[free]] = 1
+    nb, blab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
+    b = blab[sr[free], sc[free]]
+    size = np.bincount(b, minlength=nb)
+    edge = (sr[free] <= BORDER_PX) | (sr[free] >= h - 1 - BORDER_PX) | (sc[free] <= BORDER_PX) | (sc[free] >= w - 1 - BORDER_PX)
+    at_border = np.bincount(b, weights=edge, minlength=nb) > 0
+    tendril = ~at_border
+    if np.isfinite(radius_px) and radius_px > 0:
+        rad_b = inside[sr[free], sc[free]]
+        med = np.array([np.median(rad_b[b == k]) if size[k] else 0.0 for k in range(nb)])
+        tendril &= med <= WIDE_RATIO * radius_px
+    n_free = int(size[tendril].sum())
+    return float(n_near / max(n_near + n_free, 1))
 
 
 def base_components(ev: ViewEvidence) -> np.ndarray:
@@ -430,18 +517,36 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
     return msgs
 
 
+def _by_fraction(X: np.ndarray, n: int = 100) -> tuple[np.ndarray, float]:
+    """``n`` points of a polyline (m, 3) at equal fractions of its arc length, and its length."""
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))])
+    t = np.linspace(0.0, 1.0, n) * s[-1]
+    return np.column_stack([np.interp(t, s, X[:, k]) for k in range(3)]), float(s[-1])
+
+
 def _change(P: np.ndarray, Q: np.ndarray) -> tuple[float, float]:
     """Relative length change (%) from Q to P and mean distance of corresponding points (mm)."""
-    def arclen(X):
-        return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))])
-
-    sp, sq = arclen(P), arclen(Q)
-    n = 100
-    t = np.linspace(0.0, 1.0, n)
-    Pi = np.column_stack([np.interp(t * sp[-1], sp, P[:, k]) for k in range(3)])
-    Qi = np.column_stack([np.interp(t * sq[-1], sq, Q[:, k]) for k in range(3)])
-    pct = 100.0 * (sp[-1] - sq[-1]) / sq[-1] if sq[-1] > 0 else float("inf")
+    Pi, lp = _by_fraction(P)
+    Qi, lq = _by_fraction(Q)
+    pct = 100.0 * (lp - lq) / lq if lq > 0 else float("inf")
     return float(pct), float(np.mean(np.linalg.norm(Pi - Qi, axis=1)))
+
+
+def _off_interpolation(P: np.ndarray, A: np.ndarray, B: np.ndarray, a: float) -> tuple[float, float]:
+    """How far P is from the curve interpolated between A (a = 0) and B (a = 1) at fraction ``a``.
+
+    Corresponding points (same fraction of arc length) and lengths are
+    interpolated linearly; returns the length difference of P from the
+    interpolated length (%) and the mean point distance (mm). A tendril
+    moving steadily from A to B (a coil curling over several frames) lies
+    near the interpolation; a frame that jumps away and back does not.
+    """
+    Pi, lp = _by_fraction(P)
+    Ai, la = _by_fraction(A)
+    Bi, lb = _by_fraction(B)
+    li = (1 - a) * la + a * lb
+    pct = 100.0 * (lp - li) / li if li > 0 else float("inf")
+    return float(pct), float(np.mean(np.linalg.norm(Pi - ((1 - a) * Ai + a * Bi), axis=1)))
 
 
 def temporal_checks(frames: list[int], times_s: list[float], curves: list[np.ndarray | None],
@@ -471,9 +576,14 @@ def temporal_checks(frames: list[int], times_s: list[float], curves: list[np.nda
         Per frame the temporal checks it fails. A frame fails a check when
         the change exceeds the allowance (``max_* + rate * dt``) against its
         previous neighbour *and* against its next one (or against its only
-        neighbour): an isolated jump is flagged, while a genuine change of
-        shape, after which the sequence goes on from the new shape, flags
-        neither side's frames by itself.
+        neighbour) *and*, with two neighbours, the frame is as far from the
+        curve interpolated between them at its time (:func:`_off_interpolation`,
+        allowance for the shorter interval): an isolated jump is flagged,
+        while a genuine change of shape, after which the sequence goes on
+        from the new shape, flags neither side's frames by itself, and a
+        steady fast change through the frame (a tendril curling after a
+        touch can coil within a minute: faster than the shape allowance of
+        20 mm/min) is not a jump.
     """
     n = len(frames)
     idx = [i for i in range(n) if curves[i] is not None and passed[i]]
@@ -508,8 +618,25 @@ def temporal_checks(frames: list[int], times_s: list[float], curves: list[np.nda
         sides = [b for b in (bad_prev, bad_next) if b is not None]
         if not sides:
             continue
+        steady = {}
+        if len(sides) == 2:  # against the curve interpolated between the neighbours, at this frame's time
+            span = times_s[nxt] - times_s[prev]
+            a = (times_s[i] - times_s[prev]) / span if span > 0 else 0.5
+            pct, mm = _off_interpolation(curves[i], curves[prev], curves[nxt], a)
+            dt_min = min(abs(times_s[i] - times_s[prev]), abs(times_s[nxt] - times_s[i])) / 60.0
+            lim_pct = th.max_length_change_pct + th.length_rate_pct_per_min * dt_min
+            lim_mm = th.max_shape_change_mm + th.shape_rate_mm_per_min * dt_min
+            steady = {"length": (abs(pct) <= lim_pct, f"{pct:+.1f} % from the length interpolated between frames "
+                                                      f"{frames[prev]} and {frames[nxt]} (limit {lim_pct:.1f} %)"),
+                      "shape": (mm <= lim_mm, f"{mm:.1f} mm (mean) from the curve interpolated between frames "
+                                              f"{frames[prev]} and {frames[nxt]} (limit {lim_mm:.1f} mm)")}
         for kind in ("length", "shape"):
             hits = [dict(b)[kind] for b in sides if kind in dict(b)]
-            if len(hits) == len(sides):
-                msgs[i].append(f"{kind} jump: " + "; ".join(hits))
+            if len(hits) < len(sides):
+                continue
+            if kind in steady:
+                if steady[kind][0]:  # a steady change through this frame (fast coiling), not a jump
+                    continue
+                hits.append(steady[kind][1])
+            msgs[i].append(f"{kind} jump: " + "; ".join(hits))
     return figs, msgs
