@@ -77,9 +77,14 @@ __all__ = ["Thresholds", "view_columns", "verify_curve", "base_components", "tip
 #: A branch of unexplained skeleton whose median inside distance exceeds this many times the tendril's
 #: (:func:`_tendril_radius_px`) is clutter (a leaf's blob, a thicker shoot), not a part of the tendril.
 WIDE_RATIO = 1.5
-#: A branch of unexplained skeleton within this distance of the ROI's border (px) comes from outside the
-#: region the tendril moves in (stem, shoot, stalk): not a part of the tendril.
+#: A branch of unexplained skeleton whose line reaches within this distance of the ROI's border (px: the
+#: skeleton pixel's distance to the border less its inside distance) comes from outside the region the
+#: tendril moves in (stem, shoot, stalk): not a part of the tendril.
 BORDER_PX = 2
+
+#: Branches of unexplained thin skeleton shorter than this (px) are the skeleton's spurs (at a leaf's rim,
+#: at a crossing), not a part of the tendril the curve missed.
+MIN_BRANCH_PX = 8
 
 #: Frame-level verification columns of ``frames.csv`` (after the per-view ones of :func:`view_columns`).
 VERIFY_COLUMNS_FRAME = ("views_checked", "length_change_pct", "shape_change_mm", "dt_prev_s")
@@ -374,16 +379,18 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
               inside: np.ndarray, radius_px: float) -> float:
     """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
 
-    The skeleton pixels of the components the curve runs along (and of
-    those leaving the base) that the curve does not explain are split into
-    their 8-connected branches; a branch is the tendril's (a part the curve
-    missed) unless it is clutter that joined the tendril's pixels:
+    Counted are the skeleton pixels of the components the curve runs along
+    and of those at the base mark. Those the curve explains (within
+    ``cov_tol``) count for it; of the others only the tendril's count
+    against it, i.e. not clutter that joined the tendril's pixels:
 
-    * it reaches the ROI's border: the stem, a shoot or a leaf's stalk come
-      from outside the region the tendril moves in; the tendril does not;
-    * it is wider than the tendril (median inside distance above
-      :data:`WIDE_RATIO` times the tendril's, :func:`_tendril_radius_px`):
-      a leaf's blob, a thicker shoot, not the tendril's thin line.
+    * pixels wider than the tendril (inside distance above :data:`WIDE_RATIO`
+      times the tendril's, :func:`_tendril_radius_px`): a leaf's blob, the
+      stem, a thicker shoot, not the tendril's thin line;
+    * branches (8-connected runs of the remaining pixels) reaching the ROI's
+      border: the stem, a shoot or a leaf's stalk come from outside the
+      region the tendril moves in, the tendril does not;
+    * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs.
 
     The coverage is the explained skeleton over explained plus the
     tendril's unexplained branches.
@@ -407,8 +414,9 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     counts = np.bincount(lab[lab > 0], minlength=int(ev.labels.max()) + 1)
     # components the curve runs along for at least 5 % of its on-tendril samples (a crossing's touch is not)
     touched = np.nonzero(counts >= max(3, 0.05 * len(on)))[0]
-    # and the components that leave the base (a curve on the stem leaves the tendril unexplained)
-    touched = np.union1d(touched, base_components(ev))
+    # and every component at the base mark, the stem's too (a curve on the stem leaves the tendril unexplained;
+    # the stem's own pixels are then left out as clutter, below)
+    touched = np.union1d(touched, _near_base(ev))
     if touched.size == 0:
         return 0.0
     sk = ev.skeleton_xy
@@ -422,8 +430,10 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     near = np.isfinite(dist)
     n_near = int(near.sum())
     free = ~near
+    if np.isfinite(radius_px) and radius_px > 0:  # the tendril's thin line, not a leaf's blob or a thicker stem
+        free &= inside[sr, sc] <= WIDE_RATIO * radius_px
     if not free.any():
-        return 1.0
+        return 1.0 if n_near else 0.0
     import cv2
 
     img = np.zeros((h, w), np.uint8)
@@ -431,15 +441,28 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     nb, blab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
     b = blab[sr[free], sc[free]]
     size = np.bincount(b, minlength=nb)
-    edge = (sr[free] <= BORDER_PX) | (sr[free] >= h - 1 - BORDER_PX) | (sc[free] <= BORDER_PX) | (sc[free] >= w - 1 - BORDER_PX)
-    at_border = np.bincount(b, weights=edge, minlength=nb) > 0
-    tendril = ~at_border
-    if np.isfinite(radius_px) and radius_px > 0:
-        rad_b = inside[sr[free], sc[free]]
-        med = np.array([np.median(rad_b[b == k]) if size[k] else 0.0 for k in range(nb)])
-        tendril &= med <= WIDE_RATIO * radius_px
+    fr, fc = sr[free], sc[free]
+    # a skeleton stops about its line's half width short of where the line leaves the crop
+    edge = np.minimum(np.minimum(fr, h - 1 - fr), np.minimum(fc, w - 1 - fc)) <= inside[fr, fc] + BORDER_PX
+    tendril = (np.bincount(b, weights=edge, minlength=nb) == 0) & (size >= MIN_BRANCH_PX)
+    tendril[0] = False
     n_free = int(size[tendril].sum())
     return float(n_near / max(n_near + n_free, 1))
+
+
+def _near_base(ev: ViewEvidence) -> np.ndarray:
+    """Labels of the dark components with a pixel near the base mark (see :func:`base_components`)."""
+    L = ev.labels
+    h, w = L.shape
+    reach = 3.0 if ev.keep_out is None else 0.5 * float(np.hypot(ev.keep_out[2], ev.keep_out[3])) + 4.0
+    bx, by = ev.base_point_xy - ev.roi_offset_xy
+    r0, r1 = max(int(np.floor(by - reach)), 0), min(int(np.ceil(by + reach)) + 1, h)
+    c0, c1 = max(int(np.floor(bx - reach)), 0), min(int(np.ceil(bx + reach)) + 1, w)
+    if r1 <= r0 or c1 <= c0:
+        return np.zeros(0, int)
+    win = L[r0:r1, c0:c1]
+    rr, cc = np.nonzero(win)
+    return np.unique(win[rr, cc][np.hypot(rr + r0 - by, cc + c0 - bx) <= reach])
 
 
 def base_components(ev: ViewEvidence) -> np.ndarray:
@@ -451,18 +474,8 @@ def base_components(ev: ViewEvidence) -> np.ndarray:
     (the ROI is the region it moves in).
     """
     L = ev.labels
-    h, w = L.shape
-    reach = 3.0 if ev.keep_out is None else 0.5 * float(np.hypot(ev.keep_out[2], ev.keep_out[3])) + 4.0
-    bx, by = ev.base_point_xy - ev.roi_offset_xy
-    r0, r1 = max(int(np.floor(by - reach)), 0), min(int(np.ceil(by + reach)) + 1, h)
-    c0, c1 = max(int(np.floor(bx - reach)), 0), min(int(np.ceil(bx + reach)) + 1, w)
-    if r1 <= r0 or c1 <= c0:
-        return np.zeros(0, int)
-    win = L[r0:r1, c0:c1]
-    rr, cc = np.nonzero(win)
-    near = win[rr, cc][np.hypot(rr + r0 - by, cc + c0 - bx) <= reach]
     border = np.unique(np.concatenate([L[0], L[-1], L[:, 0], L[:, -1]]))
-    return np.setdiff1d(np.unique(near), np.append(border, 0))
+    return np.setdiff1d(_near_base(ev), np.append(border, 0))
 
 
 def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
