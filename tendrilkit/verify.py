@@ -40,6 +40,9 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         (negative outside the ROI).
     ``views_checked``
         Views whose image was read (every check needs at least two).
+    ``line_width_mm``
+        Width of the dark line the curve runs along, mm (median over views;
+        see :class:`Thresholds`).
     ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s``
         Against the previous reconstructed frame that passed the image checks
         (:func:`temporal_checks`): relative change of length (%), mean
@@ -147,6 +150,16 @@ class Thresholds:
         from the base up the stem stub and end at the border (wrong by
         5-7 mm, every other check passed) are at -3 to 3.4 px. Not an
         experiment key (yet): the default applies.
+    max_line_width_mm : float
+        Width of the dark line the curve runs along (``line_width_mm``: twice
+        the median inside distance of the skeleton along the projected curve,
+        px, times depth over focal length; median over the views), mm
+        (2.5 mm). Tendrils are 0.8-2 mm thick (random scenes' diameters;
+        measured 0.86-1.72 mm on right multi-view frames), the stem is
+        thicker: the curves that run a few millimetres from the base up the
+        stem (wrong by 5-13 mm, passing the image checks, which see only the
+        stem when the tendril's first part is not segmented) run on
+        2.9-4.6 mm. Not an experiment key (yet): the default applies.
     min_base_on_tendril_frac : float
         Smallest fraction of the curve's first 30 px (outside the keep-out
         box) on the dark component that leaves the base mark (0.5), per view
@@ -180,6 +193,7 @@ class Thresholds:
     min_coverage_frac: float = 0.75
     max_tip_continuation_px: float = 20.0
     min_tip_border_px: float = 5.0
+    max_line_width_mm: float = 2.5
     min_base_on_tendril_frac: float = 0.5
     max_base_px: float = 25.0
     max_length_change_pct: float = 5.0
@@ -197,12 +211,13 @@ class Thresholds:
 
 
 def view_columns(n_views: int) -> list[str]:
-    """Per-view verification columns of ``frames.csv``, in order."""
+    """Per-view verification columns of ``frames.csv``, in order, then ``tip_border_px_v<i>`` and ``line_width_mm``."""
     cols = []
     for v in range(1, n_views + 1):
         cols += [f"on_tendril_frac_v{v}", f"off_tendril_max_px_v{v}", f"skeleton_mean_px_v{v}", f"coverage_frac_v{v}",
                  f"tip_continuation_px_v{v}", f"base_on_tendril_frac_v{v}", f"base_px_v{v}"]
-    return cols + [f"tip_border_px_v{v}" for v in range(1, n_views + 1)]  # added later: after the others
+    # added later, so after the others (the result files' columns only grow at their end)
+    return cols + [f"tip_border_px_v{v}" for v in range(1, n_views + 1)] + ["line_width_mm"]
 
 
 def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
@@ -243,6 +258,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     X = np.asarray(points_mm, float).reshape(-1, 3)
     out: dict = {c: None for c in view_columns(len(cameras))}
     checked = 0
+    widths: list[float] = []
     for v, (cam, ev) in enumerate(zip(cameras, evidence)):
         if ev is None:
             continue
@@ -268,6 +284,8 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             seen = keep & roi_contains(ev, dense)
             inside_px = _inside_distance(ev)
             radius_px = _tendril_radius_px(ev, inside_px, dense[seen & (d <= tolerance_px)], coverage_tolerance_px)
+            if np.isfinite(radius_px):  # px to mm at the curve's median depth in this view
+                widths.append(2.0 * radius_px * float(np.median(cam.world_to_cam(X)[:, 2])) / float(cam.K[0, 0]))
             out[f"coverage_frac_v{v + 1}"] = _coverage(ev, dense[seen], d[seen], tolerance_px,
                                                        coverage_tolerance_px, cKDTree, inside_px, radius_px)
             on = dense[seen & (d <= tolerance_px)]
@@ -277,6 +295,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                                                                         inside_px=inside_px, radius_px=radius_px)
             out[f"base_on_tendril_frac_v{v + 1}"] = _base_on_tendril(ev, dense[keep], d[keep], tolerance_px)
     out["views_checked"] = checked
+    out["line_width_mm"] = float(np.median(widths)) if widths else None
     return out
 
 
@@ -547,6 +566,10 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
     if len(long_tips) >= 2:  # in two views at least: a piece of clutter at the tip in one view is not a tendril
         msgs.append("tip: the tendril goes on beyond the curve's tip in " + ", ".join(
             f"view {v} ({t:.0f} px)" for v, t in long_tips) + f" (limit {th.max_tip_continuation_px:g} px)")
+    lw = q.get("line_width_mm")
+    if lw is not None and lw > th.max_line_width_mm:
+        msgs.append(f"width: the curve runs on a line {lw:.1f} mm wide (median over the views; limit "
+                    f"{th.max_line_width_mm:g} mm): a stem, not a tendril")
     r2 = q.get("pwc_r2")
     if r2 is not None and np.isfinite(r2) and r2 < th.min_pwc_r2:
         msgs.append(f"fit: piece-wise clothoid R2 {r2:.3f} (limit {th.min_pwc_r2:g})")
