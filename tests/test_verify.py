@@ -129,7 +129,7 @@ def test_temporal_jump_flags_only_the_jumping_frame():
     assert figs[4]["dt_prev_s"] == 15.0 and figs[0]["dt_prev_s"] is None
     # a wrong first frame is flagged (it has only one neighbour); its right successor is not
     curves = [T + np.array([0.0, 10.0, 0.0])] + [T] * 5
-    _, msgs = temporal_checks(frames, times, curves, [True] * 6, Thresholds())
+    _, msgs = temporal_checks(frames, times, curves, [True] * 6, Thresholds(shape_rate_mm_per_min=20.0))
     assert [bool(m) for m in msgs] == [True] + [False] * 5
     assert msgs[0][0].startswith("shape jump: shape moved by 10.0 mm")
 
@@ -137,15 +137,17 @@ def test_temporal_jump_flags_only_the_jumping_frame():
 def test_temporal_allowance_grows_with_time():
     T = _tendril_mm()
     moved = T + np.array([0.0, 10.0, 0.0])              # 10 mm mean displacement (limit 8 mm in 15 s)
-    _, near = temporal_checks([0, 1], [0.0, 15.0], [T, moved], [True, True], Thresholds())
-    _, far = temporal_checks([0, 40], [0.0, 600.0], [T, moved], [True, True], Thresholds())
+    th = Thresholds(shape_rate_mm_per_min=20.0)  # 8 mm allowed in 15 s
+    _, near = temporal_checks([0, 1], [0.0, 15.0], [T, moved], [True, True], th)
+    _, far = temporal_checks([0, 40], [0.0, 600.0], [T, moved], [True, True], th)
     assert near[1] and not far[1]                       # 10 mm in 15 s is a jump, in 10 min it is not
 
 
 def test_failed_or_doubtful_frames_are_not_neighbours():
     T = _tendril_mm()
     curves = [T, T + np.array([0, 20.0, 0]), T]
-    _, msgs = temporal_checks([0, 1, 2], [0.0, 15.0, 30.0], curves, [True, False, True], Thresholds())
+    _, msgs = temporal_checks([0, 1, 2], [0.0, 15.0, 30.0], curves, [True, False, True],
+                              Thresholds(shape_rate_mm_per_min=20.0))
     assert not msgs[0] and not msgs[2] and msgs[1]
 
 
@@ -230,6 +232,8 @@ def test_steady_fast_change_is_not_a_jump():
     curves = [T + np.array([0.0, 10.0 * f, 0.0]) for f in frames]
     _, msgs = temporal_checks(frames, times, curves, [True] * 5, Thresholds())
     assert not any(msgs[1:4])
-    curves[2] = T + np.array([0.0, 10.0, 12.0])  # away from the path between its neighbours
+    _, msgs = temporal_checks(frames, times, curves, [True] * 5, Thresholds(shape_rate_mm_per_min=20.0))
+    assert not any(msgs[1:4])                    # steady even at the site phantoms' 20 mm/min allowance
+    curves[2] = T + np.array([0.0, 10.0, 40.0])  # 40 mm away from the path between its neighbours
     _, msgs = temporal_checks(frames, times, curves, [True] * 5, Thresholds())
     assert msgs[2] and "from the curve interpolated between frames 1 and 3" in msgs[2][0]
