@@ -21,12 +21,14 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         Mean distance of the projected curve's on-tendril part to the nearest
         skeleton pixel, px: whether it runs along the tendril's middle.
     ``coverage_frac_v<i>``
-        Fraction of the skeleton pixels of the dark components the projection
-        runs on, and of those leaving the base mark (:func:`base_components`),
-        that lie within ``coverage_tolerance_px`` of it: how much of the
-        tendril's pixels, from the base outward, the curve explains. A shrunk
-        curve (the tip missing), one that jumps to another component or one
-        that runs along the stem instead of the tendril scores low.
+        Fraction of the tendril's skeleton, in the dark components the
+        projection runs on and those at the base mark, that lies within
+        ``coverage_tolerance_px`` of it (:func:`_coverage`): how much of the
+        tendril's pixels, from the base outward, the curve explains. Clutter
+        joined to the tendril's pixels is left out (pixels wider than the
+        tendril, branches running out of the ROI, spurs). A shrunk curve (the
+        tip missing), one that jumps to another component or one that runs
+        along the stem instead of the tendril scores low.
     ``tip_continuation_px_v<i>``
         Length of the tendril's skeleton going on, unexplained, beyond the
         projected tip, px (:func:`tip_continuation`): a shrunk curve.
@@ -129,12 +131,11 @@ class Thresholds:
         explained (4 px: the skeleton's spurs and its ends at the tip).
     min_coverage_frac : float
         Smallest coverage per view (0.75). On random scenes with the
-        multi-view reconstruction (27 seeds, 162 frames) it is the check that
-        catches the curves lying on dark pixels in every view but wrong by
-        3-13 mm (along clutter or a second tendril): their coverage is at
-        most 0.56; without it 17 of them would be ``ok``. Its price: clutter
-        crossing a right tendril joins its component and lowers the coverage
-        (0.33-0.55 on some right frames), so those are flagged too.
+        multi-view reconstruction (54 seeds) it alone catches 19 curves
+        wrong by 1.6-12.6 mm that lie on dark pixels in every view (their
+        second-lowest coverage over the views at most 0.86); right frames
+        whose tendril touches clutter in 3D (in every view) can still score
+        0.59-0.76 and are flagged.
     max_tip_continuation_px : float
         The tendril's skeleton going on beyond the projected tip, unexplained,
         px (:func:`tip_continuation`), in two views or more (20 px): a shrunk
