@@ -40,7 +40,7 @@ def _layout(d: Path):
     if d.name.isdigit():
         return int(d.name), d / "experiment.yaml", d / "results", d / "ground_truth"
     if d.name.startswith("random-") and d.name[7:].isdigit():
-        res = sorted(d.glob("result-*"))
+        res = sorted(p for p in d.glob("result*") if p.is_dir())
         return int(d.name[7:]), d / "scene" / "experiment.yaml", (res[0] if res else d / "missing"), d / "scene" / "ground_truth"
     return None
 
