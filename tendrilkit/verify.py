@@ -296,16 +296,14 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             on = dense[seen & (d <= tolerance_px)]
             if len(on) and len(ev.skeleton_xy):
                 out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
-                out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px,
-                                                                        inside_px=inside_px, radius_px=radius_px)
+                out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px)
             out[f"base_on_tendril_frac_v{v + 1}"] = _base_on_tendril(ev, dense[keep], d[keep], tolerance_px)
     out["views_checked"] = checked
     out["line_width_mm"] = float(np.median(widths)) if widths else None
     return out
 
 
-def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *, inside_px: np.ndarray | None = None,
-                     radius_px: float = float("nan")) -> float:
+def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float) -> float:
     """Length in px of the tendril's skeleton that goes on beyond the projected tip, unexplained.
 
     From the skeleton pixels near the projected tip (within ``cov_tol + 3``
@@ -323,14 +321,6 @@ def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *, 
         The projected curve, resampled every pixel, base to tip, full-image px.
     cov_tol : float
         A skeleton pixel within this distance of the curve is explained.
-    inside_px : (h, w) float array, optional
-        Distance of every foreground pixel of the ROI crop to the
-        background, px (:func:`_inside_distance`).
-    radius_px : float
-        The tendril's half width in this view, px (:func:`_tendril_radius_px`).
-        With ``inside_px``, the path follows only skeleton pixels of a line
-        at most :data:`WIDE_RATIO` times as wide: the tendril going on is as
-        thin as the tendril; a leaf the tip rests on is not.
     """
     from scipy.spatial import cKDTree
 
@@ -339,9 +329,8 @@ def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *, 
         return 0.0
     dist, _ = cKDTree(dense_xy).query(sk, distance_upper_bound=cov_tol + 1e-9)
     free = ~np.isfinite(dist)
-    if inside_px is not None and np.isfinite(radius_px) and radius_px > 0:
-        off = ev.roi_offset_xy
-        free &= inside_px[(sk[:, 1] - off[1]).astype(int), (sk[:, 0] - off[0]).astype(int)] <= WIDE_RATIO * radius_px
+    # not restricted to a line of the tendril's width: where the tendril goes on merged with clutter (along a
+    # shoot, over a leaf) its skeleton is wider, and a shrunk chain curve (random seed 214) went unflagged
     tip = dense_xy[-1]
     start = np.nonzero(free & (np.hypot(*(sk - tip).T) <= cov_tol + 3.0))[0]
     if len(start) == 0:

@@ -192,17 +192,6 @@ def test_leaf_joined_to_a_right_curve_is_not_unexplained_tendril():
     assert any(m.startswith("coverage: view 1") for m in image_check_messages(short, 2, Thresholds()))
 
 
-def test_leaf_at_the_tip_is_not_a_tendril_going_on():
-    """The tip resting on a leaf: the leaf's blob beyond the tip is no continuation; a thin tendril is."""
-    cams, ev = _scene_with(_leaf(1.0, axes=(26, 16)))
-    q = verify_curve(_tendril_mm(), cams, ev)
-    assert q["tip_continuation_px_v1"] <= 3.0 and q["tip_continuation_px_v2"] <= 3.0
-    assert image_check_messages(q, 2, Thresholds()) == []
-    cams, ev = _scene()
-    q = verify_curve(_tendril_mm(frac=0.8), cams, ev)  # a shrunk curve: the thin tendril goes on
-    assert q["tip_continuation_px_v1"] > 30 and q["tip_continuation_px_v2"] > 30
-
-
 def test_part_outside_a_views_image_rests_on_the_other_views(scene):
     cams, ev = scene
     # view 1 is 280 px wide: the tendril's last 20 px leave its image (the ROI ends at the image's edge)
