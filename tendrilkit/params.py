@@ -403,7 +403,7 @@ class Verification(_Strict):
     max_length_change_pct: NonNegFloat = 5.0
     length_rate_pct_per_min: NonNegFloat = 1.0
     max_shape_change_mm: NonNegFloat = 3.0
-    shape_rate_mm_per_min: NonNegFloat = 20.0
+    shape_rate_mm_per_min: NonNegFloat = 100.0
     min_pwc_r2: float = Field(0.5, le=1)
 
 
