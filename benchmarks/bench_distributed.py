@@ -101,7 +101,8 @@ def _reconstruct_task(exp: str, out: str, stop: int) -> int:
     import cv2
 
     cv2.setNumThreads(1)
-    return run_reconstruct(exp, out, workers=1, progress=False, contact_sheet=False, overrides={"frames": {"stop": stop}})
+    return run_reconstruct(exp, out, workers=1, progress=False, contact_sheet=False,
+                           overrides={"frames": {"stop": stop}}).exit_code
 
 
 def main() -> int:

@@ -176,7 +176,7 @@ def test_a_worker_killed_mid_run_loses_nothing_and_changes_nothing(reference, tm
         t.start()
         try:
             code = run_reconstruct(exp, tmp_path / "out", workers=cluster.n_workers, progress=False,
-                                   executor=cluster.executor)
+                                   executor=cluster.executor).exit_code
         finally:
             done.set()
             t.join()
