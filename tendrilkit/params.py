@@ -400,6 +400,8 @@ class Verification(_Strict):
     max_tip_continuation_px: PositiveFloat = 20.0
     min_base_on_tendril_frac: float = Field(0.5, ge=0, le=1)
     max_base_px: PositiveFloat = 25.0
+    min_tip_border_px: NonNegFloat = 5.0
+    max_line_width_mm: PositiveFloat = 2.5
     max_length_change_pct: NonNegFloat = 5.0
     length_rate_pct_per_min: NonNegFloat = 1.0
     max_shape_change_mm: NonNegFloat = 3.0

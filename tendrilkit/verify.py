@@ -562,7 +562,7 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
             f"view {v} ({t:.0f} px)" for v, t in long_tips) + f" (limit {th.max_tip_continuation_px:g} px)")
     lw = q.get("line_width_mm")
     if lw is not None and lw > th.max_line_width_mm:
-        msgs.append(f"width: the curve runs on a line {lw:.1f} mm wide (median over the views; limit "
+        msgs.append(f"width: the curve runs on a line {lw:.1f} mm wide (median over the views, limit "
                     f"{th.max_line_width_mm:g} mm): a stem, not a tendril")
     r2 = q.get("pwc_r2")
     if r2 is not None and np.isfinite(r2) and r2 < th.min_pwc_r2:

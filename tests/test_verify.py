@@ -226,3 +226,17 @@ def test_steady_fast_change_is_not_a_jump():
     curves[2] = T + np.array([0.0, 10.0, 40.0])  # 40 mm away from the path between its neighbours
     _, msgs = temporal_checks(frames, times, curves, [True] * 5, Thresholds())
     assert msgs[2] and "from the curve interpolated between frames 1 and 3" in msgs[2][0]
+
+
+def test_every_threshold_is_a_verification_key_with_the_same_default():
+    """Each limit of the checks is a key of the experiment file's ``verification:`` section (nothing hidden)."""
+    import dataclasses
+
+    from tendrilkit.params import Verification
+
+    fields = {f.name: f.default for f in dataclasses.fields(Thresholds)}
+    keys = {k: v.default for k, v in Verification.model_fields.items()}
+    assert set(fields) == set(keys)
+    for name, default in fields.items():
+        assert float(keys[name]) == float(default), name
+    assert Thresholds.from_params(Verification(max_line_width_mm=3.0)).max_line_width_mm == 3.0
