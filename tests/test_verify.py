@@ -28,8 +28,9 @@ def _stem_mm(n=100):
     return np.column_stack([-23 + 0 * t, -30 + 19 * t, np.zeros(n)])
 
 
-def _scene():
-    """Images and evidence of two views: tendril (5 px wide), stem (9 px wide), keep-out box between them."""
+def _scene(extra_draw=None):
+    """Images and evidence of two views: tendril (5 px wide), stem (9 px wide), keep-out box between them;
+    ``extra_draw(img, cam)`` adds more dark shapes (a leaf, ...)."""
     cams = _cameras()
     T, S = _tendril_mm(), _stem_mm()
     evidence = []
@@ -38,6 +39,8 @@ def _scene():
         for X, width in ((T, 5), (S, 9)):
             xy = cam.project(X)
             cv2.polylines(img, [np.round(xy * 16).astype(np.int32)], False, (30, 30, 30), width, cv2.LINE_AA, 4)
+        if extra_draw is not None:
+            extra_draw(img, cam)
         base = cam.project(T[:1])[0]
         keep_out = [int(base[0]) - 12, int(base[1]) - 6, 12, 12]
         roi = [int(base[0]) - 30, 0, 300, 250]
@@ -151,25 +154,6 @@ def test_failed_or_doubtful_frames_are_not_neighbours():
     assert not msgs[0] and not msgs[2] and msgs[1]
 
 
-def _scene_with(extra_draw):
-    """The two-view scene of :func:`_scene` with more dark shapes drawn by ``extra_draw(img, cam)``."""
-    cams = _cameras()
-    T, S = _tendril_mm(), _stem_mm()
-    evidence = []
-    for cam in cams:
-        img = np.full((300, 400, 3), 240, np.uint8)
-        for X, width in ((T, 5), (S, 9)):
-            cv2.polylines(img, [np.round(cam.project(X) * 16).astype(np.int32)], False, (30, 30, 30), width,
-                          cv2.LINE_AA, 4)
-        extra_draw(img, cam)
-        base = cam.project(T[:1])[0]
-        keep_out = [int(base[0]) - 12, int(base[1]) - 6, 12, 12]
-        roi = [int(base[0]) - 30, 0, 300, 250]
-        evidence.append(view_evidence(img, roi=roi, keep_out=keep_out, base_point_xy=base, opening_radius_px=0,
-                                      min_component_px=20))
-    return cams, evidence
-
-
 def _leaf(at_frac, axes=(30, 14)):
     """A dark ellipse (a leaf, px half axes) centred on the tendril at ``at_frac`` of its samples."""
     def draw(img, cam):
@@ -180,7 +164,7 @@ def _leaf(at_frac, axes=(30, 14)):
 
 def test_leaf_joined_to_a_right_curve_is_not_unexplained_tendril():
     """A leaf touching the tendril joins its component; its blob is not tendril the curve missed."""
-    cams, ev = _scene_with(_leaf(0.5))
+    cams, ev = _scene(_leaf(0.5))
     q = verify_curve(_tendril_mm(), cams, ev)
     for v in (1, 2):
         assert q[f"coverage_frac_v{v}"] >= 0.9
