@@ -292,6 +292,14 @@ def render_tube_views(X_mm: np.ndarray, *, width_px: int = 9, margin_px: int = 4
     return images, cams, exp
 
 
+def check_frame_view(ph, frame: int, view_index: int) -> None:
+    """ValueError unless ``frame`` and ``view_index`` (0-based) exist in phantom ``ph`` (a site or scene phantom)."""
+    if not 0 <= frame < ph.n_frames:
+        raise ValueError(f"frame: expected 0..{ph.n_frames - 1}, got {frame}")
+    if not 0 <= view_index < len(ph.cameras):
+        raise ValueError(f"view_index: expected 0..{len(ph.cameras) - 1}, got {view_index}")
+
+
 def render_view(phantom: Phantom, frame: int, view_index: int, *, noise: bool = True) -> np.ndarray:
     """One frame of one view, BGR uint8 (height, width, 3), before compression.
 
@@ -312,10 +320,7 @@ def render_view(phantom: Phantom, frame: int, view_index: int, *, noise: bool = 
     (4 x 4 supersampled), so where it crosses itself in a view it is one
     merged blob; then optical blur, noise and rounding.
     """
-    if not 0 <= frame < phantom.n_frames:
-        raise ValueError(f"frame: expected 0..{phantom.n_frames - 1}, got {frame}")
-    if not 0 <= view_index < len(phantom.cameras):
-        raise ValueError(f"view_index: expected 0..{len(phantom.cameras) - 1}, got {view_index}")
+    check_frame_view(phantom, frame, view_index)
     st = static_layers(phantom, view_index)
     cam = phantom.cameras[view_index]
     img = st["blurred"].copy()

@@ -25,7 +25,7 @@ import numpy as np
 
 from tendrilkit.phantom.design import read_only
 from tendrilkit.phantom.projection import _project_safe
-from tendrilkit.phantom.render import _STEM, _blend, _light_map, _render_static, _tube_cover
+from tendrilkit.phantom.render import _STEM, _blend, _light_map, _render_static, _tube_cover, check_frame_view
 from tendrilkit.phantom.scenes.make import ScenePhantom
 
 
@@ -124,10 +124,7 @@ def render_scene_view(ph: ScenePhantom, frame: int, view_index: int) -> np.ndarr
     view_index : int
         0-based view.
     """
-    if not 0 <= frame < ph.n_frames:
-        raise ValueError(f"frame: expected 0..{ph.n_frames - 1}, got {frame}")
-    if not 0 <= view_index < len(ph.cameras):
-        raise ValueError(f"view_index: expected 0..{len(ph.cameras) - 1}, got {view_index}")
+    check_frame_view(ph, frame, view_index)
     st = scene_layers(ph, view_index)
     cam = ph.cameras[view_index]
     im = ph.imaging
