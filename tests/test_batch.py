@@ -38,16 +38,21 @@ CROSS_SITE = [
 ]
 
 
+def write_test_notebooks(folder: Path) -> Path:
+    """A tiny notebook collection in ``folder``: one per-experiment notebook and the cross-site one."""
+    folder.mkdir()
+    for name, cells in (("00_test.ipynb", PER_EXPERIMENT), ("07_compare_sites.ipynb", CROSS_SITE)):
+        nb = nbformat.v4.new_notebook(cells=cells)
+        nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+        nbformat.write(nb, str(folder / name))
+    return folder
+
+
 @pytest.fixture(scope="module")
 def setup(tmp_path_factory):
     root = tmp_path_factory.mktemp("batch")
     exp = write_phantom_experiment("S2", root / "S2", n_frames=3, seed=0)
-    nbs = root / "nbs"
-    nbs.mkdir()
-    for name, cells in (("00_test.ipynb", PER_EXPERIMENT), ("07_compare_sites.ipynb", CROSS_SITE)):
-        nb = nbformat.v4.new_notebook(cells=cells)
-        nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
-        nbformat.write(nb, str(nbs / name))
+    nbs = write_test_notebooks(root / "nbs")
     bad = root / "bad.yaml"
     bad.write_text("name: broken\nfps: fast\n")
     return root, exp, nbs, bad

@@ -188,18 +188,11 @@ def test_a_worker_killed_mid_run_loses_nothing_and_changes_nothing(reference, tm
 @pytest.mark.slow
 def test_batch_on_a_local_cluster(tmp_path):
     """A batch's experiments and notebooks as tasks: the reconstruction's bytes and the notebooks' outputs."""
-    import nbformat
-
     from tendrilkit.phantom import write_phantom_experiment
-    from tests.test_batch import CROSS_SITE, PER_EXPERIMENT
+    from tests.test_batch import write_test_notebooks
 
     exp = write_phantom_experiment("S2", tmp_path / "S2", n_frames=3, seed=0)
-    nbs = tmp_path / "nbs"
-    nbs.mkdir()
-    for name, cells in (("00_test.ipynb", PER_EXPERIMENT), ("07_compare_sites.ipynb", CROSS_SITE)):
-        nb = nbformat.v4.new_notebook(cells=cells)
-        nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
-        nbformat.write(nb, str(nbs / name))
+    nbs = write_test_notebooks(tmp_path / "nbs")
     env = {**os.environ, "TENDRILKIT_PROGRESS": "0", SCHEDULER_ENV: "local:1"}
     r = subprocess.run([sys.executable, "-m", "tendrilkit", "batch", str(exp), "--reports", str(tmp_path / "reports"),
                         "--notebooks", str(nbs)], capture_output=True, text=True, cwd=ROOT, env=env, timeout=900)
