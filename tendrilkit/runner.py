@@ -78,6 +78,7 @@ import math
 import multiprocessing as mp
 import os
 import signal
+import warnings
 from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -502,10 +503,25 @@ class _Sources:
 
 
 def _warm_up(fit: bool) -> None:
-    """Run the compiled kernels once on a small synthetic curve (numba compiles or loads its cache)."""
+    """Run the compiled kernels once on a small synthetic curve and mask (numba compiles or loads its cache).
+
+    skan's graph kernels are not cached by numba: without this, every worker
+    process compiles them (about 3 CPU-s) in its first chunk.
+    """
     from tendrilkit.correspondence import discrete_frechet, match_epipolar
     from tendrilkit.pwc import fit_piecewise_clothoid
+    from tendrilkit.skeleton import order_skeleton
     from tendrilkit.triangulation import reprojection_table, triangulate
+
+    mask = np.zeros((40, 60), bool)  # a stroke with a side branch: a junction and three ends
+    mask[18:22, 5:55] = True
+    mask[5:20, 30:33] = True
+    try:
+        with warnings.catch_warnings():  # the branch is left out of the walk: a warm-up, not a frame
+            warnings.simplefilter("ignore")
+            order_skeleton(mask, base_point_xy=(5.0, 20.0))
+    except FrameError:
+        pass
 
     s = np.linspace(0.0, 1.0, 60)
     X = np.c_[30 * s, 5 * np.sin(4 * s), 200 + 5 * np.cos(4 * s)]
