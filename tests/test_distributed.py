@@ -107,6 +107,63 @@ def test_cluster_rejects_the_pool_spec():
         Cluster(SchedulerSpec("pool"))
 
 
+# ------------------------------------------------------------------ worker settings (throughput)
+_MAPPED = """
+import ctypes
+import numpy as np
+from tendrilkit.distributed import _adaptive_malloc_thresholds
+
+class Info(ctypes.Structure):  # glibc's struct mallinfo2
+    _fields_ = [(n, ctypes.c_size_t) for n in ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks",
+                                                "fsmblks", "uordblks", "fordblks", "keepcost")]
+
+libc = ctypes.CDLL("libc.so.6")
+libc.mallinfo2.restype = Info
+
+def mapped():  # bytes in blocks of their own mapping while a float image of a 1080p frame is alive
+    frame = np.ones((1080, 1920), np.float64)
+    return libc.mallinfo2().hblkhd
+
+print(mapped(), mapped(), _adaptive_malloc_thresholds(), mapped())
+"""
+FRAME_B = 1080 * 1920 * 8
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
+def test_a_nannys_malloc_trim_threshold_is_undone_in_the_worker():
+    """MALLOC_TRIM_THRESHOLD_ (set by Dask's nanny) maps every frame afresh; a worker's setup undoes it."""
+    env = {**os.environ, "MALLOC_TRIM_THRESHOLD_": "65536"}
+    r = subprocess.run([sys.executable, "-c", _MAPPED], capture_output=True, text=True, cwd=ROOT, env=env, timeout=120)
+    assert r.returncode == 0, r.stderr
+    first, second, undone, after = r.stdout.split()
+    assert int(first) >= FRAME_B and int(second) >= FRAME_B  # the nanny's setting: a fresh mapping each time
+    assert undone == "True" and int(after) < FRAME_B  # the frame taken from the heap
+    env.pop("MALLOC_TRIM_THRESHOLD_")
+    r = subprocess.run([sys.executable, "-c", _MAPPED], capture_output=True, text=True, cwd=ROOT, env=env, timeout=120)
+    assert r.returncode == 0, r.stderr
+    first, second, undone, after = r.stdout.split()
+    assert int(first) >= FRAME_B and int(second) < FRAME_B  # glibc's adaptive threshold
+    assert undone == "False"  # left alone
+
+
+@pytest.mark.slow
+def test_local_cluster_workers_keep_glibc_malloc_and_wake_rarely():
+    from tendrilkit.distributed import LOCAL_CONFIG
+
+    with Cluster(parse_scheduler("local:1")) as cluster:
+        got = cluster.client.run(lambda: (os.environ.get("MALLOC_TRIM_THRESHOLD_"), _config("distributed.worker.profile.enabled"),
+                                          _config("distributed.admin.tick.interval")))
+        ticks = cluster.client.run_on_scheduler(lambda dask_scheduler: dask_scheduler.periodic_callbacks["tick"].callback_time)
+    assert list(got.values()) == [(None, False, LOCAL_CONFIG["distributed.admin.tick.interval"])]
+    assert ticks == 1000
+
+
+def _config(key: str):
+    import dask
+
+    return dask.config.get(key)
+
+
 # ------------------------------------------------------------------ video not readable where the chunk runs
 @pytest.mark.slow
 def test_a_process_that_cannot_open_a_video_fails_that_view_with_the_reason(reference, tmp_path):
