@@ -24,14 +24,24 @@ Needs ``data/phantoms`` (``python -m tendrilkit phantom --site all --out data/ph
    worker reads (its chunks' frames of the three views, with the decode from
    the previous key frame that a seek costs).
 
-Measured (2026-11-29, 2 cores shared with seven other jobs, load average 14-23; --rounds 2
---batch-frames 15): per-task overhead pool 0.9 ms, local:1 77 ms, local:2 48 ms; 60 frames:
-pool 0.50, local:1 0.33, local:2 0.41 frames/s (local:2 / pool 1.23, rounds 1.47 and 0.90:
-the load, not the cluster, dominates); batch (not interleaved) pool 0.46, local:1 0.17,
-local:2 0.21 frames/s. Tables byte-identical across modes. Rerun on a quiet machine.
+Figure 2 is printed twice. 2a: the frame loop on executors started once
+beforehand (cluster start-up excluded: spawning the workers, importing,
+compiling the kernels once per worker), frames/s and CPU seconds per frame of
+the workers and of the client; this is the issue's throughput figure. 2b: the
+whole command a user types (``python -m tendrilkit reconstruct ... --scheduler
+pool|local:1|local:2``, the calibration reused), start-up included, wall and CPU
+seconds of the command and all its processes. Start-up is also printed alone.
 
-Cluster start-up (spawning workers, importing, compiling the kernels once) is
-timed separately and not counted in the frames/s: it is paid once per command.
+Measured (2026-11-29 23:00, 2 cores shared with four other engineers, load average 10-20;
+--rounds 2 --batch-frames 15): start-up pool 0.0 s (the kernels compiled before), local:1
+17.8 s, local:2 36.6 s; per-task overhead pool 0.08 ms, local:1 9.1 ms, local:2 5.9 ms;
+2a pool 2.19, local:1 2.23, local:2 2.01 frames/s (local:2 / pool 1.09; CPU s/frame of the
+workers 0.182, 0.168, 0.197); 2b pool 0.98, local:1 0.74, local:2 0.59 frames/s (local:2 /
+pool 1.68; CPU 23.4, 27.1, 38.1 s: the workers' start-up); batch pool 1.53, local:1 1.69,
+local:2 1.49 frames/s. Tables byte-identical across modes. Before the worker settings of
+tendrilkit.distributed (Dask's MALLOC_TRIM_THRESHOLD_, uncompiled skan kernels) local:2 was
+1.30 x the pool on the idle machine. Rerun on a quiet machine.
+
 Prints the load average before and after: figures on a shared machine are
 upper bounds; compare the ratios, measured in the same run.
 """
@@ -41,8 +51,10 @@ from __future__ import annotations
 import argparse
 import os
 import pickle
+import resource
 import shutil
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -52,6 +64,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 os.environ.setdefault("TENDRILKIT_PROGRESS", "0")
+
+import psutil  # noqa: E402  (a dependency of distributed)
 
 from tendrilkit.distributed import Cluster, parse_scheduler  # noqa: E402
 from tendrilkit.pipeline import RESULT_FILES  # noqa: E402
@@ -95,6 +109,27 @@ def _tables(out: Path) -> dict[str, bytes]:
     return {n: (out / n).read_bytes() for n in RESULT_FILES if (out / n).is_file()}
 
 
+def _cpu_s(pids: list[int]) -> float:
+    """User + system CPU seconds used so far by these processes."""
+    return sum(sum(psutil.Process(p).cpu_times()[:2]) for p in pids)
+
+
+def _command(exp: Path, out: Path, mode: str) -> tuple[float, float]:
+    """Wall and CPU seconds (the command and its workers) of ``python -m tendrilkit reconstruct``, start-up included."""
+    sched = ["--scheduler", "pool", "--workers", "2"] if mode == "pool" else ["--scheduler", mode]
+    env = {**os.environ, "TENDRILKIT_PROGRESS": "0"}
+    env.pop("TENDRILKIT_SCHEDULER", None)
+    c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    r = subprocess.run([sys.executable, "-m", "tendrilkit", "reconstruct", str(exp), "--out", str(out), "--quiet",
+                        *sched], cwd=ROOT, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if r.returncode not in (0, 1):
+        raise RuntimeError(f"{mode}: reconstruct exited {r.returncode}: {r.stderr.strip()[-300:]}")
+    return wall, (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
+
+
 def _reconstruct_task(exp: str, out: str, stop: int) -> int:
     """One experiment of the batch figure (a task): its reconstruction in the task's process."""
     os.environ["TENDRILKIT_PROGRESS"] = "0"
@@ -132,6 +167,8 @@ def main() -> int:
             starts[name] = time.perf_counter() - t
             executors[name] = clusters[name].executor
         workers = {"pool": 2, "local:1": 1, "local:2": 2}
+        [f.result() for f in [pool.submit(_noop, i) for i in range(4)]]  # the pool's processes exist
+        pids = {"pool": list(pool._processes), **{k: list(c.client.run(os.getpid).values()) for k, c in clusters.items()}}
         print("start-up s (once per command): " + ", ".join(f"{k} {v:.1f}" for k, v in starts.items()))
 
         # 1. per-task overhead
@@ -149,16 +186,20 @@ def main() -> int:
         # 2. the 60-frame experiment, interleaved
         modes = list(executors)
         times: dict[str, list[float]] = {m: [] for m in modes}
+        cpu_w: dict[str, list[float]] = {m: [] for m in modes}
+        cpu_c: dict[str, list[float]] = {m: [] for m in modes}
         ref = None
         n_frames = None
         for r in range(args.rounds):
             order = modes[r % len(modes):] + modes[:r % len(modes)]
             for m in order:
                 out = _fresh(calib["S3"], base / f"S3_{m.replace(':', '')}")
-                t = time.perf_counter()
+                w0, c0, t = _cpu_s(pids[m]), time.process_time(), time.perf_counter()
                 run_reconstruct(exps["S3"], out, workers=workers[m], progress=False, contact_sheet=False,
                                 executor=executors[m])
                 times[m].append(time.perf_counter() - t)
+                cpu_c[m].append(time.process_time() - c0)
+                cpu_w[m].append(_cpu_s(pids[m]) - w0)
                 tabs = _tables(out)
                 n_frames = len(list((out / "frames").glob("frame_*.json")))
                 if ref is None:
@@ -168,11 +209,34 @@ def main() -> int:
                     return 1
         print(f"\n2. one {n_frames}-frame experiment (S3, chain method), {args.rounds} interleaved rounds, "
               f"tables byte-identical across modes: yes")
+        print("   a. the frame loop on running executors (start-up excluded: started once above); CPU: the workers' "
+              "processes, and the client's (for local:N also the scheduler's and the nannies')")
         med = {m: statistics.median(v) for m, v in times.items()}
         for m in modes:
-            print(f"   {m:8s} {n_frames / med[m]:6.2f} frames/s  (runs s: {', '.join(f'{x:.1f}' for x in times[m])})")
+            print(f"   {m:8s} {n_frames / med[m]:6.2f} frames/s  (runs s: {', '.join(f'{x:.1f}' for x in times[m])}); "
+                  f"CPU s/frame: workers {statistics.median(cpu_w[m]) / n_frames:.3f}, "
+                  f"client {statistics.median(cpu_c[m]) / n_frames:.3f}")
         for m in ("local:1", "local:2"):
             print(f"   {m} / pool time ratio: {med[m] / med['pool']:.2f}")
+        # b. what a user's command costs: python -m tendrilkit reconstruct, start-up and imports included
+        cmd: dict[str, list[tuple[float, float]]] = {m: [] for m in modes}
+        for r in range(args.rounds):
+            order = modes[r % len(modes):] + modes[:r % len(modes)]
+            for m in order:
+                out = _fresh(calib["S3"], base / f"cmd_S3_{m.replace(':', '')}")
+                cmd[m].append(_command(exps["S3"], out, m))
+                if _tables(out) != ref:
+                    print(f"   MISMATCH: the {m} command's tables differ from the first run", file=sys.stderr)
+                    return 1
+        print(f"   b. the whole command `python -m tendrilkit reconstruct ... --scheduler MODE` (calibration reused; "
+              f"start-up, imports, tables and contact sheet included), {args.rounds} interleaved rounds; CPU: the "
+              f"command and all its processes")
+        cmed = {m: statistics.median(w for w, _ in v) for m, v in cmd.items()}
+        for m in modes:
+            print(f"   {m:8s} {n_frames / cmed[m]:6.2f} frames/s  (runs s: {', '.join(f'{w:.1f}' for w, _ in cmd[m])}); "
+                  f"CPU s: {statistics.median(c for _, c in cmd[m]):.1f}")
+        for m in ("local:1", "local:2"):
+            print(f"   {m} / pool time ratio (whole command): {cmed[m] / cmed['pool']:.2f}")
 
         # 3. a 4-experiment batch, reconstruction only
         bt = {}
@@ -192,7 +256,7 @@ def main() -> int:
         # 4. growth to 10 machines
         video_bytes = sum(p.stat().st_size for p in e3.videos)
         per_frame_b = video_bytes / n_frames
-        per_frame_s = med["local:2"] * workers["local:2"] / n_frames  # worker-seconds per frame
+        per_frame_s = statistics.median(cpu_w["local:2"]) / n_frames  # worker CPU-s per frame (not the loaded wall time)
         n = 27_000  # one experiment of the paper's design: 15 min at 30 fps
         for machines, cores in ((10, 2), (10, 16)):
             w = machines * cores
@@ -201,7 +265,7 @@ def main() -> int:
             print(f"\n4. {machines} machines x {cores} cores ({w} workers), one 27,000-frame experiment: chunks of "
                   f"{size} frames, {tasks} tasks; scheduling {tasks} x {over['local:2'] * 1e3:.1f} ms = "
                   f"{tasks * over['local:2']:.0f} s of client time against {n * per_frame_s / w:.0f} s of "
-                  f"computing per worker ({per_frame_s:.2f} worker-s/frame measured here); shipped "
+                  f"computing per worker ({per_frame_s:.2f} worker CPU-s/frame measured here); shipped "
                   f"{tasks * ship / 1e6:.1f} MB of task arguments; each worker reads ~{n / w * per_frame_b / 1e6:.0f} MB "
                   f"of video (phantom {per_frame_b / 1e3:.0f} kB/frame for three views; 1080p H.264 recordings are "
                   f"larger) plus at most one key-frame interval decoded per chunk start")
