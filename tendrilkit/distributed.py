@@ -138,7 +138,7 @@ class WorkerSetup(_WorkerPluginBase):
         _warm_up(True)
 
 
-#: glibc's ``mallopt`` parameters, and the values its adaptive thresholds reach for 1080p frames.
+#: glibc's ``mallopt`` parameters, and the largest values of its adaptive thresholds.
 _M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
 _MMAP_THRESHOLD_B = 32 * 2**20  # glibc's largest adaptive mmap threshold (64-bit)
 _TRIM_THRESHOLD_B = 2 * _MMAP_THRESHOLD_B  # what glibc sets with it
@@ -150,9 +150,10 @@ def _adaptive_malloc_thresholds() -> bool:
     The variable turns glibc's adaptive mmap threshold off, so every block of
     128 kB or more (a decoded frame, its masks and temporaries) is mapped and
     unmapped afresh, page faults included. The thresholds are set to the
-    values glibc itself reaches on this workload (a remote ``dask worker``
-    started with the default settings; a ``local:N`` cluster does not set
-    the variable). Returns whether they were set.
+    largest values glibc's adaptive rule would reach (mmap 32 MiB, trim twice
+    that): a remote ``dask worker`` started with the default settings; a
+    ``local:N`` cluster does not set the variable (unless the user's
+    environment does). Returns whether they were set.
     """
     if "MALLOC_TRIM_THRESHOLD_" not in os.environ or not sys.platform.startswith("linux"):
         return False
