@@ -14,7 +14,7 @@ from numba import njit
 
 from tendrilkit.frenet import _integrate, _orthonormal_frame
 from tendrilkit.geometry import rigid_fit, section_masks
-from tendrilkit.pwc.laws import PiecewiseLinearLaw
+from tendrilkit.pwc.laws import PiecewiseLinearLaw, _pwl_step_means
 
 __all__ = ["FitScores", "register_rigid", "rebuild_curve", "fit_scores"]
 
@@ -235,6 +235,12 @@ def fit_scores(fitted_mm: np.ndarray, data_mm: np.ndarray, s_mm: np.ndarray) -> 
     return FitScores(r2e, r2b, r2t, ssee, sseb, sset, float(np.sqrt(err.mean())), float(np.sqrt(err.max())))
 
 
+@njit(cache=True)
+def _laws_sse(s, kk, vk, kt, vt, data):
+    return _registered_sse(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt), data)
+
+
 def _law_sse(prep, law_k, law_t):
-    s = prep.s
-    return float(_registered_sse(s, law_k.step_means(s), law_t.step_means(s), prep.data))
+    """SSE (mm^2) of the laws integrated from the identity and registered onto ``prep.data``: one compiled call."""
+    f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    return float(_laws_sse(prep.s, f(law_k.knots_mm), f(law_k.values), f(law_t.knots_mm), f(law_t.values), prep.data))
