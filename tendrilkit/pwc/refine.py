@@ -331,18 +331,22 @@ def _best_insertions(prep, lk, lt):
     xs = np.arange(s[0] + gap, s[-1] - gap, max(gap / 2, (s[-1] - s[0]) / 200))
     a, b = s[:-1, None], s[1:, None]
     hinge = np.where(b <= xs, 0.0, np.where(a >= xs, 0.5 * (a + b) - xs, (b - xs) ** 2 / (2 * (b - a))))
-    none = np.zeros((s.size - 1, 0))
+    oks = [np.min(np.abs(xs[:, None] - law.knots_mm[None, :]), axis=1) >= gap for law in (lk, lt)]
+    nk, nt = int(oks[0].sum()), int(oks[1].sum())
+    if nk + nt == 0:
+        return [None, None]
+    # both laws' hinge columns in one pass (each column is computed on its own)
+    C = _lm_jacobian(s, P, T, B, R, X, np.ascontiguousarray(hinge[:, oks[0]]),
+                     np.ascontiguousarray(hinge[:, oks[1]]))[:, : nk + nt]
+    Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
+    num = (Cp.T @ r) ** 2
+    den = np.einsum("ij,ij->j", Cp, Cp) + 1e-300
     out = []
-    for law, cols in ((lk, (hinge, none)), (lt, (none, hinge))):
-        ok = np.min(np.abs(xs[:, None] - law.knots_mm[None, :]), axis=1) >= gap
+    for ok, cols in zip(oks, (slice(0, nk), slice(nk, nk + nt))):
         if not ok.any():
             out.append(None)
             continue
-        C = _lm_jacobian(s, P, T, B, R, X, np.ascontiguousarray(cols[0][:, ok] if cols[0].shape[1] else cols[0]),
-                         np.ascontiguousarray(cols[1][:, ok] if cols[1].shape[1] else cols[1]))[:, : int(ok.sum())]
-        Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
-        num = (Cp.T @ r) ** 2
-        den = np.einsum("ij,ij->j", Cp, Cp) + 1e-300
-        j = int(np.argmax(num / den))
-        out.append((float(xs[ok][j]), float(num[j] / den[j])))
+        gain = num[cols] / den[cols]
+        j = int(np.argmax(gain))
+        out.append((float(xs[ok][j]), float(gain[j])))
     return out
