@@ -6,8 +6,12 @@
    the paper: about 200 s; a port of the reference's 10-step search: about 4 s);
 2. the paper's grid search on the same frames;
 3. ``python -m tendrilkit fit`` on a 100-frame curves.csv, process start included
-   (issue 17 target: <= 2 s), run twice: the first run may compile numba's cache.
-Also prints the accuracy on the seeded noisy ground-truth curves.
+   (issue 17 target: <= 2 s), run twice: the first run may compile numba's cache; then the
+   start-up alone (imports, numba's first cache load) in a fresh process, and whether the
+   environment holds compiled bytecode (without it every process compiles numba, pandas and
+   scipy from source: about a second more).
+Also prints the accuracy on the seeded noisy ground-truth curves and where the time of one
+frame goes (CPU per stage, measured in a second pass).
 """
 
 from __future__ import annotations
@@ -56,6 +60,10 @@ def main() -> None:
     print(f"accuracy (0.15 mm noise): mean distance to truth median {np.median(dist):.3f} mm, "
           f"<= 0.3 mm on {100 * np.mean(dist <= 0.3):.0f} %, R2 >= 0.999 on {100 * np.mean(r2 >= 0.999):.0f} %")
 
+    print("where the time goes (CPU ms per frame, second pass, stages timed separately):")
+    for name, ms in _stage_times(curves).items():
+        print(f"  {name:44s} {ms:6.2f}")
+
     gt = []
     for tc in curves[:10]:
         t = time.perf_counter()
@@ -102,6 +110,59 @@ def main() -> None:
             print(f"fit command, {args.frames} frames, run {run}: {dt:.2f} s end to end, {child_cpu:.2f} s CPU "
                   f"(target <= 2 s)"
                   f" [{r.stdout.strip() or r.stderr.strip()}]")
+    code = ("import time; c = time.process_time(); import tendrilkit.cli, tendrilkit.fitting, tendrilkit.io, "
+            "tendrilkit.pwc; a = time.process_time() - c; import numpy as np; "
+            "u = np.linspace(0, 12, 200); P = np.c_[30 * np.cos(u), 30 * np.sin(u), 8 * u]; "
+            "c = time.process_time(); tendrilkit.pwc.fit_piecewise_clothoid(P); b = time.process_time() - c; "
+            "c = time.process_time(); tendrilkit.pwc.fit_piecewise_clothoid(P); d = time.process_time() - c; "
+            "print(f'{a:.2f} {b - d:.2f}')")
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True).stdout.split()
+    if len(out) == 2:
+        print(f"start-up of the fit command (CPU): imports {out[0]} s, numba's first cache load {out[1]} s")
+    import numba
+    compiled = any((Path(numba.__file__).parent / "core" / "__pycache__").glob("*.pyc"))
+    print("site-packages bytecode: " + ("compiled" if compiled else
+          "NOT compiled (uv installs without it; `uv pip sync --compile-bytecode` or `python -m compileall`)"))
+
+
+def _stage_times(curves) -> dict:
+    """CPU time per frame of each stage of the automatic fit (wrappers around the stage functions)."""
+    import tendrilkit.pwc.fit as F
+    import tendrilkit.pwc.selection as S
+
+    stages = [(F, "_prepare", "signals: smoothing, Frenet frames, cost tables"),
+              (S, "penalty_path", "search: both penalty paths"),
+              (S, "join_segments", "continuity: joins and knot refit"),
+              (S, "_law_sse", "selection: SSE of the starts"),
+              (S, "_refine_laws", "refinement: Levenberg-Marquardt"),
+              (S, "_best_insertions", "selection: knot score test"),
+              (F, "_finish", "rebuild, registration, scores")]
+    acc = {label: 0.0 for _, _, label in stages}
+    saved = []
+    for mod, name, label in stages:
+        f = getattr(mod, name)
+        saved.append((mod, name, f))
+
+        def timed(*a, _f=f, _label=label, **k):
+            c = time.process_time()
+            try:
+                return _f(*a, **k)
+            finally:
+                acc[_label] += time.process_time() - c
+
+        setattr(mod, name, timed)
+    try:
+        c = time.process_time()
+        for tc in curves:
+            fit_piecewise_clothoid(tc.points_mm)
+        total = time.process_time() - c
+    finally:
+        for mod, name, f in saved:
+            setattr(mod, name, f)
+    out = {k: 1e3 * v / len(curves) for k, v in acc.items()}
+    out["selection: the rest (Python)"] = 1e3 * total / len(curves) - sum(out.values())
+    out["total"] = 1e3 * total / len(curves)
+    return out
 
 
 if __name__ == "__main__":

@@ -324,6 +324,69 @@ def test_step_means_are_the_exact_integral_of_the_law(seed):
     np.testing.assert_allclose(law.step_means(s), np.diff(integral) / np.diff(s), rtol=1e-9, atol=1e-12)
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_refinement_integration_is_the_frenet_integration(seed):
+    """The refinement's integrator (frame in scalars, N not stored) gives the same bits as
+    tendrilkit.frenet's from the identity frame, also across steps with no turn."""
+    from tendrilkit.frenet import _integrate
+    from tendrilkit.pwc.rebuild import _integrate_identity
+
+    rng = np.random.default_rng(seed)
+    s = np.cumsum(rng.uniform(0.2, 1.5, 150))
+    k = rng.uniform(0.0, 0.12, 149)
+    t = rng.uniform(-0.08, 0.08, 149)
+    k[rng.integers(0, 149, 5)] = 0.0
+    t[k == 0.0] = 0.0
+    P, T, N, B = _integrate(s, k, t, np.eye(3), np.zeros(3), False)
+    P2, T2, B2 = _integrate_identity(s, k, t)
+    for a, b in ((P, P2), (T, T2), (B, B2)):
+        assert np.array_equal(a, b)
+
+
+def test_refinement_jacobian_matches_finite_differences():
+    """Each column of the analytic Jacobian (knot values, inner knot positions) against a finite
+    difference of the registered points; the Jacobian is first order in the step (values) and
+    takes the knot derivative at step midpoints (positions), hence the tolerances."""
+    from tendrilkit.pwc.laws import _pwl_step_means
+    from tendrilkit.pwc.rebuild import _integrate_identity
+    from tendrilkit.pwc.refine import _law_columns, _lm_evaluate, _lm_jacobian
+
+    tc = random_pwc_curve(7)
+    s, data = tc.s_mm.copy(), tc.points_mm
+    kk, vk = (a.copy() for a in tc.kappa_knots)
+    kt, vt = (a.copy() for a in tc.tau_knots)
+    _, P, T, B, R, X = _lm_evaluate(s, kk, vk, kt, vt, data)
+    J = _lm_jacobian(s, P, T, B, R, X, _law_columns(s, kk, vk, True), _law_columns(s, kt, vt, True))
+    t = X[0] - R @ P[0]
+
+    def points(kk, vk, kt, vt):
+        Q, _, _ = _integrate_identity(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt))
+        return (Q @ R.T + t).ravel()
+
+    base = points(kk, vk, kt, vt)
+    cols, is_knot = [], []
+    for law in ("k", "t"):
+        knots, values = (kk, vk) if law == "k" else (kt, vt)
+        for q in range(values.size):
+            v = values.copy()
+            v[q] += 1e-7
+            args = (kk, v, kt, vt) if law == "k" else (kk, vk, kt, v)
+            cols.append((points(*args) - base) / 1e-7)
+            is_knot.append(False)
+        for q in range(1, knots.size - 1):
+            x = knots.copy()
+            x[q] += 1e-5
+            args = (x, vk, kt, vt) if law == "k" else (kk, vk, x, vt)
+            cols.append((points(*args) - base) / 1e-5)
+            is_knot.append(True)
+    Jn = np.array(cols).T
+    assert J.shape == (3 * s.size, Jn.shape[1] + 6)
+    err = np.abs(J[:, : Jn.shape[1]] - Jn).max(axis=0) / np.abs(Jn).max(axis=0)
+    is_knot = np.array(is_knot)
+    assert np.all(err[~is_knot] < 3e-3), err
+    assert np.all(err[is_knot] < 0.15), err
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_knot_refit_is_scipys_least_squares_linear_spline(seed):
     """The weighted continuous refit at the surviving knots equals scipy's least-squares linear B-spline

@@ -14,14 +14,100 @@ from numba import njit
 
 from tendrilkit.frenet import _integrate, _orthonormal_frame
 from tendrilkit.geometry import rigid_fit, section_masks
-from tendrilkit.pwc.laws import PiecewiseLinearLaw
+from tendrilkit.pwc.laws import PiecewiseLinearLaw, _pwl_step_means
 
 __all__ = ["FitScores", "register_rigid", "rebuild_curve", "fit_scores"]
 
 
 @njit(cache=True)
-def _registered_sse(s, k_step, t_step, F0, p0, data):
-    P, T, N, B = _integrate(s, k_step, t_step, F0, p0, False)
+def _integrate_identity(s, k_step, t_step):
+    """Positions, tangents and binormals from the identity frame at the origin, trapezoidal positions.
+
+    The same arithmetic as :func:`tendrilkit.frenet._integrate` with ``F0 = I``,
+    ``p0 = 0`` and ``exact_positions=False`` (the same bits), the frame held in
+    scalars instead of re-read from the arrays and ``N`` not stored: the inner
+    loop of the refinement. ``s`` (n,) mm; ``k_step``, ``t_step`` (n - 1,)
+    1/mm. Returns ``P, T, B``, each (n, 3).
+    """
+    n = s.shape[0]
+    T = np.empty((n, 3))
+    B = np.empty((n, 3))
+    P = np.empty((n, 3))
+    t0, t1, t2 = 1.0, 0.0, 0.0
+    n0, n1, n2 = 0.0, 1.0, 0.0
+    b0, b1, b2 = 0.0, 0.0, 1.0
+    p0, p1, p2 = 0.0, 0.0, 0.0
+    for i in range(n):
+        if i > 0:
+            h = s[i] - s[i - 1]
+            k = k_step[i - 1]
+            t = t_step[i - 1]
+            wx = t * t0 + k * b0
+            wy = t * t1 + k * b1
+            wz = t * t2 + k * b2
+            th = np.sqrt(k * k + t * t) * h
+            if th < 1e-12:  # no turn: the frame is kept as it is (not re-orthonormalised)
+                p0 = p0 + h * t0
+                p1 = p1 + h * t1
+                p2 = p2 + h * t2
+            else:
+                wn = np.sqrt(wx * wx + wy * wy + wz * wz)
+                ax = wx / wn
+                ay = wy / wn
+                az = wz / wn
+                ct = np.cos(th)
+                st = np.sin(th)
+                omc = 1.0 - ct
+                # Rodrigues on T, then the trapezoidal step of the position
+                cx = ay * t2 - az * t1
+                cy = az * t0 - ax * t2
+                cz = ax * t1 - ay * t0
+                d = ax * t0 + ay * t1 + az * t2
+                rx = t0 * ct + cx * st + ax * d * omc
+                ry = t1 * ct + cy * st + ay * d * omc
+                rz = t2 * ct + cz * st + az * d * omc
+                p0 = p0 + 0.5 * h * (t0 + rx)
+                p1 = p1 + 0.5 * h * (t1 + ry)
+                p2 = p2 + 0.5 * h * (t2 + rz)
+                # Rodrigues on N
+                cx = ay * n2 - az * n1
+                cy = az * n0 - ax * n2
+                cz = ax * n1 - ay * n0
+                d = ax * n0 + ay * n1 + az * n2
+                qx = n0 * ct + cx * st + ax * d * omc
+                qy = n1 * ct + cy * st + ay * d * omc
+                qz = n2 * ct + cz * st + az * d * omc
+                # Gram-Schmidt; B = T x N
+                tn = np.sqrt(rx ** 2 + ry ** 2 + rz ** 2)
+                t0 = rx / tn
+                t1 = ry / tn
+                t2 = rz / tn
+                d = t0 * qx + t1 * qy + t2 * qz
+                qx = qx - d * t0
+                qy = qy - d * t1
+                qz = qz - d * t2
+                nn = np.sqrt(qx ** 2 + qy ** 2 + qz ** 2)
+                n0 = qx / nn
+                n1 = qy / nn
+                n2 = qz / nn
+                b0 = t1 * n2 - t2 * n1
+                b1 = t2 * n0 - t0 * n2
+                b2 = t0 * n1 - t1 * n0
+        T[i, 0] = t0
+        T[i, 1] = t1
+        T[i, 2] = t2
+        B[i, 0] = b0
+        B[i, 1] = b1
+        B[i, 2] = b2
+        P[i, 0] = p0
+        P[i, 1] = p1
+        P[i, 2] = p2
+    return P, T, B
+
+
+@njit(cache=True)
+def _registered_sse(s, k_step, t_step, data):
+    P, T, B = _integrate_identity(s, k_step, t_step)
     if not np.all(np.isfinite(P)):
         return np.inf
     R, t = rigid_fit(P, data)
@@ -149,6 +235,12 @@ def fit_scores(fitted_mm: np.ndarray, data_mm: np.ndarray, s_mm: np.ndarray) -> 
     return FitScores(r2e, r2b, r2t, ssee, sseb, sset, float(np.sqrt(err.mean())), float(np.sqrt(err.max())))
 
 
+@njit(cache=True)
+def _laws_sse(s, kk, vk, kt, vt, data):
+    return _registered_sse(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt), data)
+
+
 def _law_sse(prep, law_k, law_t):
-    s = prep.s
-    return float(_registered_sse(s, law_k.step_means(s), law_t.step_means(s), np.eye(3), np.zeros(3), prep.data))
+    """SSE (mm^2) of the laws integrated from the identity and registered onto ``prep.data``: one compiled call."""
+    f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    return float(_laws_sse(prep.s, f(law_k.knots_mm), f(law_k.values), f(law_t.knots_mm), f(law_t.values), prep.data))

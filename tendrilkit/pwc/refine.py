@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from tendrilkit.frenet import _integrate
 from tendrilkit.geometry import rigid_fit
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _pwl_step_means
+from tendrilkit.pwc.rebuild import _integrate_identity
 
 __all__: list[str] = []
 
@@ -24,14 +24,22 @@ def _lm_jacobian(s, P, T, B, R, X, Mk, Mt):
     """(3n, p + 6) Jacobian of the registered points (values, then rotation, translation).
 
     One pass over the points, every parameter's two running sums updated per
-    step (rows of the Jacobian written contiguously).
+    step (rows of the Jacobian written contiguously). The sums are kept per
+    component in separate arrays and the curvature and torsion parameters in
+    separate loops, so that the loops over parameters vectorise; each entry
+    is computed with the same operations in the same order as per parameter.
     """
     n = P.shape[0]
     nk = Mk.shape[1]
-    p = nk + Mt.shape[1]
+    nt = Mt.shape[1]
+    p = nk + nt
     J = np.zeros((3 * n, p + 6))
-    A = np.zeros((p, 3))
-    C = np.zeros((p, 3))
+    A0 = np.zeros(p)
+    A1 = np.zeros(p)
+    A2 = np.zeros(p)
+    C0 = np.zeros(p)
+    C1 = np.zeros(p)
+    C2 = np.zeros(p)
     for j in range(1, n):
         i = j - 1
         h = s[j] - s[i]
@@ -48,27 +56,32 @@ def _lm_jacobian(s, P, T, B, R, X, Mk, Mt):
         py = P[j, 1]
         pz = P[j, 2]
         r0 = 3 * j
+        for q in range(nk):
+            c = h * Mk[i, q]
+            ax = c * bx
+            ay = c * by
+            az = c * bz
+            A0[q] += ax
+            A1[q] += ay
+            A2[q] += az
+            C0[q] += ay * mz - az * my
+            C1[q] += az * mx - ax * mz
+            C2[q] += ax * my - ay * mx
+        for q in range(nt):
+            c = h * Mt[i, q]
+            ax = c * tx
+            ay = c * ty
+            az = c * tz
+            A0[nk + q] += ax
+            A1[nk + q] += ay
+            A2[nk + q] += az
+            C0[nk + q] += ay * mz - az * my
+            C1[nk + q] += az * mx - ax * mz
+            C2[nk + q] += ax * my - ay * mx
         for q in range(p):
-            if q < nk:
-                c = h * Mk[i, q]
-                ax = c * bx
-                ay = c * by
-                az = c * bz
-            else:
-                c = h * Mt[i, q - nk]
-                ax = c * tx
-                ay = c * ty
-                az = c * tz
-            A[q, 0] += ax
-            A[q, 1] += ay
-            A[q, 2] += az
-            C[q, 0] += ay * mz - az * my
-            C[q, 1] += az * mx - ax * mz
-            C[q, 2] += ax * my - ay * mx
-        for q in range(p):
-            d0 = A[q, 1] * pz - A[q, 2] * py - C[q, 0]
-            d1 = A[q, 2] * px - A[q, 0] * pz - C[q, 1]
-            d2 = A[q, 0] * py - A[q, 1] * px - C[q, 2]
+            d0 = A1[q] * pz - A2[q] * py - C0[q]
+            d1 = A2[q] * px - A0[q] * pz - C1[q]
+            d2 = A0[q] * py - A1[q] * px - C2[q]
             J[r0, q] = R[0, 0] * d0 + R[0, 1] * d1 + R[0, 2] * d2
             J[r0 + 1, q] = R[1, 0] * d0 + R[1, 1] * d1 + R[1, 2] * d2
             J[r0 + 2, q] = R[2, 0] * d0 + R[2, 1] * d1 + R[2, 2] * d2
@@ -142,8 +155,7 @@ def _law_columns(s, knots, values, free_knots):
 
 @njit(cache=True)
 def _lm_evaluate(s, kk, vk, kt, vt, data):
-    P, T, N, B = _integrate(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt),
-                            np.eye(3), np.zeros(3), False)
+    P, T, B = _integrate_identity(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt))
     if not np.all(np.isfinite(P)):
         return np.inf, P, T, B, np.eye(3), P.copy()
     R, t = rigid_fit(P, data)
@@ -319,18 +331,22 @@ def _best_insertions(prep, lk, lt):
     xs = np.arange(s[0] + gap, s[-1] - gap, max(gap / 2, (s[-1] - s[0]) / 200))
     a, b = s[:-1, None], s[1:, None]
     hinge = np.where(b <= xs, 0.0, np.where(a >= xs, 0.5 * (a + b) - xs, (b - xs) ** 2 / (2 * (b - a))))
-    none = np.zeros((s.size - 1, 0))
+    oks = [np.min(np.abs(xs[:, None] - law.knots_mm[None, :]), axis=1) >= gap for law in (lk, lt)]
+    nk, nt = int(oks[0].sum()), int(oks[1].sum())
+    if nk + nt == 0:
+        return [None, None]
+    # both laws' hinge columns in one pass (each column is computed on its own)
+    C = _lm_jacobian(s, P, T, B, R, X, np.ascontiguousarray(hinge[:, oks[0]]),
+                     np.ascontiguousarray(hinge[:, oks[1]]))[:, : nk + nt]
+    Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
+    num = (Cp.T @ r) ** 2
+    den = np.einsum("ij,ij->j", Cp, Cp) + 1e-300
     out = []
-    for law, cols in ((lk, (hinge, none)), (lt, (none, hinge))):
-        ok = np.min(np.abs(xs[:, None] - law.knots_mm[None, :]), axis=1) >= gap
+    for ok, cols in zip(oks, (slice(0, nk), slice(nk, nk + nt))):
         if not ok.any():
             out.append(None)
             continue
-        C = _lm_jacobian(s, P, T, B, R, X, np.ascontiguousarray(cols[0][:, ok] if cols[0].shape[1] else cols[0]),
-                         np.ascontiguousarray(cols[1][:, ok] if cols[1].shape[1] else cols[1]))[:, : int(ok.sum())]
-        Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
-        num = (Cp.T @ r) ** 2
-        den = np.einsum("ij,ij->j", Cp, Cp) + 1e-300
-        j = int(np.argmax(num / den))
-        out.append((float(xs[ok][j]), float(num[j] / den[j])))
+        gain = num[cols] / den[cols]
+        j = int(np.argmax(gain))
+        out.append((float(xs[ok][j]), float(gain[j])))
     return out
