@@ -231,6 +231,7 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
     decisions: list = []
     notes: list[str] = []
     crossings: list = [None] * V
+    labelled: list = [None] * V  # per view, the segmentation's labelled dark pixels (the verification reuses them)
 
     t0 = time.perf_counter()
     for v in range(V):
@@ -243,6 +244,7 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
                                prev_centroid_xy=prev[v], **seg_opts)
             centroids[v] = [float(c) for c in seg.centroid_xy]
             ncomp[v] = int(seg.n_components)
+            labelled[v] = seg.foreground
             oc = order_skeleton(seg.mask_roi, offset_xy=seg.roi_offset_xy, base_point_xy=marks.base_point,
                                 frame=frame, view=v + 1, **order_opts)
             curves[v] = oc.points_xy
@@ -326,7 +328,7 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         reproj_rows = [{k_: (v_.item() if hasattr(v_, "item") else v_) for k_, v_ in r.items()}
                        for r in table.to_dict("records")]
         t0 = time.perf_counter()
-        checks = _verify(points, images, cameras, exp, seg_opts, q)
+        checks = _verify(points, images, cameras, exp, seg_opts, q, labelled)
         timings["verify"] = time.perf_counter() - t0
     except FrameError as e:
         return failed("; ".join(notes + [f"{type(e).__name__}: {e}"]))
@@ -342,15 +344,22 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
                        checks=checks)
 
 
-def _verify(points: np.ndarray, images: list, cameras: list[Camera], exp, seg_opts: dict, q: dict) -> list[str]:
-    """Check the curve against every view's image (:mod:`tendrilkit.verify`); figures into ``q``, failed checks out."""
+def _verify(points: np.ndarray, images: list, cameras: list[Camera], exp, seg_opts: dict, q: dict,
+            labelled: list) -> list[str]:
+    """Check the curve against every view's image (:mod:`tendrilkit.verify`); figures into ``q``, failed checks out.
+
+    ``labelled``: per view the segmentation's labelled dark pixels
+    (:class:`tendrilkit.segmentation.LabelledForeground`, same image and
+    options) or None; the evidence reuses them instead of thresholding again.
+    """
     from tendrilkit.evidence import view_evidence
     from tendrilkit.verify import Thresholds, image_check_messages, verify_curve
 
     th = Thresholds.from_params(exp.verification)
     evidence = [None if img is None else
-                view_evidence(img, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, **seg_opts)
-                for img, m in zip(images, exp.views)]
+                view_evidence(img, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, foreground=fg,
+                              **seg_opts)
+                for img, m, fg in zip(images, exp.views, labelled)]
     q.update(verify_curve(points, cameras, evidence, tolerance_px=th.tolerance_px,
                           coverage_tolerance_px=th.coverage_tolerance_px))
     return image_check_messages(q, len(cameras), th)
