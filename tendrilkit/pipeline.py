@@ -233,20 +233,24 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
     crossings: list = [None] * V
     labelled: list = [None] * V  # per view, the segmentation's labelled dark pixels (the verification reuses them)
 
-    t0 = time.perf_counter()
+    timings["segment"] = timings["order"] = 0.0  # the 2D stage, summed over the views
     for v in range(V):
         marks = exp.views[v]
         if images[v] is None:
             notes.append(f"view {v + 1}: {read_errors[v] or 'no image'}")
             continue
         try:
+            t0 = time.perf_counter()
             seg = segment_view(images[v], roi=marks.roi, keep_out=marks.keep_out, base_point_xy=marks.base_point,
                                prev_centroid_xy=prev[v], **seg_opts)
+            t1 = time.perf_counter()
+            timings["segment"] += t1 - t0
             centroids[v] = [float(c) for c in seg.centroid_xy]
             ncomp[v] = int(seg.n_components)
             labelled[v] = seg.foreground
             oc = order_skeleton(seg.mask_roi, offset_xy=seg.roi_offset_xy, base_point_xy=marks.base_point,
                                 frame=frame, view=v + 1, **order_opts)
+            timings["order"] += time.perf_counter() - t1
             curves[v] = oc.points_xy
             crossings[v] = int(oc.n_crossings)
             decisions.extend(d.as_dict() for d in oc.decisions)
@@ -256,7 +260,6 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
             raise
         except _NUMERICAL_ERRORS as e:
             notes.append(f"view {v + 1}: unexpected {type(e).__name__} in the 2D stage: {e}")
-    timings["2d"] = time.perf_counter() - t0
 
     def failed(msg: str) -> FrameResult:
         return FrameResult(frame=frame, time_s=t_s, status="failed", message=msg, decisions=decisions,
@@ -282,9 +285,9 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         timings["match"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         tri = triangulate(matched, cams, **stage_options(exp, "triangulation"))
-        timings["triangulate"] = time.perf_counter() - t0
         good = triangulation_inliers(tri.points_mm, tri.reproj_err_px,
                                      max_distance_px=exp.correspondence.max_distance_px)
+        timings["triangulate"] = time.perf_counter() - t0
         if good.sum() < max(10, k // 10):
             raise DegenerateCurveError(f"only {int(good.sum())} of {k} points could be triangulated")
         tri_pts = tri.points_mm[good]
@@ -295,12 +298,14 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         q_base = False
         ext_mm = 0.0
         if exp.triangulation.base_from_marks:
+            t0 = time.perf_counter()
             base = base_from_marks([m.base_point for m in exp.views], cameras, tri_pts,
                                    max_distance_px=exp.correspondence.max_distance_px)
             if base is not None:
                 ext_mm = float(np.linalg.norm(tri_pts[0] - base))
                 tri_pts = np.vstack([base, tri_pts])
                 q_base = True
+            timings["base"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         points = resample_curve(tri_pts, k)
         timings["resample"] = time.perf_counter() - t0
