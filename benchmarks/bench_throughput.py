@@ -199,10 +199,23 @@ def time_frame(images, cams, exp) -> tuple[float, str, dict]:
     return float(np.median(totals)), r.status, {k: float(np.median(v)) for k, v in stages.items()}
 
 
-def _row(label, x, t, status, stages, unit):
-    top = sorted(stages.items(), key=lambda kv: -kv[1])[:3]
-    print(f"   {label:>8} {x:>8.0f}  {1e3 * t:8.1f} ms  {1e6 * t / x:9.2f} us/{unit}  {status:8s} "
-          + ", ".join(f"{k} {1e3 * v:.1f}" for k, v in top))
+def _row(label, x, t, status, stages, unit, prev):
+    """One row: total, without the fit, the marginal cost without the fit since the previous row, top stages.
+
+    Returns ``(x, cost without the fit)`` for the next row's marginal cost: a marginal cost per unit that
+    keeps growing down a table is where the growth stops being linear.
+    """
+    rest = t - stages.get("pwc", 0.0)
+    marginal = "" if prev is None else f"{1e6 * (rest - prev[1]) / (x - prev[0]):9.1f}"
+    top = sorted(((k, v) for k, v in stages.items() if k != "pwc"), key=lambda kv: -kv[1])[:3]
+    print(f"   {label:>8} {x:>6.0f} {1e3 * t:8.1f} {1e3 * stages.get('pwc', 0.0):8.1f} {1e3 * rest:8.1f} "
+          f"{marginal:>9} {status:8s} " + ", ".join(f"{k} {1e3 * v:.1f}" for k, v in top))
+    return x, rest
+
+
+def _header(unit: str) -> None:
+    print(f"   {'':>8} {'':>6} {'total':>8} {'fit':>8} {'no fit':>8} {'us/' + unit:>9} {'status':8s} "
+          f"largest stages but the fit")
 
 
 def scaling() -> None:
@@ -211,13 +224,18 @@ def scaling() -> None:
     rig = ijcv25_rig()
     X = tube()
     images, cams, exp = render_tube_views(X, width_px=9, margin_px=40, name="bench", fps=30)
-    print("2. cost of one frame (CPU ms, median of", REPEATS, "runs; the three largest stages, CPU ms)")
+    print("2. cost of one frame (CPU ms, median of", REPEATS, "runs): total, the piece-wise clothoid fit, the rest,")
+    print("   the rest's marginal cost per unit since the previous row (us), and its three largest stages (ms)")
     print("   points per curve (synthetic tube, 3 views):")
+    _header("point")
+    prev = None
     for n in (100, 200, 400, 700, 1000):
         e = exp.model_copy(update={"points": n})
         t, st, sg = time_frame(images, cams, e)
-        _row("points", n, t, st, sg, "point")
+        prev = _row("points", n, t, st, sg, "point", prev)
     print("   tendril length in the reference view (px), 200 points:")
+    _header("px")
+    prev = None
     for scale in (0.5, 1.0, 1.5, 2.0, 2.5):
         Xs = tube(scale)
         p = rig[1].project(Xs)
@@ -227,14 +245,16 @@ def scaling() -> None:
         L = float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
         im, cm, e = render_tube_views(Xs, width_px=9, margin_px=40, name="bench", fps=30)
         t, st, sg = time_frame(im, cm, e)
-        _row("length", L, t, st, sg, "px")
+        prev = _row("length", L, t, st, sg, "px", prev)
     print("   number of views (the rig, then the reference view turned about the vertical), 200 points:")
+    _header("view")
+    prev = None
     centre = X.mean(axis=0)
     for nv in (2, 3, 4, 5, 6):
         cm = turned_cameras(rig, nv, centre)
         im, cm, e = render_tube_views(X, width_px=9, margin_px=40, name="bench", fps=30, cameras=cm)
         t, st, sg = time_frame(im, cm, e)
-        _row("views", nv, t, st, sg, "view")
+        prev = _row("views", nv, t, st, sg, "view", prev)
 
 
 def main(argv: list[str]) -> None:
