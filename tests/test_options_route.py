@@ -108,7 +108,7 @@ def test_the_pipeline_passes_every_option(monkeypatch):
     exp = _experiment(**NON_DEFAULT)
     calls: dict = {}
     seg = types.SimpleNamespace(centroid_xy=(1.0, 2.0), n_components=1, mask_roi=np.ones((4, 4), bool),
-                                roi_offset_xy=(0, 0))
+                                roi_offset_xy=(0, 0), foreground=None)
     oc = types.SimpleNamespace(points_xy=np.c_[np.arange(5.0), np.arange(5.0)], n_crossings=0, decisions=[])
     monkeypatch.setattr(pipeline, "segment_view", _record(calls, "segmentation", seg))
     monkeypatch.setattr(pipeline, "order_skeleton", _record(calls, "ordering", oc))

@@ -102,3 +102,23 @@ def test_base_point_against_the_stem_takes_the_thin_tendril():
     m = segment_view(img, roi=(60, 50, 420, 380), keep_out=(106, 193, 14, 14), base_point_xy=(110, 200))
     ys, xs = np.nonzero(m.mask_roi)
     assert xs.min() + 60 >= 118 and xs.max() + 60 > 400 and m.n_components == 2
+
+
+@pytest.mark.parametrize("opts", [{}, {"channel": "hsv", "threshold": 120, "opening_radius_px": 0}])
+def test_evidence_from_the_segmentations_foreground_is_the_evidence_from_the_image(opts):
+    """The verification reuses the segmentation's labelled dark pixels: the same evidence as thresholding again."""
+    from tendrilkit.evidence import view_evidence
+
+    img = scene()
+    marks = dict(roi=ROI, keep_out=(110, 185, 25, 30), base_point_xy=(130, 200))
+    seg = segment_view(img, **marks, **opts)
+    fg = seg.foreground
+    assert fg.labels.shape == seg.mask_roi.shape and fg.n_labels == int(fg.labels.max()) + 1
+    assert np.array_equal(seg.mask_roi, fg.labels == fg.labels[seg.mask_roi][0])
+    again = view_evidence(img, **marks, **opts)
+    reused = view_evidence(img, **marks, foreground=fg, **opts)
+    for name in ("foreground", "labels", "distance_px", "roi_offset_xy", "base_point_xy", "keep_out", "skeleton_xy"):
+        assert np.array_equal(getattr(again, name), getattr(reused, name)), name
+    assert again.width_px == reused.width_px
+    with pytest.raises(ValueError, match="other segmentation options"):
+        view_evidence(img, **marks, foreground=fg, opening_radius_px=2)

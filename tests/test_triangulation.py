@@ -117,3 +117,22 @@ def test_refine_to_curves_corrects_matches_slid_along_the_curves():
 
 def point_to_polyline_distance_3d(P, X):
     return np.min(np.linalg.norm(P[:, None, :] - X[None, :, :], axis=2), axis=1)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_distance_to_a_curve_searched_near_its_nearest_vertex_is_the_exhaustive_figure(seed):
+    """reprojection_table's distances (segments near the nearest vertex only) equal the search over every segment."""
+    from tendrilkit.geometry import point_to_polyline_distance
+    from tendrilkit.triangulation import _distance_to_curve_px
+
+    rng = np.random.default_rng(seed)
+    s = np.linspace(0.0, 1.0, int(rng.integers(70, 1500)))
+    turns = rng.uniform(0.5, 3.0)                       # a curl that crosses itself (a spiral drifting sideways)
+    curve = np.c_[300 * s + 60 * np.cos(2 * np.pi * turns * s), 80 * np.sin(2 * np.pi * turns * s)]
+    curve += rng.normal(0, 0.3, curve.shape)            # a skeleton's jitter
+    along = curve[rng.integers(0, len(curve), 300)]
+    pts = np.vstack([along + rng.normal(0, rng.choice([0.5, 3.0, 20.0]), along.shape),
+                     rng.uniform(-100, 400, (50, 2)), [[np.nan, 1.0]]])
+    got = _distance_to_curve_px(pts, curve)
+    want = point_to_polyline_distance(pts, curve)
+    assert np.array_equal(got, want, equal_nan=True)

@@ -8,9 +8,11 @@ centreline, base to tip:
    (:func:`skimage.morphology.skeletonize`, strip by strip with overlapping
    margins: the same skeleton at 40 % of the cost for a diagonal tendril);
    the tube width ``w`` is the mask's area over the skeleton's length.
-2. **Graph.** :class:`skan.Skeleton` splits the skeleton into *branches*
-   (pixel paths between endpoints and junction pixels; about 2 ms on a 1080p
-   view, well inside the 20 ms budget, so no hand-written graph). Spurs (a branch ending
+2. **Graph.** The skeleton's pixel graph splits it into *branches* (pixel
+   paths between endpoints and junction pixels; :func:`graph.skeleton_graph`:
+   :class:`skan.Skeleton`'s graph and paths, built with scipy and a cached
+   compiled walk, because skan's import and its uncached kernels cost 2-3 s of
+   every process, 40 ms per frame of a 60-frame run). Spurs (a branch ending
    in an endpoint, attached to a junction, shorter than ``prune_px``) are
    removed, repeatedly. Junctions joined by a branch shorter than
    ``merge_width * w`` are one crossing (an X crossing thins to two Y

@@ -1,7 +1,9 @@
 """Thinning and the skeleton graph: nodes, branches and their surgery.
 
-The mask is thinned (:func:`skeletonize_strips`), :class:`skan.Skeleton`
-splits the skeleton into branches (:func:`_build_graph`); spurs are pruned
+The mask is thinned (:func:`skeletonize_strips`), the skeleton is split into
+branches (:func:`_build_graph`: the pixel graph of :func:`skeleton_graph`,
+skan's graph, computed without importing skan or compiling its uncached
+kernels in every process); spurs are pruned
 (:func:`_prune`), plain nodes left with two branches merged
 (:func:`_merge_degree_two`), junctions of one crossing contracted into one
 node (:func:`_contract_junctions`, with :func:`_is_shallow_x` for shallow X
@@ -14,14 +16,14 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-import skan
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
+from numba import njit
+from scipy.sparse import coo_matrix, csr_matrix
+from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
 from skimage.morphology import skeletonize
 
 from tendrilkit.skeleton.tangents import _end_tangent, _signed_angle_deg
 
-__all__ = ["skeletonize_strips"]
+__all__ = ["skeletonize_strips", "skeleton_graph"]
 
 _SHALLOW_X_WIDTHS = 15.0  # longest middle of a shallow X crossing, in tube widths (about 8 deg)
 
@@ -82,10 +84,137 @@ def _path_length(pts: np.ndarray) -> float:
     return float(np.hypot(*np.diff(pts, axis=0).T).sum()) if len(pts) > 1 else 0.0
 
 
+#: The 8 neighbours of a pixel (row, column offsets) and their distances (px).
+_STEPS_RC = np.array([(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)])
+_STEP_PX = np.sqrt(np.sum(_STEPS_RC.astype(float) ** 2, axis=1))
+
+
+def skeleton_graph(skel: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """The pixel graph of a skeleton and its paths between junctions and ends.
+
+    Parameters
+    ----------
+    skel : (h, w) bool array
+        A one-pixel-wide skeleton.
+
+    Returns
+    -------
+    coords_rc : (n, 2) int array
+        Row and column of every skeleton pixel (node), in raster order.
+    degrees : (n,) int array
+        Neighbours of every node in the graph.
+    paths : list of (k,) int arrays
+        Node indices of every path: from every end or junction (nodes in
+        order) along each of its unwalked edges through the nodes of degree 2
+        to the next end or junction, then each remaining isolated cycle from
+        its first node (its first node repeated at its end).
+
+    Notes
+    -----
+    The graph joins 8-connected pixels (edge weight 1 or :math:`\\sqrt 2` px);
+    where junction pixels (degree >= 3) touch one another, only the edges of
+    their minimum spanning tree are kept (``scipy.sparse.csgraph``), so that a
+    cluster of junction pixels is a tree. Graph, degrees and paths are those
+    of :class:`skan.Skeleton` (same nodes, same paths in the same order, as
+    ``tests/test_skeleton_pixel_graph.py`` checks against skan), built with scipy
+    and one cached compiled walk: importing skan and compiling its uncached
+    kernels cost seconds in every process.
+    """
+    skel = np.asarray(skel, bool)
+    h, w = skel.shape
+    flat = np.flatnonzero(skel)
+    n = len(flat)
+    r, c = np.divmod(flat, w)
+    ids = np.full((h + 2, w + 2), -1, np.int64)
+    ids[r + 1, c + 1] = np.arange(n)
+    rows, cols, data = [], [], []
+    for (dr, dc), dist in zip(_STEPS_RC, _STEP_PX):
+        nb = ids[r + 1 + dr, c + 1 + dc]
+        ok = nb >= 0
+        rows.append(np.flatnonzero(ok))
+        cols.append(nb[ok])
+        data.append(np.full(int(ok.sum()), dist))
+    G = coo_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
+    G = _junction_trees(G)
+    degrees = np.diff(G.indptr)
+    flat_paths, starts = _walk_paths(G.indptr.astype(np.int64), G.indices.astype(np.int64), degrees.astype(np.int64))
+    paths = [flat_paths[starts[i]:starts[i + 1]] for i in range(len(starts) - 1)]
+    return np.column_stack([r, c]), degrees, paths
+
+
+def _junction_trees(G: csr_matrix) -> csr_matrix:
+    """``G`` without the edges between junction pixels (degree >= 3) that are not in their minimum spanning tree."""
+    n = G.shape[0]
+    deg = np.diff(G.indptr)
+    row = np.repeat(np.arange(n), deg)
+    junction = deg >= 3
+    jj = junction[row] & junction[G.indices]
+    if not jj.any():
+        return G
+    # the junction-junction edges as a matrix of the whole graph's shape and entry order: the spanning tree
+    # (whose ties between equal weights depend on that order) is the one of the reference
+    J = csr_matrix((G.data[jj], G.indices[jj], np.concatenate([[0], np.cumsum(np.bincount(row[jj], minlength=n))])),
+                   shape=(n, n))
+    T = minimum_spanning_tree(J).tocoo()
+    tree = set(zip(T.row.tolist(), T.col.tolist()))
+    drop = np.zeros(len(G.indices), bool)
+    for k in np.flatnonzero(jj):
+        i, j = int(row[k]), int(G.indices[k])
+        drop[k] = (i, j) not in tree and (j, i) not in tree
+    keep = ~drop
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(row[keep], minlength=n))])
+    return csr_matrix((G.data[keep], G.indices[keep], indptr), shape=(n, n))
+
+
+@njit(cache=True)
+def _walk_paths(indptr, indices, degrees):  # pragma: no cover - compiled
+    """The paths of :func:`skeleton_graph`: (node indices of all paths end to end, start of each path and the end)."""
+    n = len(degrees)
+    visited = np.zeros(len(indices), np.bool_)
+    out = np.empty(len(indices) + n + 1, np.int64)
+    starts = np.empty(len(indices) + 2, np.int64)
+    n_out = 0
+    n_paths = 0
+    for sweep in range(2):
+        for node in range(n):
+            if sweep == 0:
+                if not (degrees[node] > 2 or degrees[node] == 1):
+                    continue
+                first, last = indptr[node], indptr[node + 1]
+            else:  # what is left: isolated cycles, entered through the node's first neighbour
+                if degrees[node] == 0:
+                    continue
+                first, last = indptr[node], indptr[node] + 1
+            for e in range(first, last):
+                if visited[e]:
+                    continue
+                starts[n_paths] = n_out
+                n_paths += 1
+                start = node
+                a, e_ab = node, e
+                out[n_out] = a
+                n_out += 1
+                while not visited[e_ab]:
+                    b = indices[e_ab]
+                    visited[e_ab] = True
+                    for f in range(indptr[b], indptr[b + 1]):  # the same edge seen from b
+                        if indices[f] == a:
+                            visited[f] = True
+                    out[n_out] = b
+                    n_out += 1
+                    if degrees[b] != 2 or b == start:
+                        break
+                    nxt = indptr[b]
+                    if indices[nxt] == a:
+                        nxt += 1
+                    a, e_ab = b, nxt
+    starts[n_paths] = n_out
+    return out[:n_out].copy(), starts[:n_paths + 1].copy()
+
+
 def _build_graph(skel: np.ndarray) -> _Graph:
-    S = skan.Skeleton(skel, keep_images=False)
-    coords_xy = S.coordinates[:, ::-1].astype(float)
-    deg = S.degrees
+    coords_rc, deg, paths = skeleton_graph(skel)
+    coords_xy = coords_rc[:, ::-1].astype(float)
     g = _Graph()
     index: dict[int, int] = {}
 
@@ -97,8 +226,7 @@ def _build_graph(skel: np.ndarray) -> _Graph:
             g.node_span.append(0.0)
         return index[pix]
 
-    for path in S.paths_list():
-        path = np.asarray(path)
+    for path in paths:
         pts = coords_xy[path]
         u, v = node(int(path[0])), node(int(path[-1]))
         g.edges.append([u, v, pts, _path_length(pts)])
