@@ -20,7 +20,7 @@ Without ``--scheduler``, ``$TENDRILKIT_SCHEDULER`` is used when set. A
 scheduler that cannot be reached, or that has no worker within the timeout, is
 an :class:`~tendrilkit.exceptions.ExperimentError` (one line, exit code 2).
 Every worker runs with single-threaded OpenCV and compiles the numba kernels
-(skan's included) once when it joins (:class:`WorkerSetup`), also a worker
+once when it joins (:class:`tendrilkit.dask_worker.WorkerSetup`), also a worker
 restarted after a crash.
 
 A ``local:N`` cluster is started with :data:`LOCAL_CONFIG`: its worker
@@ -32,6 +32,9 @@ its processes wake up less often when idle (the event-loop tick, the
 statistical profiler and the system monitor cost about 0.1 CPU-s per second
 of an idle 2-worker cluster, 0.01 with these settings). Workers of a remote
 scheduler are the user's: the README says how to start them alike.
+
+This module imports no Dask until a cluster is used, so a command without
+``--scheduler`` does not pay for importing ``distributed`` (about 1 s).
 """
 
 from __future__ import annotations
@@ -39,7 +42,6 @@ from __future__ import annotations
 import logging
 import os
 import re
-import sys
 from dataclasses import dataclass
 
 from tendrilkit.exceptions import ExperimentError
@@ -117,56 +119,6 @@ def scheduler_from(arg: str | None) -> SchedulerSpec | None:
     return None if spec.kind == "pool" else spec
 
 
-try:  # a worker plugin needs distributed; the module stays importable without it (pool only)
-    from distributed.diagnostics.plugin import WorkerPlugin as _WorkerPluginBase
-except ImportError:  # pragma: no cover - distributed is in environment.lock
-    _WorkerPluginBase = object
-
-
-class WorkerSetup(_WorkerPluginBase):
-    """Run on every worker when it joins: single-threaded OpenCV, numba kernels compiled (as the pool's workers)."""
-
-    name = "tendrilkit-setup"
-
-    def setup(self, worker) -> None:
-        import cv2
-
-        from tendrilkit.runner import _warm_up
-
-        cv2.setNumThreads(1)
-        _adaptive_malloc_thresholds()
-        _warm_up(True)
-
-
-#: glibc's ``mallopt`` parameters, and the largest values of its adaptive thresholds.
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
-_MMAP_THRESHOLD_B = 32 * 2**20  # glibc's largest adaptive mmap threshold (64-bit)
-_TRIM_THRESHOLD_B = 2 * _MMAP_THRESHOLD_B  # what glibc sets with it
-
-
-def _adaptive_malloc_thresholds() -> bool:
-    """In a worker whose nanny set ``MALLOC_TRIM_THRESHOLD_`` (glibc): frame-sized blocks reused, not re-mapped.
-
-    The variable turns glibc's adaptive mmap threshold off, so every block of
-    128 kB or more (a decoded frame, its masks and temporaries) is mapped and
-    unmapped afresh, page faults included. The thresholds are set to the
-    largest values glibc's adaptive rule would reach (mmap 32 MiB, trim twice
-    that): a remote ``dask worker`` started with the default settings; a
-    ``local:N`` cluster does not set the variable (unless the user's
-    environment does). Returns whether they were set.
-    """
-    if "MALLOC_TRIM_THRESHOLD_" not in os.environ or not sys.platform.startswith("linux"):
-        return False
-    import ctypes
-
-    try:
-        mallopt = ctypes.CDLL("libc.so.6").mallopt
-    except (OSError, AttributeError):  # not glibc (e.g. musl): nothing to undo
-        return False
-    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
-    return bool(mallopt(_M_MMAP_THRESHOLD, _MMAP_THRESHOLD_B)) and bool(mallopt(_M_TRIM_THRESHOLD, _TRIM_THRESHOLD_B))
-
-
 class Cluster:
     """A connection to a Dask scheduler (a context manager); see the module docstring.
 
@@ -225,6 +177,8 @@ class Cluster:
             where = self.spec.address or f"local:{self.spec.n_workers}"
             raise ExperimentError(f"scheduler {where}: no worker connected within {self.worker_timeout_s:.0f} s; "
                                   f"start some with `dask worker {where}`") from None
+        from tendrilkit.dask_worker import WorkerSetup  # imports distributed: only with a cluster
+
         self.client.register_plugin(WorkerSetup(), name=WorkerSetup.name)
         return self
 

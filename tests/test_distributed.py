@@ -111,7 +111,7 @@ def test_cluster_rejects_the_pool_spec():
 _MAPPED = """
 import ctypes
 import numpy as np
-from tendrilkit.distributed import _adaptive_malloc_thresholds
+from tendrilkit.dask_worker import _adaptive_malloc_thresholds
 
 class Info(ctypes.Structure):  # glibc's struct mallinfo2
     _fields_ = [(n, ctypes.c_size_t) for n in ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks",
