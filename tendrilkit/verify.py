@@ -78,8 +78,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
+from tendrilkit.verify_tip import TIP_PX, tip_continuation, tip_wide_fraction
 
-__all__ = ["Thresholds", "view_columns", "verify_curve", "base_components", "tip_continuation", "image_check_messages", "temporal_checks",
+__all__ = ["Thresholds", "view_columns", "verify_curve", "base_components", "image_check_messages", "temporal_checks",
            "VERIFY_COLUMNS_FRAME"]
 
 #: A branch of unexplained skeleton whose median inside distance exceeds this many times the tendril's
@@ -206,6 +207,7 @@ class Thresholds:
     max_shape_change_mm: float = 3.0
     shape_rate_mm_per_min: float = 100.0
     min_pwc_r2: float = 0.5
+    max_tip_wide_frac: float = 0.5
 
     @classmethod
     def from_params(cls, section) -> "Thresholds":
@@ -216,13 +218,16 @@ class Thresholds:
 
 
 def view_columns(n_views: int) -> list[str]:
-    """Per-view verification columns of ``frames.csv``, in order, then ``tip_border_px_v<i>`` and ``line_width_mm``."""
+    """Per-view verification columns of ``frames.csv``, in order, then ``tip_border_px_v<i>``, ``line_width_mm``
+    and ``tip_wide_frac_v<i>``."""
     cols = []
     for v in range(1, n_views + 1):
         cols += [f"on_tendril_frac_v{v}", f"off_tendril_max_px_v{v}", f"skeleton_mean_px_v{v}", f"coverage_frac_v{v}",
                  f"tip_continuation_px_v{v}", f"base_on_tendril_frac_v{v}", f"base_px_v{v}"]
     # added later, so after the others (the result files' columns only grow at their end)
-    return cols + [f"tip_border_px_v{v}" for v in range(1, n_views + 1)] + ["line_width_mm"]
+    cols += [f"tip_border_px_v{v}" for v in range(1, n_views + 1)] + ["line_width_mm"]
+    return cols + [f"tip_wide_frac_v{v}" for v in range(1, n_views + 1)] + [
+        f"missed_branch_px_v{v}" for v in range(1, n_views + 1)]
 
 
 def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
@@ -291,67 +296,18 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             radius_px = _tendril_radius_px(ev, inside_px, dense[seen & (d <= tolerance_px)], coverage_tolerance_px)
             if np.isfinite(radius_px):  # px to mm at the curve's median depth in this view
                 widths.append(2.0 * radius_px * float(np.median(cam.world_to_cam(X)[:, 2])) / float(cam.K[0, 0]))
-            out[f"coverage_frac_v{v + 1}"] = _coverage(ev, dense[seen], d[seen], tolerance_px,
-                                                       coverage_tolerance_px, cKDTree, inside_px, radius_px)
+            out[f"coverage_frac_v{v + 1}"], out[f"missed_branch_px_v{v + 1}"] = _coverage(
+                ev, dense[seen], d[seen], tolerance_px, coverage_tolerance_px, cKDTree, inside_px, radius_px)
             on = dense[seen & (d <= tolerance_px)]
             if len(on) and len(ev.skeleton_xy):
                 out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
                 out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px)
             out[f"base_on_tendril_frac_v{v + 1}"] = _base_on_tendril(ev, dense[keep], d[keep], tolerance_px)
+            out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(ev, dense, seen & (d <= tolerance_px), inside_px,
+                                                               radius_px, wide_ratio=WIDE_RATIO)
     out["views_checked"] = checked
     out["line_width_mm"] = float(np.median(widths)) if widths else None
     return out
-
-
-def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float) -> float:
-    """Length in px of the tendril's skeleton that goes on beyond the projected tip, unexplained.
-
-    From the skeleton pixels near the projected tip (within ``cov_tol + 3``
-    px) that the curve does not explain (farther than ``cov_tol``), the
-    longest 8-connected path over unexplained skeleton pixels (steps of 1 or
-    1.41 px). A curve that stops short of the tendril's tip (shrunk, or
-    stuck at a crossing) leaves the rest of the tendril here; a right curve
-    leaves 0 (or the few pixels of the skeleton's end spur).
-
-    Parameters
-    ----------
-    ev : ViewEvidence
-        With its skeleton.
-    dense_xy : (n, 2) float array
-        The projected curve, resampled every pixel, base to tip, full-image px.
-    cov_tol : float
-        A skeleton pixel within this distance of the curve is explained.
-    """
-    from scipy.spatial import cKDTree
-
-    sk = ev.skeleton_xy
-    if sk is None or len(sk) == 0 or len(dense_xy) == 0:
-        return 0.0
-    dist, _ = cKDTree(dense_xy).query(sk, distance_upper_bound=cov_tol + 1e-9)
-    free = ~np.isfinite(dist)
-    # not restricted to a line of the tendril's width: where the tendril goes on merged with clutter (along a
-    # shoot, over a leaf) its skeleton is wider, and a shrunk chain curve (random seed 214) went unflagged
-    tip = dense_xy[-1]
-    start = np.nonzero(free & (np.hypot(*(sk - tip).T) <= cov_tol + 3.0))[0]
-    if len(start) == 0:
-        return 0.0
-    import heapq
-
-    idx = {(int(x), int(y)): i for i, (x, y) in enumerate(sk) if free[i]}
-    best = {int(i): 0.0 for i in start}
-    heap = [(0.0, int(i)) for i in start]
-    steps = [(dx, dy, float(np.hypot(dx, dy))) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy]
-    while heap:  # Dijkstra over the unexplained skeleton pixels (a few hundred at most)
-        g, i = heapq.heappop(heap)
-        if g > best[i]:
-            continue
-        x, y = int(sk[i, 0]), int(sk[i, 1])
-        for dx, dy, w in steps:
-            j = idx.get((x + dx, y + dy))
-            if j is not None and g + w < best.get(j, np.inf):
-                best[j] = g + w
-                heapq.heappush(heap, (g + w, j))
-    return float(max(best.values()))
 
 
 def _base_on_tendril(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, length_px: float = 30.0):
@@ -407,7 +363,7 @@ def _tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, 
 
 
 def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float, tree_cls,
-              inside: np.ndarray, radius_px: float) -> float:
+              inside: np.ndarray, radius_px: float) -> tuple[float, float | None]:
     """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
 
     Counted are the skeleton pixels of the components the curve runs along
@@ -423,12 +379,15 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
       region the tendril moves in, the tendril does not;
     * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs.
 
-    The coverage is the explained skeleton over explained plus the
-    tendril's unexplained branches.
+    Returns the coverage, the explained skeleton over explained plus the
+    tendril's unexplained branches, and the largest of those branches (px;
+    None without any skeleton the curve runs on): a curve that leaves the
+    tendril for clutter at a crossing explains the clutter, which keeps its
+    coverage up, but leaves the tendril's distal part, a long thin branch.
     """
     on = dense[d <= tol]
     if len(on) == 0 or len(ev.skeleton_xy) == 0:
-        return 0.0
+        return 0.0, None
     off = ev.roi_offset_xy
     h, w = ev.shape
     # the component under every on-tendril sample (the nearest foreground pixel within the tolerance)
@@ -449,14 +408,14 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     # the stem's own pixels are then left out as clutter, below)
     touched = np.union1d(touched, _near_base(ev))
     if touched.size == 0:
-        return 0.0
+        return 0.0, None
     sk = ev.skeleton_xy
     sr = (sk[:, 1] - off[1]).astype(int)
     sc = (sk[:, 0] - off[0]).astype(int)
     mine = np.isin(ev.labels[sr, sc], touched)
     sk, sr, sc = sk[mine], sr[mine], sc[mine]
     if len(sk) == 0:
-        return 0.0
+        return 0.0, None
     dist, _ = tree_cls(dense).query(sk, distance_upper_bound=cov_tol + 1e-9)
     near = np.isfinite(dist)
     n_near = int(near.sum())
@@ -464,7 +423,7 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     if np.isfinite(radius_px) and radius_px > 0:  # the tendril's thin line, not a leaf's blob or a thicker stem
         free &= inside[sr, sc] <= WIDE_RATIO * radius_px
     if not free.any():
-        return 1.0 if n_near else 0.0
+        return (1.0 if n_near else 0.0), 0.0
     import cv2
 
     img = np.zeros((h, w), np.uint8)
@@ -478,7 +437,7 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     tendril = (np.bincount(b, weights=edge, minlength=nb) == 0) & (size >= MIN_BRANCH_PX)
     tendril[0] = False
     n_free = int(size[tendril].sum())
-    return float(n_near / max(n_near + n_free, 1))
+    return float(n_near / max(n_near + n_free, 1)), float(size[tendril].max(initial=0))
 
 
 def _near_base(ev: ViewEvidence) -> np.ndarray:
@@ -560,6 +519,13 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
     if len(long_tips) >= 2:  # in two views at least: a piece of clutter at the tip in one view is not a tendril
         msgs.append("tip: the tendril goes on beyond the curve's tip in " + ", ".join(
             f"view {v} ({t:.0f} px)" for v, t in long_tips) + f" (limit {th.max_tip_continuation_px:g} px)")
+    wide = [(v, q.get(f"tip_wide_frac_v{v}")) for v in range(1, n_views + 1)]
+    wide = [(v, f) for v, f in wide if f is not None and f > th.max_tip_wide_frac]
+    if len(wide) >= 2:  # in two views at least: one view may see the tip in front of a leaf or the stem
+        msgs.append("tip: the curve ends on pixels wider than the tendril (a leaf, the stem: where the tendril ends "
+                    "cannot be seen) in " + ", ".join(f"view {v} ({100 * f:.0f} % of its last {TIP_PX} px)"
+                                                     for v, f in wide)
+                    + f" (limit {100 * th.max_tip_wide_frac:.0f} %)")
     lw = q.get("line_width_mm")
     if lw is not None and lw > th.max_line_width_mm:
         msgs.append(f"width: the curve runs on a line {lw:.1f} mm wide (median over the views, limit "
