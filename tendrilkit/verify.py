@@ -78,7 +78,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
-from tendrilkit.verify_tip import TIP_PX, tip_continuation, tip_wide_fraction
+from tendrilkit.verify_tip import TIP_PX, tip_continuation, tip_wide_fraction, turn_off_deg
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "base_components", "image_check_messages", "temporal_checks",
            "VERIFY_COLUMNS_FRAME"]
@@ -226,8 +226,8 @@ def view_columns(n_views: int) -> list[str]:
                  f"tip_continuation_px_v{v}", f"base_on_tendril_frac_v{v}", f"base_px_v{v}"]
     # added later, so after the others (the result files' columns only grow at their end)
     cols += [f"tip_border_px_v{v}" for v in range(1, n_views + 1)] + ["line_width_mm"]
-    return cols + [f"tip_wide_frac_v{v}" for v in range(1, n_views + 1)] + [
-        f"missed_branch_px_v{v}" for v in range(1, n_views + 1)]
+    return cols + [f"{stem}_v{v}" for stem in ("tip_wide_frac", "missed_branch_px", "turn_off_deg")
+                   for v in range(1, n_views + 1)]
 
 
 def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
@@ -296,8 +296,9 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             radius_px = _tendril_radius_px(ev, inside_px, dense[seen & (d <= tolerance_px)], coverage_tolerance_px)
             if np.isfinite(radius_px):  # px to mm at the curve's median depth in this view
                 widths.append(2.0 * radius_px * float(np.median(cam.world_to_cam(X)[:, 2])) / float(cam.K[0, 0]))
-            out[f"coverage_frac_v{v + 1}"], out[f"missed_branch_px_v{v + 1}"] = _coverage(
+            out[f"coverage_frac_v{v + 1}"], out[f"missed_branch_px_v{v + 1}"], branches = _coverage(
                 ev, dense[seen], d[seen], tolerance_px, coverage_tolerance_px, cKDTree, inside_px, radius_px)
+            out[f"turn_off_deg_v{v + 1}"] = turn_off_deg(dense, branches, attach_px=coverage_tolerance_px + 2.0)
             on = dense[seen & (d <= tolerance_px)]
             if len(on) and len(ev.skeleton_xy):
                 out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
@@ -363,7 +364,7 @@ def _tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, 
 
 
 def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float, tree_cls,
-              inside: np.ndarray, radius_px: float) -> tuple[float, float | None]:
+              inside: np.ndarray, radius_px: float) -> tuple[float, float | None, list[np.ndarray]]:
     """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
 
     Counted are the skeleton pixels of the components the curve runs along
@@ -380,14 +381,14 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs.
 
     Returns the coverage, the explained skeleton over explained plus the
-    tendril's unexplained branches, and the largest of those branches (px;
-    None without any skeleton the curve runs on): a curve that leaves the
-    tendril for clutter at a crossing explains the clutter, which keeps its
-    coverage up, but leaves the tendril's distal part, a long thin branch.
+    tendril's unexplained branches, the largest of those branches (px;
+    None without any skeleton the curve runs on) and the branches
+    themselves (full-image ``(x, y)`` pixels each; see
+    :func:`tendrilkit.verify_tip.turn_off_deg`).
     """
     on = dense[d <= tol]
     if len(on) == 0 or len(ev.skeleton_xy) == 0:
-        return 0.0, None
+        return 0.0, None, []
     off = ev.roi_offset_xy
     h, w = ev.shape
     # the component under every on-tendril sample (the nearest foreground pixel within the tolerance)
@@ -408,14 +409,14 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     # the stem's own pixels are then left out as clutter, below)
     touched = np.union1d(touched, _near_base(ev))
     if touched.size == 0:
-        return 0.0, None
+        return 0.0, None, []
     sk = ev.skeleton_xy
     sr = (sk[:, 1] - off[1]).astype(int)
     sc = (sk[:, 0] - off[0]).astype(int)
     mine = np.isin(ev.labels[sr, sc], touched)
     sk, sr, sc = sk[mine], sr[mine], sc[mine]
     if len(sk) == 0:
-        return 0.0, None
+        return 0.0, None, []
     dist, _ = tree_cls(dense).query(sk, distance_upper_bound=cov_tol + 1e-9)
     near = np.isfinite(dist)
     n_near = int(near.sum())
@@ -423,7 +424,7 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     if np.isfinite(radius_px) and radius_px > 0:  # the tendril's thin line, not a leaf's blob or a thicker stem
         free &= inside[sr, sc] <= WIDE_RATIO * radius_px
     if not free.any():
-        return (1.0 if n_near else 0.0), 0.0
+        return (1.0 if n_near else 0.0), 0.0, []
     import cv2
 
     img = np.zeros((h, w), np.uint8)
@@ -437,7 +438,9 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     tendril = (np.bincount(b, weights=edge, minlength=nb) == 0) & (size >= MIN_BRANCH_PX)
     tendril[0] = False
     n_free = int(size[tendril].sum())
-    return float(n_near / max(n_near + n_free, 1)), float(size[tendril].max(initial=0))
+    fxy = sk[free]
+    branches = [fxy[b == i] for i in np.flatnonzero(tendril)]
+    return float(n_near / max(n_near + n_free, 1)), float(size[tendril].max(initial=0)), branches
 
 
 def _near_base(ev: ViewEvidence) -> np.ndarray:
