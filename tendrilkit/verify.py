@@ -208,6 +208,7 @@ class Thresholds:
     shape_rate_mm_per_min: float = 100.0
     min_pwc_r2: float = 0.5
     max_tip_wide_frac: float = 0.5
+    max_turn_off_deg: float = 45.0
 
     @classmethod
     def from_params(cls, section) -> "Thresholds":
@@ -529,6 +530,12 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
                     "cannot be seen) in " + ", ".join(f"view {v} ({100 * f:.0f} % of its last {TIP_PX} px)"
                                                      for v, f in wide)
                     + f" (limit {100 * th.max_tip_wide_frac:.0f} %)")
+    turns = [(v, q.get(f"turn_off_deg_v{v}")) for v in range(1, n_views + 1)]
+    turns = [(v, a) for v, a in turns if a is not None and a > th.max_turn_off_deg]
+    if len(turns) >= 2:  # in two views at least: in one view a bend of the tendril can fall on a crossing
+        msgs.append("crossing: the curve turns off at a junction where an unexplained branch of the tendril goes on "
+                    "straighter, in " + ", ".join(f"view {v} ({a:.0f} deg more)" for v, a in turns)
+                    + f" (limit {th.max_turn_off_deg:g} deg)")
     lw = q.get("line_width_mm")
     if lw is not None and lw > th.max_line_width_mm:
         msgs.append(f"width: the curve runs on a line {lw:.1f} mm wide (median over the views, limit "
