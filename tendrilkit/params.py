@@ -408,7 +408,7 @@ class Verification(_Strict):
     shape_rate_mm_per_min: NonNegFloat = 100.0
     min_pwc_r2: float = Field(0.5, le=1)
     max_tip_wide_frac: float = Field(0.5, ge=0, le=1)
-    max_turn_off_deg: float = Field(45.0, ge=0, le=180)
+    max_wide_run_px: PositiveFloat = 80.0
 
 
 class Analysis(_Strict):

@@ -78,7 +78,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
-from tendrilkit.verify_tip import TIP_PX, tip_continuation, tip_wide_fraction, turn_off_deg
+from tendrilkit.verify_tip import TIP_PX, on_wide, tip_continuation, tip_wide_fraction, wide_run_px
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "base_components", "image_check_messages", "temporal_checks",
            "VERIFY_COLUMNS_FRAME"]
@@ -208,7 +208,7 @@ class Thresholds:
     shape_rate_mm_per_min: float = 100.0
     min_pwc_r2: float = 0.5
     max_tip_wide_frac: float = 0.5
-    max_turn_off_deg: float = 45.0
+    max_wide_run_px: float = 80.0
 
     @classmethod
     def from_params(cls, section) -> "Thresholds":
@@ -227,7 +227,7 @@ def view_columns(n_views: int) -> list[str]:
                  f"tip_continuation_px_v{v}", f"base_on_tendril_frac_v{v}", f"base_px_v{v}"]
     # added later, so after the others (the result files' columns only grow at their end)
     cols += [f"tip_border_px_v{v}" for v in range(1, n_views + 1)] + ["line_width_mm"]
-    return cols + [f"{stem}_v{v}" for stem in ("tip_wide_frac", "missed_branch_px", "turn_off_deg")
+    return cols + [f"{stem}_v{v}" for stem in ("tip_wide_frac", "wide_run_px")
                    for v in range(1, n_views + 1)]
 
 
@@ -297,16 +297,16 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             radius_px = _tendril_radius_px(ev, inside_px, dense[seen & (d <= tolerance_px)], coverage_tolerance_px)
             if np.isfinite(radius_px):  # px to mm at the curve's median depth in this view
                 widths.append(2.0 * radius_px * float(np.median(cam.world_to_cam(X)[:, 2])) / float(cam.K[0, 0]))
-            out[f"coverage_frac_v{v + 1}"], out[f"missed_branch_px_v{v + 1}"], branches = _coverage(
-                ev, dense[seen], d[seen], tolerance_px, coverage_tolerance_px, cKDTree, inside_px, radius_px)
-            out[f"turn_off_deg_v{v + 1}"] = turn_off_deg(dense, branches, attach_px=coverage_tolerance_px + 2.0)
+            out[f"coverage_frac_v{v + 1}"] = _coverage(ev, dense[seen], d[seen], tolerance_px,
+                                                       coverage_tolerance_px, cKDTree, inside_px, radius_px)
             on = dense[seen & (d <= tolerance_px)]
             if len(on) and len(ev.skeleton_xy):
                 out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
                 out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px)
             out[f"base_on_tendril_frac_v{v + 1}"] = _base_on_tendril(ev, dense[keep], d[keep], tolerance_px)
-            out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(ev, dense, seen & (d <= tolerance_px), inside_px,
-                                                               radius_px, wide_ratio=WIDE_RATIO)
+            wide = on_wide(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO)
+            out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(wide, seen & (d <= tolerance_px))
+            out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, seen & (d <= tolerance_px))
     out["views_checked"] = checked
     out["line_width_mm"] = float(np.median(widths)) if widths else None
     return out
@@ -365,7 +365,7 @@ def _tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, 
 
 
 def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float, tree_cls,
-              inside: np.ndarray, radius_px: float) -> tuple[float, float | None, list[np.ndarray]]:
+              inside: np.ndarray, radius_px: float) -> float:
     """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
 
     Counted are the skeleton pixels of the components the curve runs along
@@ -381,15 +381,12 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
       region the tendril moves in, the tendril does not;
     * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs.
 
-    Returns the coverage, the explained skeleton over explained plus the
-    tendril's unexplained branches, the largest of those branches (px;
-    None without any skeleton the curve runs on) and the branches
-    themselves (full-image ``(x, y)`` pixels each; see
-    :func:`tendrilkit.verify_tip.turn_off_deg`).
+    The coverage is the explained skeleton over explained plus the
+    tendril's unexplained branches.
     """
     on = dense[d <= tol]
     if len(on) == 0 or len(ev.skeleton_xy) == 0:
-        return 0.0, None, []
+        return 0.0
     off = ev.roi_offset_xy
     h, w = ev.shape
     # the component under every on-tendril sample (the nearest foreground pixel within the tolerance)
@@ -410,14 +407,14 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     # the stem's own pixels are then left out as clutter, below)
     touched = np.union1d(touched, _near_base(ev))
     if touched.size == 0:
-        return 0.0, None, []
+        return 0.0
     sk = ev.skeleton_xy
     sr = (sk[:, 1] - off[1]).astype(int)
     sc = (sk[:, 0] - off[0]).astype(int)
     mine = np.isin(ev.labels[sr, sc], touched)
     sk, sr, sc = sk[mine], sr[mine], sc[mine]
     if len(sk) == 0:
-        return 0.0, None, []
+        return 0.0
     dist, _ = tree_cls(dense).query(sk, distance_upper_bound=cov_tol + 1e-9)
     near = np.isfinite(dist)
     n_near = int(near.sum())
@@ -425,7 +422,7 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     if np.isfinite(radius_px) and radius_px > 0:  # the tendril's thin line, not a leaf's blob or a thicker stem
         free &= inside[sr, sc] <= WIDE_RATIO * radius_px
     if not free.any():
-        return (1.0 if n_near else 0.0), 0.0, []
+        return 1.0 if n_near else 0.0
     import cv2
 
     img = np.zeros((h, w), np.uint8)
@@ -439,9 +436,7 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     tendril = (np.bincount(b, weights=edge, minlength=nb) == 0) & (size >= MIN_BRANCH_PX)
     tendril[0] = False
     n_free = int(size[tendril].sum())
-    fxy = sk[free]
-    branches = [fxy[b == i] for i in np.flatnonzero(tendril)]
-    return float(n_near / max(n_near + n_free, 1)), float(size[tendril].max(initial=0)), branches
+    return float(n_near / max(n_near + n_free, 1))
 
 
 def _near_base(ev: ViewEvidence) -> np.ndarray:
@@ -530,12 +525,12 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
                     "cannot be seen) in " + ", ".join(f"view {v} ({100 * f:.0f} % of its last {TIP_PX} px)"
                                                      for v, f in wide)
                     + f" (limit {100 * th.max_tip_wide_frac:.0f} %)")
-    turns = [(v, q.get(f"turn_off_deg_v{v}")) for v in range(1, n_views + 1)]
-    turns = [(v, a) for v, a in turns if a is not None and a > th.max_turn_off_deg]
-    if len(turns) >= 2:  # in two views at least: in one view a bend of the tendril can fall on a crossing
-        msgs.append("crossing: the curve turns off at a junction where an unexplained branch of the tendril goes on "
-                    "straighter, in " + ", ".join(f"view {v} ({a:.0f} deg more)" for v, a in turns)
-                    + f" (limit {th.max_turn_off_deg:g} deg)")
+    runs = [(v, q.get(f"wide_run_px_v{v}")) for v in range(1, n_views + 1)]
+    runs = [(v, r) for v, r in runs if r is not None and r > th.max_wide_run_px]
+    if len(runs) >= 2:  # in two views at least: in one view the tendril may pass in front of a leaf
+        msgs.append("merged: the curve runs on pixels wider than the tendril (clutter merged with it: where its line "
+                    "is cannot be seen) in " + ", ".join(f"view {v} ({r:.0f} px in a row)" for v, r in runs)
+                    + f" (limit {th.max_wide_run_px:g} px)")
     lw = q.get("line_width_mm")
     if lw is not None and lw > th.max_line_width_mm:
         msgs.append(f"width: the curve runs on a line {lw:.1f} mm wide (median over the views, limit "
