@@ -45,6 +45,16 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
     ``line_width_mm``
         Width of the dark line the curve runs along, mm (median over views;
         see :class:`Thresholds`).
+    ``tip_wide_frac_v<i>``
+        Fraction of the projected curve's last 20 px (those on the dark
+        pixels) lying on pixels wider than the tendril
+        (:func:`tendrilkit.verify_tip.tip_wide_fraction`): a curve running on
+        past the tendril's end along a leaf or the stem the tip touches.
+    ``wide_run_px_v<i>``
+        Longest stretch of the projected curve, px, on pixels wider than the
+        tendril (:func:`tendrilkit.verify_tip.wide_run_px`): a curve running
+        along clutter merged with the tendril (a shoot alongside it, a leaf),
+        where the images do not show the tendril's line.
     ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s``
         Against the previous reconstructed frame that passed the image checks
         (:func:`temporal_checks`): relative change of length (%), mean
@@ -189,6 +199,28 @@ class Thresholds:
     min_pwc_r2 : float
         Smallest R² of the piece-wise clothoid fit (0.5: a right centreline
         is fitted with R² >= 0.9; a zig-zag between two objects is not).
+    max_tip_wide_frac : float
+        Largest fraction of the curve's last 20 px on pixels wider than the
+        tendril (``tip_wide_frac_v<i>``), in two views or more (0.5). The
+        multi-view curve of random seed 214 (a hook whose tip rests on a
+        leaf) runs 12 mm on along the leaf's middle, on the tendril's pixels
+        and covering its skeleton in every view (mean error 2.1-2.7 mm,
+        reported ``ok`` before): 1.0 in all three views; every frame of the
+        development seeds 0-79 right on all three accuracy criteria (mean
+        <= 0.5 mm, max <= 2 mm, base and tip within 2 mm) scores 0 in two
+        views but those whose tip rests on a leaf (seed 77: 0.95-1.0, flagged
+        by the tip continuation too): where the tendril ends on a leaf the
+        images cannot show it, so such a frame is doubtful.
+    max_wide_run_px : float
+        Longest stretch of the curve on pixels wider than the tendril
+        (``wide_run_px_v<i>``), px, in two views or more (80 px). On the
+        multi-view curves of development seeds 0-79 (offline, 326
+        reconstructed frames): right frames (mean <= 0.5 mm) at most 64 px
+        in their second-worst view (those right on all three criteria at
+        most 46 px); the curves that pass every other check but run along a
+        shoot merged with the tendril (seed 67, 1.7 mm mean, 7 mm max) or
+        skip a coil over a leaf along clutter (seeds 21, 63, 76: 1.7-7.6 mm)
+        102-230 px.
     """
 
     tolerance_px: float = 2.0
