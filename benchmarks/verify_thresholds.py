@@ -1,6 +1,6 @@
 """Re-verify finished random-scene runs offline and count outcomes for the current thresholds.
 
-    .venv/bin/python benchmarks/verify_thresholds.py WORK_DIR [--out FIGURES.csv]
+    .venv/bin/python benchmarks/verify_thresholds.py WORK_DIR [--out FIGURES.csv] [--method chain|multiview]
 
 ``WORK_DIR`` holds ``<seed>/`` folders made by ``benchmarks/bench_verify.py``
 (experiment, ground truth, ``results/``) or ``random-<seed>/`` folders made by
@@ -36,18 +36,21 @@ from tendrilkit.params import load_experiment  # noqa: E402
 from tendrilkit.verify import Thresholds, image_check_messages, temporal_checks, verify_curve  # noqa: E402
 
 
-def _layout(d: Path):
-    """(seed, experiment file, results folder, ground-truth folder) of a bench_verify or bench_generalize folder."""
+def _layout(d: Path, method: str | None = None):
+    """(seed, experiment file, results folder, ground-truth folder) of a bench_verify or bench_generalize folder.
+
+    ``method``: the bench_generalize results of that ``--method`` (``result-<method>``); None: the first.
+    """
     if d.name.isdigit():
         return int(d.name), d / "experiment.yaml", d / "results", d / "ground_truth"
     if d.name.startswith("random-") and d.name[7:].isdigit():
-        res = sorted(p for p in d.glob("result*") if p.is_dir())
+        res = sorted(p for p in d.glob("result*" if method is None else f"result-{method}") if p.is_dir())
         return int(d.name[7:]), d / "scene" / "experiment.yaml", (res[0] if res else d / "missing"), d / "scene" / "ground_truth"
     return None
 
 
-def reverify(seed_dir: Path, th: Thresholds) -> pd.DataFrame:
-    seed, exp_path, res, gt = _layout(seed_dir)
+def reverify(seed_dir: Path, th: Thresholds, method: str | None = None) -> pd.DataFrame:
+    seed, exp_path, res, gt = _layout(seed_dir, method)
     exp = load_experiment(exp_path)
     frames = pd.read_csv(res / "frames.csv")
     curves = pd.read_csv(res / "curves.csv")
@@ -106,10 +109,12 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("work", type=Path)
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--method", choices=["chain", "multiview"], default=None,
+                    help="bench_generalize folders: the results of this --method (default: the first found)")
     a = ap.parse_args()
     th = Thresholds()
     parts = []
-    dirs = sorted((lay, d) for d in a.work.iterdir() if (lay := _layout(d)) is not None)
+    dirs = sorted((lay, d) for d in a.work.iterdir() if (lay := _layout(d, a.method)) is not None)
     for lay, d in dirs:
         if lay[0] >= 10000:
             sys.exit("seeds >= 10000 are reserved for the final generalisation benchmark")
@@ -117,7 +122,7 @@ def main() -> None:
             continue
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            parts.append(reverify(d, th))
+            parts.append(reverify(d, th, a.method))
     t = pd.concat(parts, ignore_index=True)
     if a.out:
         t.to_csv(a.out, index=False)
@@ -132,7 +137,7 @@ def main() -> None:
     print(f"false alarms among frames right on all three criteria: {int((all3.status == 'doubtful').sum())} of {len(all3)}")
     for stem, worst in (("on_tendril_frac", "min"), ("off_tendril_max_px", "max"), ("skeleton_mean_px", "max"),
                         ("coverage_frac", "min"), ("tip_continuation_px", "max"), ("base_on_tendril_frac", "min"),
-                        ("base_px", "max")):
+                        ("base_px", "max"), ("tip_wide_frac", "max"), ("wide_run_px", "max")):
         cols = [c for c in t.columns if c.startswith(stem + "_v")]
         agg = ((lambda df: df[cols].astype(float).min(axis=1)) if worst == "min"
                else (lambda df: df[cols].astype(float).max(axis=1)))

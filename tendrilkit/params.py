@@ -407,6 +407,8 @@ class Verification(_Strict):
     max_shape_change_mm: NonNegFloat = 3.0
     shape_rate_mm_per_min: NonNegFloat = 100.0
     min_pwc_r2: float = Field(0.5, le=1)
+    max_tip_wide_frac: float = Field(0.5, ge=0, le=1)
+    max_wide_run_px: PositiveFloat = 80.0
 
 
 class Analysis(_Strict):

@@ -224,3 +224,50 @@ def test_every_threshold_is_a_verification_key_with_the_same_default():
     for name, default in fields.items():
         assert float(keys[name]) == float(default), name
     assert Thresholds.from_params(Verification(max_line_width_mm=3.0)).max_line_width_mm == 3.0
+
+
+def test_curve_running_on_past_the_tip_over_a_leaf_is_caught():
+    """A leaf under the tendril's tip: a curve that runs on along the leaf's middle ends on wide pixels (seed 214)."""
+    T = _tendril_mm()
+    d = (T[-1] - T[-10]) / np.linalg.norm(T[-1] - T[-10])
+    def leaf(img, cam):  # 5 x 2 mm half axes, along the tendril, its near end at the tip
+        c = cam.project((T[-1] + 4.0 * d)[None])[0]
+        ang = float(np.degrees(np.arctan2(d[1], d[0])))
+        cv2.ellipse(img, (int(c[0]), int(c[1])), (25, 10), ang, 0, 360, (30, 30, 30), -1)
+    cams, ev = _scene(leaf)
+    right = verify_curve(T, cams, ev)
+    assert right["tip_wide_frac_v1"] <= 0.2 and right["tip_wide_frac_v2"] <= 0.2
+    assert not any("wider than the tendril" in m for m in image_check_messages(right, 2, Thresholds()))
+    over = np.vstack([T, T[-1] + np.linspace(0.2, 6.0, 30)[:, None] * d])   # 6 mm on, along the leaf
+    q = verify_curve(over, cams, ev)
+    assert q["on_tendril_frac_v1"] == 1.0 and q["coverage_frac_v1"] >= 0.9   # every other check is blind to it
+    assert q["tip_wide_frac_v1"] > 0.5 and q["tip_wide_frac_v2"] > 0.5
+    msgs = image_check_messages(q, 2, Thresholds())
+    assert any(m.startswith("tip: the curve ends on pixels wider than the tendril") and "view 2" in m for m in msgs)
+    # one view only (the tip seen in front of a leaf) is not enough
+    one = {**q, "tip_wide_frac_v2": 0.0}
+    assert not any("wider than the tendril" in m for m in image_check_messages(one, 2, Thresholds()))
+
+
+def _merged(f0, f1, width=15):
+    """A wide dark bar (a shoot merged with the tendril) over the tendril from fraction f0 to f1 of its samples."""
+    def draw(img, cam):
+        xy = cam.project(_tendril_mm()[int(f0 * 199):int(f1 * 199)])
+        cv2.polylines(img, [np.round(xy * 16).astype(np.int32)], False, (30, 30, 30), width, cv2.LINE_AA, 4)
+    return draw
+
+
+def test_curve_on_clutter_merged_with_the_tendril_is_doubtful():
+    """Where a shoot merges with the tendril the images do not show its line: a long stretch of it is flagged."""
+    cams, ev = _scene(_merged(0.45, 0.55))            # about 25 px merged: the rest of the curve is seen
+    q = verify_curve(_tendril_mm(), cams, ev)
+    assert 10 <= q["wide_run_px_v1"] <= 40 and 10 <= q["wide_run_px_v2"] <= 40
+    assert q["tip_wide_frac_v1"] == 0.0
+    assert image_check_messages(q, 2, Thresholds()) == []
+    cams, ev = _scene(_merged(0.2, 0.6))              # about 95 px merged (under half: the median width is the tendril's)
+    q = verify_curve(_tendril_mm(), cams, ev)
+    assert q["wide_run_px_v1"] > 80 and q["wide_run_px_v2"] > 80
+    msgs = image_check_messages(q, 2, Thresholds())
+    assert any(m.startswith("merged: the curve runs on pixels wider than the tendril") and "view 2" in m for m in msgs)
+    one = {**q, "wide_run_px_v2": 10.0}               # one view only (the tendril in front of a leaf there)
+    assert not any(m.startswith("merged") for m in image_check_messages(one, 2, Thresholds()))

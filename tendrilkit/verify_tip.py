@@ -1,0 +1,130 @@
+"""Checks of a reconstructed curve's tip in one view: does the tendril end where the curve ends?
+
+Two ways a curve's tip can be wrong while the rest of the curve lies on the
+tendril (:mod:`tendrilkit.verify` applies both in every view):
+
+* the curve stops short: the tendril's skeleton goes on beyond the projected
+  tip (:func:`tip_continuation`);
+* the curve runs on past the tendril's end along clutter the tip touches (a
+  leaf the tip rests on, a stem, a second tendril's blob): its last pixels lie
+  on a dark region wider than the tendril (:func:`tip_wide_fraction`), where
+  the images cannot show where the tendril ends. On random seed 214 (a hook
+  whose tip rests on a leaf) the multi-view curve follows the leaf's middle
+  12 mm past the true tip, on the tendril's pixels and covering its skeleton
+  in every view.
+"""
+
+from __future__ import annotations
+
+import heapq
+
+import numpy as np
+
+from tendrilkit.evidence import ViewEvidence
+
+__all__ = ["TIP_PX", "tip_continuation", "on_wide", "tip_wide_fraction", "wide_run_px"]
+
+#: The curve's tip, in :func:`tip_wide_fraction`: its last this many pixels of projection (px).
+TIP_PX = 20
+
+
+def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float) -> float:
+    """Length in px of the tendril's skeleton that goes on beyond the projected tip, unexplained.
+
+    From the skeleton pixels near the projected tip (within ``cov_tol + 3``
+    px) that the curve does not explain (farther than ``cov_tol``), the
+    longest 8-connected path over unexplained skeleton pixels (steps of 1 or
+    1.41 px). A curve that stops short of the tendril's tip (shrunk, or
+    stuck at a crossing) leaves the rest of the tendril here; a right curve
+    leaves 0 (or the few pixels of the skeleton's end spur).
+
+    Parameters
+    ----------
+    ev : ViewEvidence
+        With its skeleton.
+    dense_xy : (n, 2) float array
+        The projected curve, resampled every pixel, base to tip, full-image px.
+    cov_tol : float
+        A skeleton pixel within this distance of the curve is explained.
+    """
+    from scipy.spatial import cKDTree
+
+    sk = ev.skeleton_xy
+    if sk is None or len(sk) == 0 or len(dense_xy) == 0:
+        return 0.0
+    dist, _ = cKDTree(dense_xy).query(sk, distance_upper_bound=cov_tol + 1e-9)
+    free = ~np.isfinite(dist)
+    # not restricted to a line of the tendril's width: where the tendril goes on merged with clutter (along a
+    # shoot, over a leaf) its skeleton is wider, and a shrunk chain curve (random seed 214) went unflagged
+    tip = dense_xy[-1]
+    start = np.nonzero(free & (np.hypot(*(sk - tip).T) <= cov_tol + 3.0))[0]
+    if len(start) == 0:
+        return 0.0
+    idx = {(int(x), int(y)): i for i, (x, y) in enumerate(sk) if free[i]}
+    best = {int(i): 0.0 for i in start}
+    heap = [(0.0, int(i)) for i in start]
+    steps = [(dx, dy, float(np.hypot(dx, dy))) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy]
+    while heap:  # Dijkstra over the unexplained skeleton pixels (a few hundred at most)
+        g, i = heapq.heappop(heap)
+        if g > best[i]:
+            continue
+        x, y = int(sk[i, 0]), int(sk[i, 1])
+        for dx, dy, w in steps:
+            j = idx.get((x + dx, y + dy))
+            if j is not None and g + w < best.get(j, np.inf):
+                best[j] = g + w
+                heapq.heappush(heap, (g + w, j))
+    return float(max(best.values()))
+
+
+def on_wide(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray, radius_px: float, *,
+            wide_ratio: float = 1.5) -> np.ndarray:
+    """(n,) bool: which samples of the projected curve lie on pixels wider than the tendril.
+
+    A sample is on wide pixels when the largest inside distance (distance to
+    the background) in the 3 x 3 pixels around it exceeds ``wide_ratio``
+    times the tendril's half width ``radius_px`` (the median inside distance
+    of the skeleton along the curve): inside a leaf's blob, the stem, or the
+    tendril merged with clutter running alongside it, where the images do
+    not show where the tendril's line is. The tendril's tip tapers: a curve
+    ending on it is not on wide pixels.
+
+    Parameters
+    ----------
+    ev : ViewEvidence
+    dense_xy : (n, 2) float array
+        The projected curve resampled every pixel, full-image px.
+    inside_px : (h, w) float32 array
+        Distance of every foreground pixel of the ROI crop to the background, px.
+    radius_px : float
+        The tendril's half width in this view, px (NaN: unknown, nothing is wide).
+    wide_ratio : float
+    """
+    if not (np.isfinite(radius_px) and radius_px > 0) or len(dense_xy) == 0:
+        return np.zeros(len(dense_xy), bool)
+    h, w = inside_px.shape
+    off = ev.roi_offset_xy
+    r = np.rint(dense_xy[:, 1] - off[1]).astype(int)
+    c = np.rint(dense_xy[:, 0] - off[0]).astype(int)
+    local = np.zeros(len(dense_xy), np.float32)
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            local = np.maximum(local, inside_px[np.clip(r + dr, 0, h - 1), np.clip(c + dc, 0, w - 1)])
+    return local > wide_ratio * radius_px
+
+
+def tip_wide_fraction(wide: np.ndarray, on: np.ndarray, *, tip_px: int = TIP_PX) -> float | None:
+    """Fraction of the curve's last ``tip_px`` samples (those ``on`` the dark pixels) that are ``wide`` (:func:`on_wide`).
+
+    None when the view sees none of them on the dark pixels.
+    """
+    tip = wide[-tip_px:][on[-tip_px:]]
+    return float(np.mean(tip)) if len(tip) else None
+
+
+def wide_run_px(wide: np.ndarray, on: np.ndarray) -> float:
+    """The longest run of consecutive samples (px) on the dark pixels and ``wide`` (:func:`on_wide`)."""
+    x = np.concatenate([[0], (wide & on).astype(np.int8), [0]])
+    d = np.diff(x)
+    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    return float((ends - starts).max(initial=0))
