@@ -56,7 +56,7 @@ SAMPLINGS = ("timelapse", "sparse", "fps30")
 LOOKS = ("default", "pale", "brown")
 BOOLEAN_FACTORS = ("over_leaf", "over_stem", "alongside", "tip_leaf", "second_tendril", "occluding_leaf",
                    "careless_marks", "sway", "leave_view", "flicker", "vignetting", "shadow", "noise",
-                   "motion_blur", "distortion", "jpeg", "markers")
+                   "motion_blur", "distortion", "jpeg", "markers", "behind_stem", "petiole", "glancing_marker")
 GROUPS = {
     "contact": ("over_leaf", "over_stem", "alongside", "tip_leaf"),
     "clutter": ("second_tendril", "occluding_leaf", "over_leaf", "alongside"),
