@@ -160,23 +160,41 @@ def _plate3d(centre: np.ndarray, normal: np.ndarray, a: float, b: float, spin: f
     return centre + a * np.cos(th)[:, None] * e1 + b * np.sin(th)[:, None] * e2, e1, e2
 
 
+def _pierces(curves: np.ndarray, radius: np.ndarray, centre: np.ndarray, nrm: np.ndarray, e1: np.ndarray,
+             e2: np.ndarray, a: float, b: float) -> bool:
+    """True when the tendril's tube crosses a thin elliptic plate (beyond it along ``nrm``) in some frame."""
+    for c in curves:
+        rel = c - centre
+        ins = ((rel @ e1) / a) ** 2 + ((rel @ e2) / b) ** 2 <= 1.0
+        if np.any(ins & (rel @ nrm + radius > 0.0)):
+            return True
+    return False
+
+
 def _place_tip_leaf(ph: dict, rng) -> dict:
     """A leaf (plate) beyond and below the tip, placed so the tip rests on it in several frames."""
     curves, radius, s = ph["curves"], ph["radius"], ph["s"]
     n, L = len(curves), float(s[-1])
     need = min(2, n)
+    rest = ph.get("rest_frames")  # relaxed: the leaf is placed where the tip rests after the curl
     for _ in range(12):
         a, b = float(rng.uniform(10.0, 16.0)), float(rng.uniform(6.0, 9.0))
         T = curves[-1, -1] - curves[-1, -5]
         T /= np.linalg.norm(T)
         nrm = T + rng.uniform(0.3, 1.0) * np.array([0.0, 0.0, -1.0])
         nrm /= np.linalg.norm(nrm)
-        tip = curves[:, -1].mean(axis=0)
+        if rest is not None:  # the tip slides along the leaf between the resting frames: the normal across its path
+            dv = curves[rest[-1], -1] - curves[rest[0], -1]
+            if np.linalg.norm(dv) > 1e-6:
+                dv /= np.linalg.norm(dv)
+                nrm = nrm - np.dot(nrm, dv) * dv
+                nrm /= np.linalg.norm(nrm)
+        tip = (curves if rest is None else curves[rest])[:, -1].mean(axis=0)
         _, e1, e2 = _plate3d(tip, nrm, a, b, 0.0)
         off = rng.uniform(-0.3, 0.3, size=2) * [a, b]
         # the plane's offset along the normal: the most advanced tendril surface over its footprint
         h = -np.inf
-        for c in curves:
+        for c in (curves if rest is None else curves[rest]):
             rel = c - tip
             ins = ((rel @ e1 - off[0]) / a) ** 2 + ((rel @ e2 - off[1]) / b) ** 2 <= 1.0
             if ins.any():
@@ -185,6 +203,8 @@ def _place_tip_leaf(ph: dict, rng) -> dict:
             continue
         centre = tip + off[0] * e1 + off[1] * e2 + (h + 0.02) * nrm
         poly, _, _ = _plate3d(centre, nrm, a, b, 0.0)
+        if rest is not None and _pierces(curves, radius, centre, nrm, e1, e2, a, b):
+            continue
         if poly[:, 2].min() < 0.5:
             continue
         near = s >= L - 8.0
