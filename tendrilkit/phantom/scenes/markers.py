@@ -40,6 +40,11 @@ def _redo_markers(scene: Scene, cams: list, curves: np.ndarray, rng) -> tuple[Sc
         if rng.uniform() < 0.5:  # small in the image
             m = MarkerSpec(m.id, m.centre_mm, float(m.length_mm * rng.uniform(0.4, 0.6)), m.angle_deg)
         kept.append(m)
+    if others and not kept:  # at least one other marker, so a small one: with the one outside, two to five
+        kept = [others[0]]
+    if kept and not any(m.length_mm < 16 for m in kept):
+        m = kept[0]
+        kept[0] = MarkerSpec(m.id, m.centre_mm, float(min(0.5 * m.length_mm, 14.0)), m.angle_deg)
     markers = [world] + kept
     info = {"world_length_mm": world.length_mm, "n_markers": None, "small": [m.id for m in kept if m.length_mm < 16],
             "partly_outside": None}
@@ -74,6 +79,8 @@ def _redo_markers(scene: Scene, cams: list, curves: np.ndarray, rng) -> tuple[Sc
         markers.append(mk)
         info["partly_outside"] = {"id": mk.id, "view": v + 1}
         break
+    if info["partly_outside"] is None:
+        raise _Retry("markers: no room for a marker across an image edge")
     info["n_markers"] = len(markers)
     return dataclasses.replace(scene, markers=markers), info
 
