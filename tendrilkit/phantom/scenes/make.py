@@ -326,8 +326,11 @@ def _turned(cam: Camera, axis: int, shift_px: float) -> Camera:
     return Camera(cam.K.copy(), cam.dist.copy(), Rd @ cam.R, Rd @ cam.t_mm, cam.width, cam.height)
 
 
-def _aim_off(cams: list, v: int, curves: np.ndarray, rng) -> tuple[list, dict]:
-    """View ``v`` aimed a little off (the camera turned about its centre) so the distal tendril partly leaves it."""
+def _aim_off(cams: list, v: int, curves: np.ndarray, rng, *, keep_base: bool = False) -> tuple[list, dict]:
+    """View ``v`` aimed a little off (the camera turned about its centre) so the distal tendril partly leaves it.
+
+    ``keep_base`` (later rounds of :func:`make_scene`): only aims that keep the base 80 px inside the view.
+    """
     cam = cams[v]
     xy = cam.project(curves[:, ::4].reshape(-1, 3)).reshape(len(curves), -1, 2)
     target = float(rng.uniform(0.08, 0.25))
@@ -345,6 +348,8 @@ def _aim_off(cams: list, v: int, curves: np.ndarray, rng) -> tuple[list, dict]:
             break
         new = _turned(cam, axis, shift)
         outside = max(1.0 - _inside_fraction(new, curves[f, ::4], 0.0) for f in range(len(curves)))
+        if keep_base and not new.in_image(_project_safe(new, curves[0, :1]), margin_px=80.0)[0]:
+            continue
         if outside >= 0.03 and np.all(new.in_image(_project_safe(new, world), margin_px=20.0)):
             break
     else:
@@ -447,6 +452,8 @@ def _attempt(seed: int, scene_name: str, n: int, factors: dict, cams: list, atte
         def want(c: np.ndarray) -> bool:
             if any(_inside_fraction(cam, c[:, ::6].reshape(-1, 3), _VIEW_MARGIN_PX) < 1.0 for cam in cams):
                 return False
+            if relax and not all(cam.in_image(_project_safe(cam, c[0, :1]), margin_px=80.0)[0] for cam in cams):
+                return False  # later rounds: the base well inside every view, as the marks need
             return max(_outer_third(cam, c[0, ::4]) for cam in cams) >= 0.1
 
         d = _shift_search(curves, cams, rng, want)
@@ -459,7 +466,7 @@ def _attempt(seed: int, scene_name: str, n: int, factors: dict, cams: list, atte
     build_cams = cams  # the scene is laid out in the rig's views (an aimed-off view shows the same layout, shifted)
     if factors["leave_view"]:
         leave = int(rng.integers(3))
-        cams, realised["leave_view"] = _aim_off(cams, leave, curves, rng)
+        cams, realised["leave_view"] = _aim_off(cams, leave, curves, rng, keep_base=relax)
     bad = _check_tendril(curves, s, cams, radius, leave)
     if bad:
         raise _Retry(bad)
