@@ -1,10 +1,11 @@
-"""Clutter and marks of the random phantom scenes: objects near the tendril, markers, careless marks.
+"""Clutter and marks of the random phantom scenes: objects near the tendril, careless marks.
 
 Placed by :func:`tendrilkit.phantom.scenes.make_scene` after the tendril and the
 site phantom's scene: leaves and side shoots on the board under or along the
-tendril, a leaf the tip rests on, a second tendril and a leaf in space (in
-front of or behind the tendril in each view), markers as people tape them,
-and marks as a hurried user draws them. Every object in space keeps a
+tendril, a leaf the tip rests on, a second tendril, a leaf, a side shoot of
+the stem and a leaf's petiole in space (in front of or behind the tendril in
+each view), and marks as a hurried user draws them (markers are in
+:mod:`tendrilkit.phantom.scenes.markers`). Every object in space keeps a
 surface gap from the tendril's tube in every frame
 (:func:`tube_clearance_mm`); a placement that fails raises :class:`_Retry`
 and the generator draws another design.
@@ -12,15 +13,13 @@ and the generator draws another design.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tendrilkit.phantom.design import WORLD_MARKER_ID
 from tendrilkit.phantom.projection import _pixel_to_board, _project_safe
-from tendrilkit.phantom.scene import MarkerSpec, Scene, _ellipse_poly, _local, _quiet_scale, _square_poly
+from tendrilkit.phantom.scene import Scene, _ellipse_poly, _local, _quiet_scale
 from tendrilkit.camera import Camera
 from tendrilkit.geometry import arc_length
 
@@ -419,12 +418,12 @@ def _hides_a_marker(cams: list, scene: Scene, pts: np.ndarray, pad_px: float = 6
             if len(xy) == 0 or not np.all(np.isfinite(poly)):
                 continue
             contour = poly.astype(np.float32).reshape(-1, 1, 2)
-            if any(cv2_distance(contour, p) >= -pad_px for p in xy[::2]):
+            if any(_signed_distance_px(contour, p) >= -pad_px for p in xy[::2]):
                 return True
     return False
 
 
-def cv2_distance(contour: np.ndarray, p: np.ndarray) -> float:
+def _signed_distance_px(contour: np.ndarray, p: np.ndarray) -> float:
     """Signed distance (px, positive inside) of point ``p`` (2,) to a polygon ``contour``."""
     import cv2
 
