@@ -4,8 +4,10 @@
   from the seed, or one preset alone);
 - :mod:`~tendrilkit.phantom.scenes.make`: :func:`make_scene`, the tendril's
   shape, times, cameras, imaging and the constraints;
-- :mod:`~tendrilkit.phantom.scenes.clutter`: objects near the tendril,
-  markers as people tape them, careless marks;
+- :mod:`~tendrilkit.phantom.scenes.clutter`: objects near the tendril (on
+  the board, in space, shoots and petioles crossing it), careless marks;
+- :mod:`~tendrilkit.phantom.scenes.markers`: markers as people tape them
+  (small, across an image edge, on a tilted card);
 - :mod:`~tendrilkit.phantom.scenes.render`: the frames (:func:`render_scene_view`);
 - :mod:`~tendrilkit.phantom.scenes.experiment`: the experiment file's text and
   ``gt_meta.json``.
@@ -13,6 +15,9 @@
 Files are written by :func:`tendrilkit.io.phantom.write_scene_experiment`
 (also :func:`tendrilkit.phantom.write_scene_experiment`). Seeds 0-9999 are for
 development, 10000 and above are reserved for ``benchmarks/bench_generalize.py``.
+Every seed makes a scene: when the seed's 40 attempts fail, further rounds
+(derived sub-seeds) go on; a scene that needed them says so in
+``realised["generation"]``.
 """
 
 from tendrilkit.phantom.scenes.factors import (BOOLEAN_FACTORS, GROUPS, LOOKS, PRESETS, SAMPLINGS, SHAPES,

@@ -1,10 +1,11 @@
-"""Clutter and marks of the random phantom scenes: objects near the tendril, markers, careless marks.
+"""Clutter and marks of the random phantom scenes: objects near the tendril, careless marks.
 
 Placed by :func:`tendrilkit.phantom.scenes.make_scene` after the tendril and the
 site phantom's scene: leaves and side shoots on the board under or along the
-tendril, a leaf the tip rests on, a second tendril and a leaf in space (in
-front of or behind the tendril in each view), markers as people tape them,
-and marks as a hurried user draws them. Every object in space keeps a
+tendril, a leaf the tip rests on, a second tendril, a leaf, a side shoot of
+the stem and a leaf's petiole in space (in front of or behind the tendril in
+each view), and marks as a hurried user draws them (markers are in
+:mod:`tendrilkit.phantom.scenes.markers`). Every object in space keeps a
 surface gap from the tendril's tube in every frame
 (:func:`tube_clearance_mm`); a placement that fails raises :class:`_Retry`
 and the generator draws another design.
@@ -12,15 +13,13 @@ and the generator draws another design.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tendrilkit.phantom.design import WORLD_MARKER_ID
 from tendrilkit.phantom.projection import _pixel_to_board, _project_safe
-from tendrilkit.phantom.scene import MarkerSpec, Scene, _ellipse_poly, _local, _quiet_scale, _square_poly
+from tendrilkit.phantom.scene import Scene, _ellipse_poly, _local, _quiet_scale
 from tendrilkit.camera import Camera
 from tendrilkit.geometry import arc_length
 
@@ -160,23 +159,41 @@ def _plate3d(centre: np.ndarray, normal: np.ndarray, a: float, b: float, spin: f
     return centre + a * np.cos(th)[:, None] * e1 + b * np.sin(th)[:, None] * e2, e1, e2
 
 
+def _pierces(curves: np.ndarray, radius: np.ndarray, centre: np.ndarray, nrm: np.ndarray, e1: np.ndarray,
+             e2: np.ndarray, a: float, b: float) -> bool:
+    """True when the tendril's tube crosses a thin elliptic plate (beyond it along ``nrm``) in some frame."""
+    for c in curves:
+        rel = c - centre
+        ins = ((rel @ e1) / a) ** 2 + ((rel @ e2) / b) ** 2 <= 1.0
+        if np.any(ins & (rel @ nrm + radius > 0.0)):
+            return True
+    return False
+
+
 def _place_tip_leaf(ph: dict, rng) -> dict:
     """A leaf (plate) beyond and below the tip, placed so the tip rests on it in several frames."""
     curves, radius, s = ph["curves"], ph["radius"], ph["s"]
     n, L = len(curves), float(s[-1])
     need = min(2, n)
+    rest = ph.get("rest_frames")  # relaxed: the leaf is placed where the tip rests after the curl
     for _ in range(12):
         a, b = float(rng.uniform(10.0, 16.0)), float(rng.uniform(6.0, 9.0))
         T = curves[-1, -1] - curves[-1, -5]
         T /= np.linalg.norm(T)
         nrm = T + rng.uniform(0.3, 1.0) * np.array([0.0, 0.0, -1.0])
         nrm /= np.linalg.norm(nrm)
-        tip = curves[:, -1].mean(axis=0)
+        if rest is not None:  # the tip slides along the leaf between the resting frames: the normal across its path
+            dv = curves[rest[-1], -1] - curves[rest[0], -1]
+            if np.linalg.norm(dv) > 1e-6:
+                dv /= np.linalg.norm(dv)
+                nrm = nrm - np.dot(nrm, dv) * dv
+                nrm /= np.linalg.norm(nrm)
+        tip = (curves if rest is None else curves[rest])[:, -1].mean(axis=0)
         _, e1, e2 = _plate3d(tip, nrm, a, b, 0.0)
         off = rng.uniform(-0.3, 0.3, size=2) * [a, b]
         # the plane's offset along the normal: the most advanced tendril surface over its footprint
         h = -np.inf
-        for c in curves:
+        for c in (curves if rest is None else curves[rest]):
             rel = c - tip
             ins = ((rel @ e1 - off[0]) / a) ** 2 + ((rel @ e2 - off[1]) / b) ** 2 <= 1.0
             if ins.any():
@@ -185,6 +202,8 @@ def _place_tip_leaf(ph: dict, rng) -> dict:
             continue
         centre = tip + off[0] * e1 + off[1] * e2 + (h + 0.02) * nrm
         poly, _, _ = _plate3d(centre, nrm, a, b, 0.0)
+        if rest is not None and _pierces(curves, radius, centre, nrm, e1, e2, a, b):
+            continue
         if poly[:, 2].min() < 0.5:
             continue
         near = s >= L - 8.0
@@ -326,56 +345,6 @@ def _front_views(cams: list, curves: np.ndarray, pts: np.ndarray) -> list[int]:
     return out
 
 
-# ================================================================ markers
-def _redo_markers(scene: Scene, cams: list, curves: np.ndarray, rng) -> tuple[Scene, dict]:
-    """Two to five markers: the world marker 16-24 mm, some small, one partly outside a view."""
-    qs = _quiet_scale()
-    world = MarkerSpec(WORLD_MARKER_ID, np.zeros(2), float(rng.choice([16.0, 20.0, 24.0])), 0.0)
-    others = list(scene.markers[1:])
-    keep = int(rng.integers(0, min(3, len(others)) + 1))
-    kept = []
-    for m in others[:keep]:
-        if rng.uniform() < 0.5:  # small in the image
-            m = MarkerSpec(m.id, m.centre_mm, float(m.length_mm * rng.uniform(0.4, 0.6)), m.angle_deg)
-        kept.append(m)
-    markers = [world] + kept
-    info = {"world_length_mm": world.length_mm, "n_markers": None, "small": [m.id for m in kept if m.length_mm < 16],
-            "partly_outside": None}
-    # one marker across an image edge of one view, clear of the tendril and the other markers
-    for _ in range(40):
-        v = int(rng.integers(3))
-        cam = cams[v]
-        edge = int(rng.integers(4))
-        t = rng.uniform(0.15, 0.85)
-        xy = np.array([[t * cam.width, 0.0], [cam.width - 1.0, t * cam.height], [t * cam.width, cam.height - 1.0],
-                       [0.0, t * cam.height]])[edge]
-        c = _pixel_to_board(cam, xy[None])[0]
-        mk = MarkerSpec(int(rng.integers(0, 1024)), c, float(rng.uniform(20.0, 32.0)), float(rng.uniform(-25, 25)))
-        if mk.id in {m.id for m in markers}:
-            continue
-        r = 0.5 * mk.length_mm * qs * math.sqrt(2)
-        if any(np.linalg.norm(c - o.centre_mm) < r + 0.5 * o.length_mm * qs * math.sqrt(2) + 3 for o in markers):
-            continue
-        poly = _square_poly(mk, qs)
-        if any(np.linalg.norm(c - lf["centre"]) < max(lf["a_mm"], lf["b_mm"]) + r for lf in scene.leaves):
-            continue
-        far = True
-        for u, cu in enumerate(cams):
-            pxy = _project_safe(cu, poly)
-            if not np.any(np.isfinite(pxy)):
-                continue
-            txy = cu.project(curves[:, ::8].reshape(-1, 3))
-            d, _ = cKDTree(txy).query(np.nan_to_num(pxy, nan=-1e6))
-            far &= bool(np.min(d) > 40.0)
-        if not far:
-            continue
-        markers.append(mk)
-        info["partly_outside"] = {"id": mk.id, "view": v + 1}
-        break
-    info["n_markers"] = len(markers)
-    return dataclasses.replace(scene, markers=markers), info
-
-
 # ================================================================== marks
 def _careless(views: list, cams: list, scene: Scene, rng) -> tuple[list, dict]:
     """Marks as a hurried user draws them: generous ROI, sloppy keep-out box, base point off."""
@@ -416,3 +385,191 @@ def _careless(views: list, cams: list, scene: Scene, rng) -> tuple[list, dict]:
                      "keep_out_scale": [float(sx), float(sy)], "keep_out_offset_px": [int(dx), int(dy)],
                      "base_point_offset_px": float(off)})
     return out, {"views": info}
+
+
+# ======================================================= shoots in space
+#: Colours (BGR) of the tubes that cross the tendril's projection.
+SHOOT_BGR = [38.0, 92.0, 52.0]  # a side shoot of the stem (the stem's colour)
+PETIOLE_BGR = [58.0, 136.0, 76.0]  # a leaf's petiole, lighter
+PETIOLE_LEAF_BGR = [48.0, 128.0, 62.0]
+
+
+def _shoot_path(a: np.ndarray, q: np.ndarray, e: np.ndarray, bow: np.ndarray, step: float = 0.5) -> np.ndarray:
+    """A smooth curve (m, 3) from ``a`` through ``q`` to ``e``, bowed by ``bow`` (3,) mm between ``a`` and ``q``.
+
+    A cubic spline through ``a``, the bowed midpoint of ``a`` and ``q``, ``q``
+    and ``e`` (chord-length parameter), sampled every ``step`` mm.
+    """
+    from scipy.interpolate import CubicSpline
+
+    knots = np.stack([a, 0.5 * (a + q) + bow, q, e])
+    u = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))]
+    t = np.linspace(0.0, u[-1], 600)
+    return _dense(CubicSpline(u, knots, bc_type="natural")(t), step)
+
+
+def _hides_a_marker(cams: list, scene: Scene, pts: np.ndarray, pad_px: float = 6.0) -> bool:
+    """True when points ``pts`` (m, 3) project onto (or within ``pad_px`` of) a marker's paper in a view."""
+    for cam in cams:
+        xy = _project_safe(cam, pts)
+        xy = xy[np.all(np.isfinite(xy), axis=1)]
+        for mk in scene.markers:
+            poly = _project_safe(cam, mk.corners_mm(_quiet_scale()))
+            if len(xy) == 0 or not np.all(np.isfinite(poly)):
+                continue
+            contour = poly.astype(np.float32).reshape(-1, 1, 2)
+            if any(_signed_distance_px(contour, p) >= -pad_px for p in xy[::2]):
+                return True
+    return False
+
+
+def _signed_distance_px(contour: np.ndarray, p: np.ndarray) -> float:
+    """Signed distance (px, positive inside) of point ``p`` (2,) to a polygon ``contour``."""
+    import cv2
+
+    return float(cv2.pointPolygonTest(contour, (float(p[0]), float(p[1])), True))
+
+
+def _crossing_2d(cam: Camera, curve: np.ndarray, radius: np.ndarray, pts: np.ndarray, rad: np.ndarray
+                 ) -> tuple[float, float]:
+    """Gap (px, negative = overlap) between the projections of the tendril and a tube, and their angle (deg)."""
+    xy_t = cam.project(curve[::2])
+    xy_o = cam.project(pts)
+    d, i = cKDTree(xy_t).query(xy_o)
+    j = int(np.argmin(d))
+    f = cam.K[0, 0]
+    r_t = radius[::2][i[j]] / cam.world_to_cam(curve[::2][i[j]][None])[0, 2] * f
+    r_o = rad[j] / cam.world_to_cam(pts[j][None])[0, 2] * f
+    to = xy_o[min(j + 3, len(xy_o) - 1)] - xy_o[max(j - 3, 0)]
+    k = i[j]
+    tt = xy_t[min(k + 3, len(xy_t) - 1)] - xy_t[max(k - 3, 0)]
+    c = abs(float(np.dot(to, tt))) / max(1e-9, float(np.linalg.norm(to) * np.linalg.norm(tt)))
+    return float(d[j] - r_t - r_o), math.degrees(math.acos(min(1.0, c)))
+
+
+def _place_crossing_shoot(ph: dict, rng, *, kind: str) -> dict:
+    """A shoot from the stem, in space, crossing the tendril's projection in one view.
+
+    ``kind``: ``behind_stem`` (a side shoot of the stem, 2.4-3.4 mm thick,
+    passing between one camera and the tendril: the tendril passes behind it
+    in that view) or ``petiole`` (a leaf's petiole, 0.9-1.4 mm, in front of
+    or behind the tendril, ending in a leaf blade). Both start on the stem,
+    keep at least 1 mm (surface to surface) from the tendril's tube in every
+    frame, and hide no marker in any view.
+    """
+    cams, curves, s, radius, scene = ph["cams"], ph["curves"], ph["s"], ph["radius"], ph["scene"]
+    L, n = float(s[-1]), len(curves)
+    stem, node = scene.stem_mm, scene.node_mm
+    for _ in range(30):
+        v = int(rng.integers(3))
+        cam = cams[v]
+        f = int(rng.integers(n))
+        k = int(np.searchsorted(s, rng.uniform(0.3, 0.85) * L))
+        X = curves[f, k]
+        w = cam.center_world - X
+        w /= np.linalg.norm(w)
+        if kind == "behind_stem":
+            r, front = float(rng.uniform(1.2, 1.7)), True
+        else:
+            r, front = float(rng.uniform(0.45, 0.7)), bool(rng.uniform() < 0.5)
+        d = float(rng.uniform(5.0, 12.0))
+        if not front:
+            d = -min(d, (X[2] - r - 3.0) / w[2])
+            if d > -3.0:
+                continue
+        q = X + d * w
+        dist = np.linalg.norm(stem[:, :2] - q[None, :2], axis=1)
+        ok = (dist > 25.0) & (dist < 80.0) & (np.linalg.norm(stem[:, :2] - node[None, :2], axis=1) > 35.0)
+        if not ok.any():
+            continue
+        a = stem[int(rng.choice(np.flatnonzero(ok)))].copy()
+        u = q - a
+        u /= np.linalg.norm(u)
+        e = q + float(rng.uniform(15.0, 35.0)) * u
+        e[2] = max(r + 1.0, e[2] - float(rng.uniform(0.0, 8.0)))
+        side = np.cross(u, rng.standard_normal(3))
+        side /= np.linalg.norm(side)
+        side *= np.sign(side[2]) if side[2] != 0 else 1.0  # arching up, not into the board
+        pts = _shoot_path(a, q, e, float(rng.uniform(0.08, 0.2)) * float(np.linalg.norm(q - a)) * side)
+        t = np.linspace(0.0, 1.0, len(pts))
+        rad = r * (1.0 - 0.35 * t)
+        if np.min(pts[4:, 2] - rad[4:]) < 0.2:
+            continue
+        if tube_clearance_mm(curves, radius, pts, rad) < 1.0:
+            continue
+        gap, ang = _crossing_2d(cam, curves[f], radius, pts, rad)
+        if gap > -1.0 or ang < 35.0:
+            continue
+        if _hides_a_marker(cams, scene, pts) or depth_order_mixed(cams, curves, radius, pts, rad):
+            continue
+        info = {"pts": pts, "radius": rad, "view": v + 1, "frame": f, "in_front": front, "depth_offset_mm": abs(d),
+                "crossing_mm": X.tolist(), "crossing_angle_deg": ang, "stem_point_mm": a.tolist()}
+        if kind == "petiole":
+            la, lb = float(rng.uniform(10.0, 16.0)), float(rng.uniform(6.0, 9.0))
+            nrm = np.array([0.0, 0.0, 1.0]) + 0.6 * rng.standard_normal(3)
+            nrm /= np.linalg.norm(nrm)
+            tip_dir = pts[-1] - pts[-8]
+            tip_dir /= np.linalg.norm(tip_dir)
+            c = pts[-1] + la * tip_dir
+            poly, e1, _ = _plate3d(c, nrm, la, lb, 0.0)
+            # turn the blade so its long axis continues the petiole
+            spin = math.atan2(float(np.dot(np.cross(e1, tip_dir), nrm)), float(np.dot(e1, tip_dir)))
+            poly, _, _ = _plate3d(c, nrm, la, lb, spin)
+            fill = np.vstack([poly, 0.5 * (poly + c), c[None]])
+            if poly[:, 2].min() < 0.5 or tube_clearance_mm(curves, radius, fill, np.zeros(len(fill))) < 1.0:
+                continue
+            if _hides_a_marker(cams, scene, fill):
+                continue
+            info["leaf"] = poly
+        return info
+    raise _Retry(f"{kind}: no shoot from the stem crosses the tendril in a view without touching it")
+
+
+def hidden_s_ranges(cam: Camera, curve: np.ndarray, s: np.ndarray, radius: np.ndarray, pts: np.ndarray,
+                    rad: np.ndarray) -> list[list[float]]:
+    """Arc-length ranges (mm) of ``curve`` hidden in ``cam`` by a tube ``pts`` in front of it.
+
+    A centreline sample is hidden when its pixel lies inside the tube's
+    projected width and the tube is nearer to the camera there.
+    """
+    xy = cam.project(curve)
+    depth = cam.world_to_cam(curve)[:, 2]
+    txy = cam.project(pts)
+    tz = cam.world_to_cam(pts)[:, 2]
+    tr = rad / tz * cam.K[0, 0]
+    dd, i = cKDTree(txy).query(xy)
+    hid = (dd < tr[i]) & (tz[i] < depth)
+    out, k = [], 0
+    while k < len(hid):
+        if hid[k]:
+            j = k
+            while j + 1 < len(hid) and hid[j + 1]:
+                j += 1
+            out.append([round(float(s[k]), 2), round(float(s[j]), 2)])
+            k = j + 1
+        else:
+            k += 1
+    return out
+
+
+def depth_order_mixed(cams: list, curves: np.ndarray, radius: np.ndarray, pts: np.ndarray, rad: np.ndarray) -> bool:
+    """True when a tube is in front of the tendril at one overlap and behind it at another, in some view.
+
+    The renderer draws an object either in front of the tendril or behind it
+    in a view (:func:`_front_views`); such an object would be drawn wrongly.
+    """
+    for cam in cams:
+        txy = cam.project(pts)
+        tz = cam.world_to_cam(pts)[:, 2]
+        tr = rad / tz * cam.K[0, 0]
+        signs = set()
+        for c in curves:
+            xy = cam.project(c[::2])
+            z = cam.world_to_cam(c[::2])[:, 2]
+            cr = radius[::2] / z * cam.K[0, 0]
+            d, i = cKDTree(txy).query(xy)
+            over = d < tr[i] + cr + 1.0
+            signs |= set(np.sign(tz[i[over]] - z[over]).astype(int).tolist())
+        if len(signs) > 1:
+            return True
+    return False

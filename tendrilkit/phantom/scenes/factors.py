@@ -38,8 +38,21 @@ Factors (``name``: what it does):
   the tendril partly in the outer third of a view), ``jpeg`` (every frame
   re-encoded as JPEG of quality 25-60: the blocking and ringing of H.264 at
   a low bit rate, a documented stand-in).
-- ``markers`` (boolean): two to five markers in all, some small, one partly
-  outside a view, the world marker 16-24 mm.
+- ``markers`` (boolean): two to five markers in all, at least one small,
+  one partly outside a view, the world marker 16-24 mm.
+- ``behind_stem`` (boolean): a side shoot of the stem (2.4-3.4 mm thick)
+  arching through space between one camera and the tendril: the tendril
+  passes behind it in that view (the hidden arc lengths per frame and view
+  are in the ground truth).
+- ``petiole`` (boolean): a leaf's petiole (0.9-1.4 mm) from the stem with
+  its blade, hanging in the ROI, crossing the tendril's projection in one
+  view (in front of or behind it), never touching it in 3D.
+- ``glancing_marker`` (boolean): a marker on a card standing on the board,
+  tilted 58-78 degrees, seen at 60 degrees or more from its normal by at
+  least one view (off the world marker's plane).
+
+The three last factors were added after the first benchmark (scene version
+2); they are drawn after the others, so a seed's other factors are unchanged.
 
 ``random`` draws every factor from the seed; a preset named after a factor
 (or after a categorical value, e.g. ``coil`` or ``sparse``) switches that
@@ -56,7 +69,7 @@ SAMPLINGS = ("timelapse", "sparse", "fps30")
 LOOKS = ("default", "pale", "brown")
 BOOLEAN_FACTORS = ("over_leaf", "over_stem", "alongside", "tip_leaf", "second_tendril", "occluding_leaf",
                    "careless_marks", "sway", "leave_view", "flicker", "vignetting", "shadow", "noise",
-                   "motion_blur", "distortion", "jpeg", "markers")
+                   "motion_blur", "distortion", "jpeg", "markers", "behind_stem", "petiole", "glancing_marker")
 GROUPS = {
     "contact": ("over_leaf", "over_stem", "alongside", "tip_leaf"),
     "clutter": ("second_tendril", "occluding_leaf", "over_leaf", "alongside"),

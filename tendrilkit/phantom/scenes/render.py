@@ -25,8 +25,11 @@ import numpy as np
 
 from tendrilkit.phantom.design import read_only
 from tendrilkit.phantom.projection import _project_safe
-from tendrilkit.phantom.render import _STEM, _blend, _light_map, _render_static, _tube_cover, check_frame_view
+from tendrilkit.phantom.render import (_INK, _PAPER, _STEM, _blend, _box_of, _light_map, _marker_bits, _render_static,
+                                      _tube_cover, check_frame_view)
+from tendrilkit.phantom.scene import _quiet_scale
 from tendrilkit.phantom.scenes.make import ScenePhantom
+from tendrilkit.phantom.scenes.markers import card_corners_mm
 
 
 def _poly_cover(cam, poly_mm: np.ndarray, *, ss: int = 4) -> tuple[tuple[int, int, int, int], np.ndarray] | None:
@@ -54,7 +57,11 @@ def _object_layers(ph: ScenePhantom, view: int) -> tuple[list, list]:
     for tb in ph.tubes:
         res = _tube_cover(cam, tb["pts"], tb["radius"])
         if res is not None:
-            (front if view in tb["front_views"] else behind).append((res[0], res[1], np.array(tb["colour"])))
+            layer = front if view in tb["front_views"] else behind
+            layer.append((res[0], res[1], np.array(tb["colour"])))
+            if "core_bgr" in tb:  # a lighter core, like the tendril's (shoots of issue 11's second round)
+                core = _tube_cover(cam, tb["pts"], 0.4 * np.asarray(tb["radius"]), box=res[0])[1]
+                layer.append((res[0], 0.6 * core, np.array(tb["core_bgr"])))
     for pl in ph.plates:
         res = _poly_cover(cam, pl["poly"])
         if res is not None:
@@ -79,6 +86,51 @@ def _texture(albedo: np.ndarray, rng: np.random.Generator) -> None:
     albedo *= (1.0 + 0.015 * slow + 0.004 * fine + 0.06 * green * fine)[..., None]
 
 
+def _render_card(albedo: np.ndarray, cam, card: dict, *, ss: int = 4) -> None:
+    """Draw a marker card (:func:`tendrilkit.phantom.scenes.markers.place_card`) into ``albedo`` in place.
+
+    Every pixel of the card's box is sampled ``ss x ss`` times; each sample's
+    ray (undistorted) meets the card's plane at local coordinates that pick
+    the paper, a black or a white cell, exactly as the board's markers.
+    """
+    qs = _quiet_scale()
+    box = _box_of(cam, card_corners_mm(card, qs), 3)
+    if box is None:
+        return
+    x0, y0, x1, y1 = box
+    off = (np.arange(ss) + 0.5) / ss - 0.5
+    xs = (np.arange(x0, x1)[:, None] + off[None, :]).ravel()
+    ys = (np.arange(y0, y1)[:, None] + off[None, :]).ravel()
+    XX, YY = np.meshgrid(xs, ys)
+    und = cam.undistort_points(np.stack([XX.ravel(), YY.ravel()], axis=1))
+    rays = (np.hstack([und, np.ones((len(und), 1))]) @ np.linalg.inv(cam.K).T) @ cam.R
+    c0 = cam.center_world
+    centre, e1, e2 = (np.asarray(card[k], float) for k in ("centre_mm", "e1", "e2"))
+    n = np.cross(e1, e2)
+    lam = ((centre - c0) @ n) / (rays @ n)
+    P = c0[None] + lam[:, None] * rays - centre[None]
+    u, w = P @ e1, P @ e2
+    half = 0.5 * card["length_mm"]
+    paper = (np.abs(u) <= half * qs) & (np.abs(w) <= half * qs) & (lam > 0)
+    cell = card["length_mm"] / 7.0
+    col = np.floor((u + half) / cell).astype(int)
+    row = np.floor((half - w) / cell).astype(int)
+    inmk = (col >= 0) & (col < 7) & (row >= 0) & (row < 7)
+    bits = _marker_bits(card["id"])
+    white = np.where(inmk, bits[np.clip(row, 0, 6), np.clip(col, 0, 6)], True)
+    # a tilted card gets less of the light from above than the board (Lambertian, light from the cameras' side)
+    shade = 0.7 + 0.3 * float(abs(n[2]))
+    colour = shade * np.where(white[:, None], _PAPER, _INK)
+    h, wd = y1 - y0, x1 - x0
+    paper = paper.reshape(h, ss, wd, ss).transpose(0, 2, 1, 3).reshape(h, wd, ss * ss)
+    colour = colour.reshape(h, ss, wd, ss, 3).transpose(0, 2, 1, 3, 4).reshape(h, wd, ss * ss, 3)
+    cover = paper.mean(axis=-1)
+    colsum = (colour * paper[..., None]).sum(axis=2) / paper.shape[-1]
+    sub = albedo[y0:y1, x0:x1]
+    sub *= (1.0 - cover)[..., None].astype(np.float32)
+    sub += colsum.astype(np.float32)
+
+
 def scene_layers(ph: ScenePhantom, view: int) -> dict:
     """The static layers of one view of a scene, rendered on first use and kept with the scene.
 
@@ -99,6 +151,8 @@ def scene_layers(ph: ScenePhantom, view: int) -> dict:
             res = _tube_cover(cam, bt["pts"], bt["radius"])
             if res is not None:
                 _blend(albedo, res[0], res[1], _STEM)
+        for card in ph.cards:  # markers on cards standing on the board
+            _render_card(albedo, cam, card)
         _texture(albedo, np.random.default_rng([ph.seed, 1125, view]))
         behind, front = _object_layers(ph, view)
         for box, cover, colour in behind:
