@@ -408,6 +408,20 @@ def test_refinement_converges_within_its_iteration_cap(seed):
     assert sse < 1.1 * 3 * s.size * 0.15**2, sse
 
 
+def test_hinge_step_means_are_the_mean_of_the_hinge():
+    """The score test's columns: the mean of (s - x)_+ over each step, by fine quadrature."""
+    from tendrilkit.pwc.refine import _hinge_means
+
+    s = np.cumsum(np.r_[0.0, np.random.default_rng(3).uniform(0.5, 1.5, 30)])
+    xs = np.array([0.2, 3.3, s[7], 12.0, s[-1] - 0.1])
+    G = _hinge_means(s, xs)
+    u = np.linspace(0.0, 1.0, 20001)
+    for i in range(s.size - 1):
+        seg = s[i] + u * (s[i + 1] - s[i])
+        ref = np.trapezoid(np.maximum(seg[:, None] - xs[None, :], 0.0), u, axis=0)
+        assert np.allclose(G[i], ref, rtol=0, atol=1e-8), (i, G[i], ref)
+
+
 def test_fit_reuses_the_frames_that_chose_the_smoothing():
     """The frames computed to choose the smoothing length are the fit's frames: the same as
     smoothing again at that length; the public length is unchanged."""
