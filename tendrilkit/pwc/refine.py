@@ -306,7 +306,7 @@ def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, it
     return (kk2, vk2, kt2, vt2), float(sse)
 
 
-def _refine_laws(prep, law_k, law_t, iterations=40, rtol=1e-5):
+def _refine_laws(prep, law_k, law_t, iterations=40, rtol=1e-6):
     s = prep.s
     (kk, vk, kt, vt), sse = _refine_laws_lm(
         s, prep.data, law_k.knots_mm, law_k.values, law_t.knots_mm, law_t.values,
