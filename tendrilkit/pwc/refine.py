@@ -247,22 +247,19 @@ def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
             for i in range(m):
                 A[i, i] += mu * (H[i, i] + 1e-12 * tr + 1e-300)
             step = np.linalg.solve(A, -g)[:npar]
-            # a step beyond the reach of the linear model is shortened to it (same direction)
             ok = True
-            shrink = 1.0
             for i in range(npar):
                 v = step[i]
                 if not np.isfinite(v):
                     ok = False
-                else:
-                    lim = max_knot_step if is_knot[i] else max_value_step
-                    if abs(v) * shrink > lim:
-                        shrink = lim / abs(v)
+                elif is_knot[i]:
+                    if abs(v) > max_knot_step:
+                        ok = False
+                elif abs(v) > max_value_step:
+                    ok = False
             if not ok:
                 mu *= 10.0
                 continue
-            if shrink < 1.0:
-                step = step * shrink
             q = p + step
             cq = _unpack_nb(q, kk, kt, free_knots)
             if _min_gap_of(cq[0]) < gap_k or _min_gap_of(cq[2]) < gap_t:
