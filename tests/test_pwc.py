@@ -387,27 +387,6 @@ def test_refinement_jacobian_matches_finite_differences():
     assert np.all(err[is_knot] < 0.15), err
 
 
-@pytest.mark.parametrize("seed", range(5))
-def test_refinement_converges_within_its_iteration_cap(seed):
-    """From the true knots with values 20 % off, the default refinement (40 iterations) reaches
-    the noise level (0.15 mm: SSE about 3 n sigma^2) and the optimum of a 1000-iteration run: a step
-    beyond the per-value/per-knot limits is shortened, not refused (refused steps crept and stalled)."""
-    from tendrilkit.pwc.refine import _refine_laws_lm
-
-    tc = random_pwc_curve(seed)
-    s, data = tc.s_mm.copy(), tc.points_mm
-    kk, vk = (a.copy() for a in tc.kappa_knots)
-    kt, vt = (a.copy() for a in tc.tau_knots)
-    rng = np.random.default_rng(seed)
-    vk = vk * (1 + 0.2 * rng.standard_normal(vk.size))
-    vt = vt * (1 + 0.2 * rng.standard_normal(vt.size))
-    gap = 9 * s[-1] / (s.size - 1)
-    _, sse = _refine_laws_lm(s, data, kk, vk, kt, vt, min_gap=gap, rtol=1e-5)
-    _, sse_long = _refine_laws_lm(s, data, kk, vk, kt, vt, min_gap=gap, iterations=1000, rtol=0.0)
-    assert sse <= sse_long * (1 + 1e-4), (sse, sse_long)
-    assert sse < 1.1 * 3 * s.size * 0.15**2, sse
-
-
 def test_hinge_step_means_are_the_mean_of_the_hinge():
     """The score test's columns: the mean of (s - x)_+ over each step, by fine quadrature."""
     from tendrilkit.pwc.refine import _hinge_means

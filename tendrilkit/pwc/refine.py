@@ -291,11 +291,9 @@ def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, it
     means through :func:`_law_columns`. The rigid registration's six freedoms
     are part of each step (variable projection). Each iteration changes a
     value by at most 1/L and a knot by at most L/10 (the reach of the linear
-    model): a longer step is shortened to that reach in its own direction
-    (raising the damping instead bent it towards the gradient and made the
-    fit creep); the damping rises only when a step does not lower the SSE.
-    Knots stay ``min_gap`` mm apart. Stops when an iteration lowers the SSE
-    by less than the fraction ``rtol``.
+    model; a longer step raises the damping); knots stay ``min_gap`` mm
+    apart. Stops when an iteration lowers the SSE by less than the fraction
+    ``rtol``.
     """
     f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
     kk2, vk2, kt2, vt2, sse = _lm_core(f(s), f(data), f(kk), f(vk), f(kt), f(vt), bool(free_knots),
