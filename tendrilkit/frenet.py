@@ -231,6 +231,17 @@ def auto_smoothing_length_mm(points_mm: np.ndarray, *, reference_mm: float = 20.
     :math:`2\\pi / \\sqrt{\\kappa^2 + \\tau^2}` (median), where the
     smoother keeps 89 % of the coil's curvature; clipped to [4 h, L / 3].
     """
+    return _auto_smoothing(points_mm, reference_mm, reference_noise_mm, of_resampled=True)[0]
+
+
+def _auto_smoothing(points_mm, reference_mm=20.0, reference_noise_mm=0.15, of_resampled=False):
+    """:func:`auto_smoothing_length_mm` and the frames it computed with that length (or ``None``).
+
+    ``of_resampled``: the coiling is measured on the frames of ``points_mm``
+    resampled once more, as :func:`auto_smoothing_length_mm` does; otherwise
+    on ``frenet_frames(points_mm, smoothing_length_mm=length)`` itself, which
+    is then returned so that callers need not smooth again.
+    """
     data = resample_curve(points_mm)
     L = float(arc_length(data)[-1])
     h = L / (data.shape[0] - 1)
@@ -238,13 +249,13 @@ def auto_smoothing_length_mm(points_mm: np.ndarray, *, reference_mm: float = 20.
     Ls = reference_mm * (max(sigma, 1e-6) / reference_noise_mm) ** 0.4
     Ls = float(np.clip(Ls, 4 * h, L / 3))
     for _ in range(2):
-        fr = frenet_frames(data, smoothing_length_mm=Ls)
+        fr = frenet_frames(data if of_resampled else points_mm, smoothing_length_mm=Ls)
         w = np.median(np.hypot(fr.kappa, fr.tau * fr.tau_defined))
         cap = 0.6 * 2 * np.pi / w if w > 0 else np.inf
         if Ls <= cap:
-            break
+            return Ls, fr
         Ls = float(np.clip(cap, 4 * h, L / 3))
-    return Ls
+    return Ls, None
 
 
 def frenet_frames(

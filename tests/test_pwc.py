@@ -387,6 +387,35 @@ def test_refinement_jacobian_matches_finite_differences():
     assert np.all(err[is_knot] < 0.15), err
 
 
+def test_hinge_step_means_are_the_mean_of_the_hinge():
+    """The score test's columns: the mean of (s - x)_+ over each step, by fine quadrature."""
+    from tendrilkit.pwc.refine import _hinge_means
+
+    s = np.cumsum(np.r_[0.0, np.random.default_rng(3).uniform(0.5, 1.5, 30)])
+    xs = np.array([0.2, 3.3, s[7], 12.0, s[-1] - 0.1])
+    G = _hinge_means(s, xs)
+    u = np.linspace(0.0, 1.0, 20001)
+    for i in range(s.size - 1):
+        seg = s[i] + u * (s[i + 1] - s[i])
+        ref = np.trapezoid(np.maximum(seg[:, None] - xs[None, :], 0.0), u, axis=0)
+        assert np.allclose(G[i], ref, rtol=0, atol=1e-8), (i, G[i], ref)
+
+
+def test_fit_reuses_the_frames_that_chose_the_smoothing():
+    """The frames computed to choose the smoothing length are the fit's frames: the same as
+    smoothing again at that length; the public length is unchanged."""
+    from tendrilkit.frenet import _auto_smoothing, auto_smoothing_length_mm, frenet_frames
+    from tendrilkit.pwc.signals import _prepare
+
+    P = random_pwc_curve(11).points_mm
+    assert _auto_smoothing(P, of_resampled=True)[0] == auto_smoothing_length_mm(P)
+    fr = _prepare(P, None, "l2", None, None).fr
+    ref = frenet_frames(P, smoothing_length_mm=fr.smoothing_length_mm)
+    for name in ("data_mm", "smooth_mm", "s_mm", "T", "N", "B", "kappa", "tau", "tau_defined"):
+        assert np.array_equal(getattr(fr, name), getattr(ref, name)), name
+    assert fr.smoothing_length_mm == _auto_smoothing(P)[0]
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_knot_refit_is_scipys_least_squares_linear_spline(seed):
     """The weighted continuous refit at the surviving knots equals scipy's least-squares linear B-spline

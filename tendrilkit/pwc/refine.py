@@ -291,7 +291,9 @@ def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, it
     means through :func:`_law_columns`. The rigid registration's six freedoms
     are part of each step (variable projection). Each iteration changes a
     value by at most 1/L and a knot by at most L/10 (the reach of the linear
-    model); knots stay ``min_gap`` mm apart.
+    model; a longer step raises the damping); knots stay ``min_gap`` mm
+    apart. Stops when an iteration lowers the SSE by less than the fraction
+    ``rtol``.
     """
     f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
     kk2, vk2, kt2, vt2, sse = _lm_core(f(s), f(data), f(kk), f(vk), f(kt), f(vt), bool(free_knots),
@@ -305,6 +307,26 @@ def _refine_laws(prep, law_k, law_t, iterations=40, rtol=1e-6):
         s, prep.data, law_k.knots_mm, law_k.values, law_t.knots_mm, law_t.values,
         free_knots=prep.free_knots, min_gap=prep.min_gap_mm, iterations=iterations, rtol=rtol)
     return PiecewiseLinearLaw(kk, vk, "kappa"), PiecewiseLinearLaw(kt, vt, "tau"), sse
+
+
+@njit(cache=True)
+def _hinge_means(s, xs):
+    """(n-1, m) step means of the hinges :math:`(s - x)_+` for the m positions ``xs``, mm."""
+    n = s.shape[0]
+    G = np.empty((n - 1, xs.shape[0]))
+    for i in range(n - 1):
+        a = s[i]
+        b = s[i + 1]
+        for q in range(xs.shape[0]):
+            x = xs[q]
+            if b <= x:
+                G[i, q] = 0.0
+            elif a >= x:
+                G[i, q] = 0.5 * (a + b) - x
+            else:
+                d = b - x
+                G[i, q] = d * d / (2 * (b - a))
+    return G
 
 
 def _best_insertions(prep, lk, lt):
@@ -329,15 +351,12 @@ def _best_insertions(prep, lk, lt):
     r = (X - data).ravel()
     gap = prep.min_gap_mm
     xs = np.arange(s[0] + gap, s[-1] - gap, max(gap / 2, (s[-1] - s[0]) / 200))
-    a, b = s[:-1, None], s[1:, None]
-    hinge = np.where(b <= xs, 0.0, np.where(a >= xs, 0.5 * (a + b) - xs, (b - xs) ** 2 / (2 * (b - a))))
     oks = [np.min(np.abs(xs[:, None] - law.knots_mm[None, :]), axis=1) >= gap for law in (lk, lt)]
     nk, nt = int(oks[0].sum()), int(oks[1].sum())
     if nk + nt == 0:
         return [None, None]
     # both laws' hinge columns in one pass (each column is computed on its own)
-    C = _lm_jacobian(s, P, T, B, R, X, np.ascontiguousarray(hinge[:, oks[0]]),
-                     np.ascontiguousarray(hinge[:, oks[1]]))[:, : nk + nt]
+    C = _lm_jacobian(s, P, T, B, R, X, _hinge_means(s, xs[oks[0]]), _hinge_means(s, xs[oks[1]]))[:, : nk + nt]
     Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
     num = (Cp.T @ r) ** 2
     den = np.einsum("ij,ij->j", Cp, Cp) + 1e-300

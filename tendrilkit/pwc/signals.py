@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tendrilkit.frenet import FrenetFrames, auto_smoothing_length_mm, frenet_frames
+from tendrilkit.frenet import FrenetFrames, _auto_smoothing, frenet_frames
 from tendrilkit.pwc.costs import line_costs
 
 __all__: list[str] = []
@@ -46,9 +46,14 @@ class _Prepared:
 
 def _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points, free_knots=True):
     """Smooth ``points_mm`` (n, 3) and cost both signals (options: :func:`~tendrilkit.pwc.fit_piecewise_clothoid`)."""
+    fr = None
     if smoothing_length_mm is None:
-        smoothing_length_mm = auto_smoothing_length_mm(points_mm)
-    fr = frenet_frames(points_mm, smoothing_length_mm=smoothing_length_mm, n=n_points)
+        # the frames the choice of length computed are reused when they have the points asked for
+        smoothing_length_mm, fr = _auto_smoothing(points_mm)
+        if n_points is not None and (fr is None or fr.s_mm.size != n_points):
+            fr = None
+    if fr is None:
+        fr = frenet_frames(points_mm, smoothing_length_mm=smoothing_length_mm, n=n_points)
     s = fr.s_mm
     n = s.size
     h = s[-1] / (n - 1)
