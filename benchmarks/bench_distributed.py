@@ -32,15 +32,14 @@ whole command a user types (``python -m tendrilkit reconstruct ... --scheduler
 pool|local:1|local:2``, the calibration reused), start-up included, wall and CPU
 seconds of the command and all its processes. Start-up is also printed alone.
 
-Measured (2026-11-29 23:00, 2 cores shared with four other engineers, load average 10-20;
---rounds 2 --batch-frames 15): start-up pool 0.0 s (the kernels compiled before), local:1
-17.8 s, local:2 36.6 s; per-task overhead pool 0.08 ms, local:1 9.1 ms, local:2 5.9 ms;
-2a pool 2.19, local:1 2.23, local:2 2.01 frames/s (local:2 / pool 1.09; CPU s/frame of the
-workers 0.182, 0.168, 0.197); 2b pool 0.98, local:1 0.74, local:2 0.59 frames/s (local:2 /
-pool 1.68; CPU 23.4, 27.1, 38.1 s: the workers' start-up); batch pool 1.53, local:1 1.69,
-local:2 1.49 frames/s. Tables byte-identical across modes. Before the worker settings of
-tendrilkit.distributed (Dask's MALLOC_TRIM_THRESHOLD_, uncompiled skan kernels) local:2 was
-1.30 x the pool on the idle machine. Rerun on a quiet machine.
+Measured (2026-11-30 00:35, idle machine, load 0.6; a fresh clone with its environment;
+--rounds 2 --batch-frames 15): start-up pool 0.0 s, local:1 1.7 s, local:2 1.4 s; per-task
+overhead pool 0.12 ms, local:1 3.45 ms, local:2 2.70 ms; 2a pool 10.88, local:1 7.12, local:2
+10.86 frames/s (local:2 / pool 1.00; worker CPU s/frame 0.160, 0.139, 0.163); 2b pool 7.26,
+local:1 4.67, local:2 5.94 frames/s (local:2 / pool 1.22, start-up included); batch pool 7.71,
+local:1 5.41, local:2 7.76 frames/s. Tables byte-identical across modes. Before the worker
+settings of tendrilkit.distributed (Dask's MALLOC_TRIM_THRESHOLD_, skan's uncached kernels,
+no compiled bytecode) local:2 was 1.30 x the pool on the idle machine.
 
 Prints the load average before and after: figures on a shared machine are
 upper bounds; compare the ratios, measured in the same run.
