@@ -324,31 +324,12 @@ def test_step_means_are_the_exact_integral_of_the_law(seed):
     np.testing.assert_allclose(law.step_means(s), np.diff(integral) / np.diff(s), rtol=1e-9, atol=1e-12)
 
 
-@pytest.mark.parametrize("seed", range(4))
-def test_refinement_integration_is_the_frenet_integration(seed):
-    """The refinement's integrator (frame in scalars, N not stored) gives the same bits as
-    tendrilkit.frenet's from the identity frame, also across steps with no turn."""
-    from tendrilkit.frenet import _integrate
-    from tendrilkit.pwc.rebuild import _integrate_identity
-
-    rng = np.random.default_rng(seed)
-    s = np.cumsum(rng.uniform(0.2, 1.5, 150))
-    k = rng.uniform(0.0, 0.12, 149)
-    t = rng.uniform(-0.08, 0.08, 149)
-    k[rng.integers(0, 149, 5)] = 0.0
-    t[k == 0.0] = 0.0
-    P, T, N, B = _integrate(s, k, t, np.eye(3), np.zeros(3), False)
-    P2, T2, B2 = _integrate_identity(s, k, t)
-    for a, b in ((P, P2), (T, T2), (B, B2)):
-        assert np.array_equal(a, b)
-
-
 def test_refinement_jacobian_matches_finite_differences():
     """Each column of the analytic Jacobian (knot values, inner knot positions) against a finite
     difference of the registered points; the Jacobian is first order in the step (values) and
     takes the knot derivative at step midpoints (positions), hence the tolerances."""
     from tendrilkit.pwc.laws import _pwl_step_means
-    from tendrilkit.pwc.rebuild import _integrate_identity
+    from tendrilkit.frenet import _integrate
     from tendrilkit.pwc.refine import _law_columns, _lm_evaluate, _lm_jacobian
 
     tc = random_pwc_curve(7)
@@ -360,7 +341,7 @@ def test_refinement_jacobian_matches_finite_differences():
     t = X[0] - R @ P[0]
 
     def points(kk, vk, kt, vt):
-        Q, _, _ = _integrate_identity(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt))
+        Q = _integrate(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt), np.eye(3), np.zeros(3), False)[0]
         return (Q @ R.T + t).ravel()
 
     base = points(kk, vk, kt, vt)

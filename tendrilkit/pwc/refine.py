@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from tendrilkit.frenet import _integrate
 from tendrilkit.geometry import rigid_fit
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _pwl_step_means
-from tendrilkit.pwc.rebuild import _integrate_identity
 
 __all__: list[str] = []
 
@@ -155,7 +155,7 @@ def _law_columns(s, knots, values, free_knots):
 
 @njit(cache=True)
 def _lm_evaluate(s, kk, vk, kt, vt, data):
-    P, T, B = _integrate_identity(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt))
+    P, T, _, B = _integrate(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt), np.eye(3), np.zeros(3), False)
     if not np.all(np.isfinite(P)):
         return np.inf, P, T, B, np.eye(3), P.copy()
     R, t = rigid_fit(P, data)
