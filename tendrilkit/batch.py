@@ -56,7 +56,7 @@ def default_notebooks_dir() -> Path:
 
 CROSS_SITE = "07_compare_sites.ipynb"
 PROVENANCE_PACKAGES = ("tendrilkit", "numpy", "scipy", "pandas", "opencv-python-headless", "scikit-image",
-                       "skan", "numba", "matplotlib", "plotly", "papermill", "pydantic")
+                       "numba", "matplotlib", "plotly", "papermill", "pydantic")
 
 
 @dataclass(frozen=True)

@@ -505,8 +505,8 @@ class _Sources:
 def _warm_up(fit: bool) -> None:
     """Run the compiled kernels once on a small synthetic curve and mask (numba compiles or loads its cache).
 
-    skan's graph kernels are not cached by numba: without this, every worker
-    process compiles them (about 3 CPU-s) in its first chunk.
+    The skeleton ordering is included: its graph walk is compiled too, and a
+    worker would otherwise load it in its first chunk.
     """
     from tendrilkit.correspondence import discrete_frechet, match_epipolar
     from tendrilkit.pwc import fit_piecewise_clothoid
