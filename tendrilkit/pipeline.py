@@ -85,7 +85,7 @@ from tendrilkit.skeleton import order_skeleton
 from tendrilkit.straightness import straightness_note
 from tendrilkit.triangulation import refine_to_curves, reprojection_table, triangulate
 
-__all__ = ["FrameResult", "reconstruct_frame", "quality_columns", "RESULT_FILES"]
+__all__ = ["FrameResult", "reconstruct_frame", "multiview_evidence", "quality_columns", "RESULT_FILES"]
 
 #: The tables :func:`tendrilkit.runner.run_reconstruct` writes in ``DIR`` (besides ``cameras.json`` and ``frames/``).
 RESULT_FILES = ("curves.csv", "pwc_curves.csv", "frames.csv", "reprojection.csv", "ordering.csv",
@@ -399,23 +399,38 @@ def _shape_and_fit(points: np.ndarray, q: dict, notes: list, exp, frame: int, t_
     return pwc, pwc_segments, pwc_row
 
 
-def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous_mm, read_errors, fit: bool
-                     ) -> FrameResult:
-    """:func:`reconstruct_frame` by ``reconstruction.method: multiview`` (:mod:`tendrilkit.multiview`)."""
+def multiview_evidence(images, cameras: list[Camera], exp, *, read_errors=None) -> tuple[list, list, list[str]]:
+    """The evidence of every view for ``reconstruction.method: multiview`` (what the method decides from).
+
+    Parameters
+    ----------
+    images : list of (H, W, 3) uint8 arrays or None
+        One per view (None: not read).
+    cameras : list of Camera
+    exp : Experiment
+        Its marks and segmentation options are used.
+    read_errors : list of str or None, optional
+        Why a view's image is None.
+
+    Returns
+    -------
+    views : list
+        :func:`tendrilkit.evidence.view_evidence` per view (None where it failed); what the
+        verification reads.
+    evidence : list
+        :func:`tendrilkit.mv_evidence.skeleton_evidence` per view (None where it failed).
+    notes : list of str
+        Why a view has no evidence (``view <i>: ...``, 1-based).
+    """
     from tendrilkit.evidence import view_evidence
-    from tendrilkit.multiview import base_point_from_marks, distance_table, reconstruct_multiview
     from tendrilkit.mv_evidence import skeleton_evidence
-    from tendrilkit.verify import Thresholds, image_check_messages, verify_curve
 
     V = len(cameras)
     read_errors = list(read_errors) if read_errors is not None else [None] * V
     seg_opts = stage_options(exp, "segmentation")
-    t_s = frame / exp.fps
-    timings: dict[str, float] = {}
-    notes: list[str] = []
-    views: list = [None] * V  # tendrilkit.evidence per view (also what the verification reads)
+    views: list = [None] * V
     evidence: list = [None] * V
-    t0 = time.perf_counter()
+    notes: list[str] = []
     for v in range(V):
         if images[v] is None:
             notes.append(f"view {v + 1}: {read_errors[v] or 'no image'}")
@@ -430,6 +445,20 @@ def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous
             raise
         except _NUMERICAL_ERRORS as e:
             notes.append(f"view {v + 1}: unexpected {type(e).__name__} in the evidence: {e}")
+    return views, evidence, notes
+
+
+def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous_mm, read_errors, fit: bool
+                     ) -> FrameResult:
+    """:func:`reconstruct_frame` by ``reconstruction.method: multiview`` (:mod:`tendrilkit.multiview`)."""
+    from tendrilkit.multiview import base_point_from_marks, distance_table, reconstruct_multiview
+    from tendrilkit.verify import Thresholds, image_check_messages, verify_curve
+
+    V = len(cameras)
+    t_s = frame / exp.fps
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    views, evidence, notes = multiview_evidence(images, cameras, exp, read_errors=read_errors)
     timings["evidence"] = time.perf_counter() - t0
     used = [v for v in range(V) if evidence[v] is not None]
     try:
