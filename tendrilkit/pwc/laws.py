@@ -133,38 +133,56 @@ def join_segments(
     [0.05, 0.055]
     """
     s, y, w = _check_signal(s_mm, y, weights)
-    b = [int(v) for v in np.asarray(bounds)]
-    if b[0] != 0 or b[-1] != s.size or any(b2 <= b1 for b1, b2 in zip(b[:-1], b[1:])):
-        raise ValueError(f"bounds must increase from 0 to {s.size}, got {b}")
-    h_min = float(np.min(np.diff(s)))
-    line = _Lines(s, y, w)
-    while True:
-        lines = [line(a, c) for a, c in zip(b[:-1], b[1:])]
-        knots = [float(s[0])]
-        bad = None
-        for i in range(len(lines) - 1):
-            (a1, c1), (a2, c2) = lines[i], lines[i + 1]
-            lo, hi = s[b[i]], s[b[i + 2] - 1]
-            if a1 == a2:
-                bad = i
-                break
-            x = (c2 - c1) / (a1 - a2)
-            if not (lo < x < hi) or x <= knots[-1] + 0.5 * h_min or x >= s[-1] - 0.5 * h_min:
-                bad = i
-                break
-            knots.append(float(x))
-        if bad is None:
-            break
-        del b[bad + 1]
-    knots.append(float(s[-1]))
-    kn = np.array(knots)
-    values = _refit_values(s, y, w, kn)
-    return PiecewiseLinearLaw(knots_mm=kn, values=values, kind=kind)
+    return _Joiner(s, y, w).join(bounds, kind)
 
 
-def _refit_values(s, y, w, knots):
+class _Joiner:
+    """One signal prepared for :func:`join_segments` of many segmentations.
+
+    The automatic selection and the grid search join several segmentations of
+    the same signal; the checks, the prefix sums and the square-root weights
+    are made once here (``s``, ``y``, ``w``: checked (n,) arrays).
+    """
+
+    def __init__(self, s, y, w):
+        self.s, self.y, self.w = s, y, w
+        self.h_min = float(np.min(np.diff(s)))
+        self.line = _Lines(s, y, w)
+        self.sq = np.sqrt(w)
+
+    def join(self, bounds, kind=""):
+        """The continuous law of the segmentation ``bounds`` (:func:`join_segments`)."""
+        s, h_min, line = self.s, self.h_min, self.line
+        b = [int(v) for v in np.asarray(bounds)]
+        if b[0] != 0 or b[-1] != s.size or any(b2 <= b1 for b1, b2 in zip(b[:-1], b[1:])):
+            raise ValueError(f"bounds must increase from 0 to {s.size}, got {b}")
+        while True:
+            lines = [line(a, c) for a, c in zip(b[:-1], b[1:])]
+            knots = [float(s[0])]
+            bad = None
+            for i in range(len(lines) - 1):
+                (a1, c1), (a2, c2) = lines[i], lines[i + 1]
+                lo, hi = s[b[i]], s[b[i + 2] - 1]
+                if a1 == a2:
+                    bad = i
+                    break
+                x = (c2 - c1) / (a1 - a2)
+                if not (lo < x < hi) or x <= knots[-1] + 0.5 * h_min or x >= s[-1] - 0.5 * h_min:
+                    bad = i
+                    break
+                knots.append(float(x))
+            if bad is None:
+                break
+            del b[bad + 1]
+        knots.append(float(s[-1]))
+        kn = np.array(knots)
+        values = _refit_values(s, self.y, self.w, kn, sq=self.sq)
+        return PiecewiseLinearLaw(knots_mm=kn, values=values, kind=kind)
+
+
+def _refit_values(s, y, w, knots, sq=None):
     A = _hat_matrix(s, knots)
-    sq = np.sqrt(w)
+    sq = np.sqrt(w) if sq is None else sq
     Aw = A * sq[:, None]
     # a whisper of ridge on the second differences keeps knots with no weight defined
     m = knots.size

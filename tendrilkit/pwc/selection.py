@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from tendrilkit.pwc.laws import PiecewiseLinearLaw, _insert_knot, _merge_knots, join_segments
+from tendrilkit.pwc.costs import _check_signal
+from tendrilkit.pwc.laws import PiecewiseLinearLaw, _insert_knot, _Joiner, _merge_knots
 from tendrilkit.pwc.rebuild import _law_sse
 from tendrilkit.pwc.refine import _best_insertions, _refine_laws
 from tendrilkit.pwc.search import penalty_path
@@ -161,7 +162,8 @@ class _DistinctLaws:
     """
 
     def __init__(self, s, y, w, path, kind):
-        self.s, self.y, self.w, self.path, self.kind = s, y, w, path, kind
+        self.path, self.kind = path, kind
+        self.joiner = _Joiner(*_check_signal(s, y, w))
         self.idx: list[int] = []
         self.laws: list[PiecewiseLinearLaw] = []
         self._seen: set = set()
@@ -172,7 +174,7 @@ class _DistinctLaws:
         while len(self.laws) <= a and self._next < len(self.path.bounds):
             i = self._next
             self._next += 1
-            law = join_segments(self.s, self.y, self.path.bounds[i], weights=self.w, kind=self.kind)
+            law = self.joiner.join(self.path.bounds[i], self.kind)
             key = tuple(np.round(law.knots_mm, 9))
             if key not in self._seen:
                 self._seen.add(key)
