@@ -30,6 +30,8 @@ from tendrilkit.pwc import (
     segment_penalty,
 )
 from tendrilkit.pwc.datasets import mean_distance_mm, random_pwc_curve
+from tendrilkit.pwc.laws import _merge_knots
+from tendrilkit.pwc.search import _dp_counts
 
 
 # ------------------------------------------------------------------ reference programme
@@ -85,6 +87,48 @@ def test_penalty_path_gives_the_optimum_of_every_penalty(sig, pens):
         i = path.index(pen)
         assert path.costs[i] + path.counts[i] * pen == pytest.approx(cost, rel=1e-9, abs=1e-12)
         assert path.penalty_lo[i] <= pen + 1e-12 and pen <= path.penalty_hi[i] + 1e-12
+
+
+def dp_counts_full(C: np.ndarray, kmax: int) -> tuple[np.ndarray, np.ndarray]:
+    """G_k(j) = min_i G_{k-1}(i) + C[i, j] over every i (first minimum), in plain Python."""
+    n = C.shape[0] - 1
+    G = np.full((kmax + 1, n + 1), np.inf)
+    back = np.zeros((kmax + 1, n + 1), dtype=np.int64)
+    G[0, 0] = 0.0
+    for k in range(1, kmax + 1):
+        for j in range(1, n + 1):
+            for i in range(j):
+                v = G[k - 1, i] + C[i, j]
+                if v < G[k, j]:
+                    G[k, j], back[k, j] = v, i
+    return G, back
+
+
+@settings(max_examples=40, deadline=None)
+@given(signals, st.floats(0.0, 0.6))
+def test_count_programme_skips_only_infinite_intervals(sig, holes):
+    """_dp_counts skips the intervals shorter than the shortest finite one: the same G and
+    back-pointers as the full loop, also for tables with infinite costs anywhere."""
+    n, min_size, seed, score = sig
+    rng = np.random.default_rng(seed)
+    s = np.cumsum(rng.uniform(0.5, 1.5, n))
+    y = np.sin(s / 3) * rng.uniform(0, 2) + rng.normal(0, 0.2, n)
+    C = line_costs(s, y, score=score, min_size=min_size)
+    C[rng.uniform(size=C.shape) < holes] = np.inf
+    kmax = n // min_size
+    G, back = _dp_counts(C, kmax)
+    G_ref, back_ref = dp_counts_full(C, kmax)
+    assert np.array_equal(G, G_ref)
+    assert np.array_equal(back[np.isfinite(G_ref)], back_ref[np.isfinite(G_ref)])
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(1.0, 99.0), max_size=6), st.lists(st.floats(1.0, 99.0), max_size=6), st.floats(0.5, 20.0))
+def test_merge_knots_keeps_the_knots_of_b_far_from_a(inner_a, inner_b, gap):
+    a = np.sort(np.r_[0.0, inner_a, 100.0])
+    b = np.sort(np.r_[0.0, inner_b, 100.0])
+    extra = [x for x in b[1:-1] if np.min(np.abs(a - x)) >= gap]
+    assert np.array_equal(_merge_knots(a, b, gap), np.sort(np.r_[a, extra]))
 
 
 def test_l2_costs_are_least_squares_lines():

@@ -227,5 +227,6 @@ def _insert_knot(law, x):
 
 def _merge_knots(a, b, min_gap):
     """Union of two knot sets (same ends); knots of ``b`` closer than ``min_gap`` to one of ``a`` dropped."""
-    extra = [x for x in b[1:-1] if np.min(np.abs(a - x)) >= min_gap]
-    return np.sort(np.concatenate([a, extra])) if extra else a
+    inner = b[1:-1]
+    extra = inner[np.min(np.abs(a[None, :] - inner[:, None]), axis=1) >= min_gap] if inner.size else inner
+    return np.sort(np.concatenate([a, extra])) if extra.size else a

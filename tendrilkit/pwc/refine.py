@@ -347,7 +347,7 @@ def _best_insertions(prep, lk, lt):
     scale = np.sqrt(np.einsum("ij,ij->j", J, J)) + 1e-300
     Js = J / scale
     H = Js.T @ Js
-    H[np.diag_indices_from(H)] += 1e-10
+    H.flat[:: H.shape[0] + 1] += 1e-10
     r = (X - data).ravel()
     gap = prep.min_gap_mm
     xs = np.arange(s[0] + gap, s[-1] - gap, max(gap / 2, (s[-1] - s[0]) / 200))

@@ -44,11 +44,24 @@ def _dp_counts(C, kmax):
     G = np.full((kmax + 1, n + 1), np.inf)
     back = np.zeros((kmax + 1, n + 1), dtype=np.int64)
     G[0, 0] = 0.0
+    # m: the shortest interval j - i with a finite cost (for line_costs, the minimum segment
+    # size). G[k, j] is inf for j < k m and only i in [(k - 1) m, j - m] can give a finite
+    # value, so the loops skip the rest: the same optimum and back-pointers
+    m = n + 1
+    for i in range(n):
+        for j in range(i + 1, min(i + m, n + 1)):
+            if C[i, j] < np.inf:
+                m = j - i
+                break
     for k in range(1, kmax + 1):
         for j in range(1, n + 1):
             best = np.inf
             bi = 0
-            for i in range(j):
+            if j < k * m:
+                G[k, j] = best
+                back[k, j] = bi
+                continue
+            for i in range((k - 1) * m, j - m + 1):
                 g = G[k - 1, i]
                 c = C[i, j]
                 if g < np.inf and c < np.inf:
