@@ -12,6 +12,13 @@
    scipy from source: about a second more).
 Also prints the accuracy on the seeded noisy ground-truth curves and where the time of one
 frame goes (CPU per stage, measured in a second pass).
+
+    .venv/bin/python benchmarks/bench_pwc.py --baseline /tmp/old   # a checkout of the old code
+
+compares with another checkout on the same machine load: the per-frame fit (CPU and wall) and the
+fit command, the two run alternately in fresh processes (``--rounds`` each), and prints the ratios
+(new / old) with the load average. Each fit process loads its checkout's ``tendrilkit`` from its
+working directory.
 """
 
 from __future__ import annotations
@@ -37,7 +44,12 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--frames", type=int, default=100)
     ap.add_argument("--curves", type=int, default=40, help="ground-truth curves for the per-frame figures")
+    ap.add_argument("--baseline", type=Path, help="a checkout of the old code: compare with it, then stop")
+    ap.add_argument("--rounds", type=int, default=3, help="--baseline: alternate runs of each")
     args = ap.parse_args()
+    if args.baseline is not None:
+        _compare(args.baseline.resolve(), args.curves, args.frames, args.rounds)
+        return
 
     curves = [random_pwc_curve(1000 + i) for i in range(args.curves)]
     t = time.perf_counter()
@@ -129,11 +141,12 @@ def main() -> None:
 def _stage_times(curves) -> dict:
     """CPU time per frame of each stage of the automatic fit (wrappers around the stage functions)."""
     import tendrilkit.pwc.fit as F
+    import tendrilkit.pwc.laws as L
     import tendrilkit.pwc.selection as S
 
     stages = [(F, "_prepare", "signals: smoothing, Frenet frames, cost tables"),
               (S, "penalty_path", "search: both penalty paths"),
-              (S, "join_segments", "continuity: joins and knot refit"),
+              (L._Joiner, "join", "continuity: joins and knot refit"),
               (S, "_law_sse", "selection: SSE of the starts"),
               (S, "_refine_laws", "refinement: Levenberg-Marquardt"),
               (S, "_best_insertions", "selection: knot score test"),
@@ -164,6 +177,74 @@ def _stage_times(curves) -> dict:
     out["selection: the rest (Python)"] = 1e3 * total / len(curves) - sum(out.values())
     out["total"] = 1e3 * total / len(curves)
     return out
+
+
+_TIME_FITS = """
+import json, os, sys, time
+sys.path.insert(0, os.getcwd())
+from tendrilkit.pwc import fit_piecewise_clothoid
+from tendrilkit.pwc.datasets import random_pwc_curve
+curves = [random_pwc_curve(1000 + i).points_mm for i in range({n})]
+fit_piecewise_clothoid(curves[0])
+wall, cpu = [], []
+for P in curves:
+    t, c = time.perf_counter(), time.process_time()
+    fit_piecewise_clothoid(P)
+    wall.append(time.perf_counter() - t)
+    cpu.append(time.process_time() - c)
+print(json.dumps([wall, cpu]))
+"""
+
+
+def _compare(baseline: Path, n_curves: int, n_frames: int, rounds: int) -> None:
+    """Old (``baseline``) against this checkout, alternately in fresh processes, on the same load."""
+    import json
+
+    import pandas as pd
+
+    if not (baseline / "tendrilkit" / "pwc").is_dir():
+        print(f"--baseline: {baseline} holds no tendrilkit/pwc; expected a checkout of the old code")
+        raise SystemExit(2)
+    sides = {"old": baseline, "new": REPO}
+    per_fit = {k: ([], []) for k in sides}
+    for _ in range(rounds):
+        for name, cwd in sides.items():
+            r = subprocess.run([sys.executable, "-c", _TIME_FITS.format(n=n_curves)], cwd=cwd,
+                               capture_output=True, text=True, check=True)
+            wall, cpu = json.loads(r.stdout)
+            per_fit[name][0].extend(wall)
+            per_fit[name][1].extend(cpu)
+    med = {k: (1e3 * np.median(w), 1e3 * np.median(c)) for k, (w, c) in per_fit.items()}
+    print(f"auto fit, 200 points, {n_curves} ground-truth curves x {rounds} alternate runs, median per frame: "
+          f"old wall {med['old'][0]:.1f} ms CPU {med['old'][1]:.1f} ms; new wall {med['new'][0]:.1f} ms "
+          f"CPU {med['new'][1]:.1f} ms; new/old wall {med['new'][0] / med['old'][0]:.2f}, "
+          f"CPU {med['new'][1] / med['old'][1]:.2f} (load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
+    with tempfile.TemporaryDirectory() as tmp:
+        rows = []
+        for f in range(n_frames):
+            P = random_pwc_curve(5000 + f).points_mm
+            rows.append(pd.DataFrame({"frame": f, "time_s": 20.0 * f, "point": np.arange(len(P)),
+                                      "x_mm": P[:, 0], "y_mm": P[:, 1], "z_mm": P[:, 2]}))
+        csv = Path(tmp) / "curves.csv"
+        pd.concat(rows).to_csv(csv, index=False)
+        cmd = {k: ([], []) for k in sides}
+        for run in range(rounds + 1):  # the first pair may fill numba's caches: not counted
+            for name, cwd in sides.items():
+                t, c0 = time.perf_counter(), os.times()
+                subprocess.run([sys.executable, "-m", "tendrilkit", "fit", str(csv), "--out", str(Path(tmp) / name)],
+                               cwd=cwd, capture_output=True, text=True, check=True)
+                c1 = os.times()
+                if run:
+                    cmd[name][0].append(time.perf_counter() - t)
+                    cmd[name][1].append((c1.children_user - c0.children_user) + (c1.children_system - c0.children_system))
+        m = {k: (np.median(w), np.median(c)) for k, (w, c) in cmd.items()}
+        same = all((Path(tmp) / "old" / f).read_bytes() == (Path(tmp) / "new" / f).read_bytes()
+                   for f in ("pwc_curves.csv", "pwc_segments.csv", "pwc_metrics.csv"))
+        print(f"fit command, {n_frames} frames, process start included, median of {rounds} alternate runs: "
+              f"old {m['old'][0]:.2f} s wall {m['old'][1]:.2f} s CPU; new {m['new'][0]:.2f} s wall "
+              f"{m['new'][1]:.2f} s CPU (target <= 2 s); new/old wall {m['new'][0] / m['old'][0]:.2f}, "
+              f"CPU {m['new'][1] / m['old'][1]:.2f}; result files {'identical' if same else 'DIFFERENT'} "
+              f"(load average {os.getloadavg()[0]:.1f})")
 
 
 if __name__ == "__main__":

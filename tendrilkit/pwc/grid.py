@@ -11,7 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from tendrilkit.pwc.fit import PWCFit, _check_options, _finish
-from tendrilkit.pwc.laws import PiecewiseLinearLaw, join_segments
+from tendrilkit.pwc.costs import _check_signal
+from tendrilkit.pwc.laws import PiecewiseLinearLaw, _Joiner
 from tendrilkit.pwc.rebuild import _law_sse
 from tendrilkit.pwc.refine import _refine_laws
 from tendrilkit.pwc.search import penalty_path
@@ -123,9 +124,12 @@ def grid_search_penalties(
     cells: dict[tuple[int, int], float] = {}
     sst = float(np.sum((prep.data - prep.data.mean(axis=0)) ** 2))
 
-    def law(path, cache, i, y, w, kind):
+    join_k = _Joiner(*_check_signal(s, fr.kappa, prep.wk))
+    join_t = _Joiner(*_check_signal(s, fr.tau, prep.wt))
+
+    def law(path, cache, i, joiner, kind):
         if i not in cache:
-            cache[i] = join_segments(s, y, path.bounds[i], weights=w, kind=kind)
+            cache[i] = joiner.join(path.bounds[i], kind)
         return cache[i]
 
     levels = []
@@ -144,9 +148,9 @@ def grid_search_penalties(
         nk = np.empty(r2.shape, int)
         nt = np.empty(r2.shape, int)
         for a, i in enumerate(ik):
-            lk = law(path_k, laws_k, i, fr.kappa, prep.wk, "kappa")
+            lk = law(path_k, laws_k, i, join_k, "kappa")
             for b, j in enumerate(it):
-                lt = law(path_t, laws_t, j, fr.tau, prep.wt, "tau")
+                lt = law(path_t, laws_t, j, join_t, "tau")
                 if (i, j) not in cells:
                     cells[(i, j)] = _law_sse(prep, lk, lt)
                 sse[a, b] = cells[(i, j)]
