@@ -477,3 +477,29 @@ def test_run_fingerprint_covers_sub_packages(tmp_path, monkeypatch):
     before = owner._code_digest()
     (tmp_path / "sub" / "deep.py").write_text("b = 2\n")
     assert owner._code_digest() != before
+
+
+def test_searches_sharing_a_memo_give_the_same_fits(monkeypatch):
+    """A retry with more lookahead looks up the refinements the first search made (same laws in,
+    same bits out): its result equals a search without the memo, with fewer refinements."""
+    import tendrilkit.pwc.selection as S
+    from tendrilkit.pwc.signals import _prepare
+
+    calls = []
+    refine = S._refine_laws
+    monkeypatch.setattr(S, "_refine_laws", lambda *a: calls.append(1) or refine(*a))
+    prep = _prepare(random_pwc_curve(3).points_mm, None, "l2", None, None)
+    kw = dict(criterion="bic", target_r2=0.999, max_segments=10, refine=True, insertions=True,
+              quick_iterations=4, max_candidates=40)
+    memo: dict = {}
+    S._auto_search(prep, lookahead=1, memo=memo, **kw)
+    n0 = len(calls)
+    shared = S._auto_search(prep, lookahead=2, memo=memo, **kw)
+    n_shared = len(calls) - n0
+    fresh = S._auto_search(prep, lookahead=2, **kw)
+    n_fresh = len(calls) - n0 - n_shared
+    assert 0 < n_shared < n_fresh
+    assert np.array_equal(shared["candidates"], fresh["candidates"])
+    for key in ("lk", "lt"):
+        assert np.array_equal(shared[key].knots_mm, fresh[key].knots_mm)
+        assert np.array_equal(shared[key].values, fresh[key].values)

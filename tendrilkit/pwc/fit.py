@@ -261,16 +261,17 @@ def fit_piecewise_clothoid(
 
     kw = dict(criterion=criterion, target_r2=target_r2, max_segments=max_segments, refine=refine,
               insertions=insertions, quick_iterations=quick_iterations, max_candidates=max_candidates)
-    res = _auto_search(prep, lookahead=lookahead, **kw)
+    memo: dict = {}  # the retry with more lookahead repeats the first steps: computed once
+    res = _auto_search(prep, lookahead=lookahead, memo=memo, **kw)
     if refine and retries and res["best"][3] < target_r2:
         # a search that misses the target may have taken a wrong turn: look further along
         # the paths, and smooth less (short segments); keep the preferred result
-        tries = [(prep, lookahead + 1)]
+        tries = [(prep, lookahead + 1, memo)]
         L_s = prep.fr.smoothing_length_mm
         if L_s > 8 * (s[-1] / (s.size - 1)):
-            tries.append((_prepare(points_mm, 0.5 * L_s, score, min_segment_mm, n_points), lookahead))
-        for prep_, look in tries:
-            alt = _auto_search(prep_, lookahead=look, **kw)
+            tries.append((_prepare(points_mm, 0.5 * L_s, score, min_segment_mm, n_points), lookahead, {}))
+        for prep_, look, memo_ in tries:
+            alt = _auto_search(prep_, lookahead=look, memo=memo_, **kw)
             if _preferred(alt["best"], res["best"], target_r2, criterion):
                 res = alt
             if res["best"][3] >= target_r2:

@@ -46,8 +46,28 @@ def _preferred(x, y, target_r2, criterion):
 
 
 def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead, insertions,
-                 quick_iterations, max_candidates):
-    """The automatic selection of :func:`fit_piecewise_clothoid` on prepared signals."""
+                 quick_iterations, max_candidates, memo=None):
+    """The automatic selection of :func:`fit_piecewise_clothoid` on prepared signals.
+
+    ``memo``: a dict shared by the searches of one ``prep`` (a retry with more lookahead
+    repeats the first search's steps until it turns elsewhere): refinements and score
+    tests already computed from the same laws are looked up, not redone (the same bits).
+    """
+    memo = {} if memo is None else memo
+
+    def refined(lk, lt, iterations=40, rtol=1e-6):
+        key = ("refine", lk.knots_mm.tobytes(), lk.values.tobytes(), lt.knots_mm.tobytes(), lt.values.tobytes(),
+               iterations, rtol)
+        if key not in memo:
+            memo[key] = _refine_laws(prep, lk, lt, iterations, rtol)
+        return memo[key]
+
+    def insertions_at(lk, lt):
+        key = ("insert", lk.knots_mm.tobytes(), lk.values.tobytes(), lt.knots_mm.tobytes(), lt.values.tobytes())
+        if key not in memo:
+            memo[key] = _best_insertions(prep, lk, lt)
+        return memo[key]
+
     s, fr = prep.s, prep.fr
     path_k = penalty_path(prep.Ck, kmax=max_segments)
     path_t = penalty_path(prep.Ct, kmax=max_segments)
@@ -100,7 +120,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             starts = [(k_cur, laws_t[b]), (k_cur, PiecewiseLinearLaw(t_new, t_cur(t_new), "tau")),
                       (k_cur, PiecewiseLinearLaw(u, t_cur(u), "tau"))]
         start_k, start_t = min(starts, key=lambda x: _law_sse(prep, x[0], x[1]))
-        return scored(*_refine_laws(prep, start_k, start_t, *quick))
+        return scored(*refined(start_k, start_t, *quick))
 
     def better(x, y):
         return _preferred(x, y, target_r2, criterion)
@@ -117,13 +137,13 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
         tried += [((a0, b0 + d), from_path(a0, b0 + d, cur, "t"))
                   for d in range(1, lookahead + 1) if laws_t.has(b0 + d)]
         if refine and insertions:
-            for which, found in zip("kt", _best_insertions(prep, cur[0], cur[1])):
+            for which, found in zip("kt", insertions_at(cur[0], cur[1])):
                 law = cur[0] if which == "k" else cur[1]
                 if found is None or law.n_segments >= max_segments:
                     continue
                 sk = _insert_knot(cur[0], found[0]) if which == "k" else cur[0]
                 st = _insert_knot(cur[1], found[0]) if which == "t" else cur[1]
-                tried.append(((a0, b0), scored(*_refine_laws(prep, sk, st, *quick))))
+                tried.append(((a0, b0), scored(*refined(sk, st, *quick))))
         if not tried:
             break
         m, cand = tried[0]
@@ -133,7 +153,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
         if not better(cand, cur):
             break
         if refine:  # candidates are compared after a few iterations; the chosen one converges
-            cand = scored(*_refine_laws(prep, cand[0], cand[1]), row=cand[5])
+            cand = scored(*refined(cand[0], cand[1]), row=cand[5])
         state, cur = m, cand
     a, b = state
     lk, lt, irow = cur[0], cur[1], cur[5]
