@@ -115,6 +115,7 @@ def view_evidence(
     local_contrast: float = 0.1,
     local_noise_k: float = 5.0,
     background_px: int = 36,
+    local_window_px: int = 9,
     local_margin_px: int = 2,
     min_component_px: int = 50,
     skeleton: bool = True,
@@ -132,7 +133,8 @@ def view_evidence(
         The view's marks, full-image pixels (``keep_out`` may be None).
     base_point_xy : (2,) sequence of float
         The base mark, full-image pixels (kept for the checks).
-    channel, threshold, opening_radius_px, local_contrast, local_noise_k, background_px, local_margin_px, min_component_px
+    channel, threshold, opening_radius_px, local_contrast, local_noise_k, background_px, local_window_px,
+    local_margin_px, min_component_px
         As in :func:`tendrilkit.segmentation.segment_view` (the experiment's
         ``segmentation:`` section).
     skeleton : bool
@@ -164,14 +166,15 @@ def view_evidence(
     if not probability_scale > 0:
         raise ValueError(f"probability_scale must be > 0, got {probability_scale}")
     local = {"local_contrast": float(local_contrast), "local_noise_k": float(local_noise_k),
-             "background_px": int(background_px), "local_margin_px": int(local_margin_px)}
+             "background_px": int(background_px), "local_window_px": int(local_window_px),
+             "local_margin_px": int(local_margin_px)}
     if foreground is None:
         foreground = label_foreground(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
                                       opening_radius_px=opening_radius_px, **local)
     elif ((foreground.channel, foreground.threshold, foreground.opening_radius_px, tuple(foreground.local_options))
           != (channel, threshold, opening_radius_px, tuple(local.values()))):
         raise ValueError("foreground was made with other segmentation options than channel, threshold, "
-                         "opening_radius_px, local_contrast, local_noise_k, background_px and local_margin_px")
+                         "opening_radius_px and the local_* and background_px options")
     fg, offset, n, labels = foreground.foreground, foreground.roi_offset_xy, foreground.n_labels, foreground.labels
     if n > 1 and min_component_px > 1:
         areas = np.bincount(labels.ravel(), minlength=n)

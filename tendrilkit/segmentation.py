@@ -12,6 +12,11 @@
 3. the keep-out box (between the tendril and the stem) painted background, so
    the stem cannot join the tendril's component;
 4. a morphological opening with a disk (removes speckle and one-pixel bridges);
+4b. faint pixels added (:func:`faint_pixels`): darker than their local
+   background by a relative contrast, farther than ``local_margin_px`` from
+   the pixels of steps 2-4 (a pale tendril that the threshold, pulled by a dark
+   stem or leaf in the ROI, leaves with the board; dark tendrils keep their
+   thresholded outline), keep-out box painted background, not opened;
 5. connected components (8-connected); components under ``min_component_px``
    are dropped;
 6. the tendril's component: on the first frame the component at, or nearest
@@ -60,7 +65,8 @@ class LabelledForeground:
     channel, threshold, opening_radius_px
         The options it was made with (:func:`foreground_roi`).
     local_options : tuple
-        ``(local_contrast, local_noise_k, background_px, local_margin_px)``
+        ``(local_contrast, local_noise_k, background_px, local_window_px,
+        local_margin_px)``
         it was made with (:func:`foreground_roi`).
     """
 
@@ -71,7 +77,7 @@ class LabelledForeground:
     channel: str = "blue"
     threshold: str | int = "otsu"
     opening_radius_px: int = 1
-    local_options: tuple = (0.1, 5.0, 36, 2)
+    local_options: tuple = (0.1, 5.0, 36, 9, 2)
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,6 +152,7 @@ def faint_pixels(
     local_contrast: float = 0.1,
     local_noise_k: float = 5.0,
     background_px: int = 36,
+    local_window_px: int = 9,
 ) -> np.ndarray:
     r"""Pixels darker than their local background by a relative contrast: thin, pale structures.
 
@@ -162,8 +169,13 @@ def faint_pixels(
     2. the relative darkness :math:`1 - g / b`; its noise :math:`\sigma`:
        1.4826 times the median absolute deviation of :math:`g / b` over the
        region (the board is most of it);
-    3. faint pixels: :math:`1 - g / b > \max(c, k \sigma)` with ``c =
-       local_contrast`` and ``k = local_noise_k``.
+    3. faint pixels: :math:`d = 1 - g / b > \max(c, k \sigma, d_{max} / 2)`
+       with ``c = local_contrast``, ``k = local_noise_k`` and :math:`d_{max}`
+       the largest :math:`d` within ``local_window_px`` (a square): a
+       structure's pixels down to half its own depth (its edge at half
+       maximum). A pale tendril (:math:`d` 0.1-0.3) is found whole; a dark one
+       (0.7-0.9) keeps about the width the global threshold gives it, and a
+       soft shadow beside it stays out.
 
     Parameters
     ----------
@@ -175,6 +187,9 @@ def faint_pixels(
         Least relative darkness in units of the region's noise.
     background_px : int
         Window of the background's median, pixels (>= 4).
+    local_window_px : int
+        Side of the square over which a pixel's structure depth
+        :math:`d_{max}` is taken, pixels (about a tube's width and a half).
 
     Returns
     -------
@@ -204,7 +219,9 @@ def faint_pixels(
     sample = ratio[::3, ::3]
     sigma = 1.4826 * float(np.median(np.abs(sample - np.median(sample))))
     c = max(float(local_contrast), float(local_noise_k) * sigma)
-    return np.where(ratio < np.float32(1.0 - c), np.uint8(255), np.uint8(0))
+    depth = np.float32(1.0) - ratio
+    half = np.float32(0.5) * cv2.dilate(depth, cv2.getStructuringElement(cv2.MORPH_RECT, (int(local_window_px),) * 2))
+    return np.where((depth > np.float32(c)) & (depth > half), np.uint8(255), np.uint8(0))
 
 
 def foreground_roi(
@@ -218,6 +235,7 @@ def foreground_roi(
     local_contrast: float = 0.1,
     local_noise_k: float = 5.0,
     background_px: int = 36,
+    local_window_px: int = 9,
     local_margin_px: int = 2,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Steps 1-4 of :func:`segment_view`: every dark pixel of the ROI, before any choice of component.
@@ -262,6 +280,8 @@ def foreground_roi(
         raise ValueError(f"local_noise_k must be >= 0, got {local_noise_k}")
     if background_px < 4:
         raise ValueError(f"background_px must be >= 4, got {background_px}")
+    if local_window_px < 1:
+        raise ValueError(f"local_window_px must be >= 1, got {local_window_px}")
     if local_margin_px < 0:
         raise ValueError(f"local_margin_px must be >= 0, got {local_margin_px}")
 
@@ -271,15 +291,8 @@ def foreground_roi(
     else:
         # tendril: grey < threshold
         _, fg = cv2.threshold(grey, int(threshold) - 1, 255, cv2.THRESH_BINARY_INV)
-    if local_contrast > 0:
-        faint = faint_pixels(grey, local_contrast=local_contrast, local_noise_k=local_noise_k,
-                             background_px=background_px)
-        if local_margin_px > 0:  # the blurred rim of what the threshold found stays its own (dark tendrils unchanged)
-            r = int(local_margin_px)
-            near = cv2.dilate(fg, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
-            faint[near > 0] = 0
-        fg = cv2.bitwise_or(fg, faint)
 
+    a0 = a1 = b0 = b1 = 0
     if keep_out is not None:
         kx, ky, kw, kh = _box(keep_out, "keep_out")
         a0, b0 = max(kx - x0, 0), max(ky - y0, 0)
@@ -291,6 +304,15 @@ def foreground_roi(
         r = int(opening_radius_px)
         kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
         fg = cv2.morphologyEx(fg, cv2.MORPH_OPEN, kernel)
+    if local_contrast > 0:  # not opened: a pale tendril's faint pixels are as narrow as its half-depth core
+        faint = faint_pixels(grey, local_contrast=local_contrast, local_noise_k=local_noise_k,
+                             background_px=background_px, local_window_px=local_window_px)
+        if keep_out is not None and a1 > a0 and b1 > b0:
+            faint[b0:b1, a0:a1] = 0
+        if local_margin_px > 0:  # the rim of what the threshold found stays its own (dark tendrils unchanged)
+            r = int(local_margin_px)
+            faint[cv2.dilate(fg, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))) > 0] = 0
+        fg = cv2.bitwise_or(fg, faint)
     return fg, np.array([x0, y0])
 
 
@@ -305,6 +327,7 @@ def label_foreground(
     local_contrast: float = 0.1,
     local_noise_k: float = 5.0,
     background_px: int = 36,
+    local_window_px: int = 9,
     local_margin_px: int = 2,
 ) -> LabelledForeground:
     """Steps 1-5 of :func:`segment_view`: the ROI's dark pixels (:func:`foreground_roi`) and their components.
@@ -322,7 +345,8 @@ def label_foreground(
         Nothing dropped: components of every size.
     """
     local = {"local_contrast": float(local_contrast), "local_noise_k": float(local_noise_k),
-             "background_px": int(background_px), "local_margin_px": int(local_margin_px)}
+             "background_px": int(background_px), "local_window_px": int(local_window_px),
+             "local_margin_px": int(local_margin_px)}
     fg, offset = foreground_roi(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
                                 opening_radius_px=opening_radius_px, **local)
     n, labels = cv2.connectedComponents(fg, connectivity=8, ltype=cv2.CV_32S)
@@ -344,6 +368,7 @@ def segment_view(
     local_contrast: float = 0.1,
     local_noise_k: float = 5.0,
     background_px: int = 36,
+    local_window_px: int = 9,
     local_margin_px: int = 2,
     min_component_px: int = 50,
 ) -> TendrilMask:
@@ -387,7 +412,7 @@ def segment_view(
     labelled = label_foreground(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
                                 opening_radius_px=opening_radius_px, local_contrast=local_contrast,
                                 local_noise_k=local_noise_k, background_px=background_px,
-                                local_margin_px=local_margin_px)
+                                local_window_px=local_window_px, local_margin_px=local_margin_px)
     if min_component_px < 0:
         raise ValueError(f"min_component_px must be >= 0, got {min_component_px}")
     fg, offset, n, labels = labelled.foreground, labelled.roi_offset_xy, labelled.n_labels, labelled.labels
