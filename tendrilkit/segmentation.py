@@ -221,7 +221,7 @@ def faint_pixels(
     c = max(float(local_contrast), float(local_noise_k) * sigma)
     depth = np.float32(1.0) - ratio
     half = np.float32(0.5) * cv2.dilate(depth, cv2.getStructuringElement(cv2.MORPH_RECT, (int(local_window_px),) * 2))
-    return np.where((depth > np.float32(c)) & (depth > half), np.uint8(255), np.uint8(0))
+    return cv2.bitwise_and(cv2.compare(depth, c, cv2.CMP_GT), cv2.compare(depth, half, cv2.CMP_GT))
 
 
 def foreground_roi(
