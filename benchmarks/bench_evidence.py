@@ -17,6 +17,15 @@ fifth), foreground recall (the same for every dark pixel, any component),
 pixel precision (the share of the component's pixels within 2 px of the
 true tube) and the median CPU ms per view of ``segment_view``.
 
+Measured 2026-11-30 (shared machine, load 17-23; CPU times are upper bounds),
+``masks --seeds 5000:5020`` (360 views): pale tendrils (144 views) centre
+recall 0.006 -> 0.513, tip 0.000 -> 0.214, foreground 0.018 -> 0.939,
+precision 0.006 -> 0.884; default and brown tendrils identical with and
+without (centre 0.583 / 0.806, precision 0.363 / 0.481; lost views are
+contact and clutter, not contrast); ``segment_view`` 1.9 -> 4.9 ms CPU per
+view. ``masks --scene pale --seeds 0:6``: centre recall 0.155 -> 0.988, tip
+0.126 -> 0.959, precision 0.168 -> 1.000.
+
 One core (``cv2.setNumThreads(1)``); numbers on a busy machine are upper
 bounds: the CPU time (``process_time``) is printed beside the wall-clock
 median. Target: under 5 ms per 1080p view without the skeleton.
