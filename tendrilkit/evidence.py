@@ -8,7 +8,7 @@ skeleton was walked. :func:`view_evidence` computes it once per view and
 frame, on the region of interest (ROI) only:
 
 * ``foreground``: every dark pixel of the ROI (the same channel, threshold,
-  keep-out box and opening as :func:`tendrilkit.segmentation.segment_view`,
+  faint pixels darker than their local background, keep-out box and opening as :func:`tendrilkit.segmentation.segment_view`,
   by the same function, :func:`tendrilkit.segmentation.label_foreground`,
   or the segmentation's own when given),
   components smaller than ``min_component_px`` dropped; no component is
@@ -112,6 +112,11 @@ def view_evidence(
     channel: str = "blue",
     threshold: str | int = "otsu",
     opening_radius_px: int = 1,
+    local_contrast: float = 0.1,
+    local_noise_k: float = 5.0,
+    background_px: int = 36,
+    local_window_px: int = 9,
+    local_margin_px: int = 2,
     min_component_px: int = 50,
     skeleton: bool = True,
     probability: bool = False,
@@ -128,7 +133,8 @@ def view_evidence(
         The view's marks, full-image pixels (``keep_out`` may be None).
     base_point_xy : (2,) sequence of float
         The base mark, full-image pixels (kept for the checks).
-    channel, threshold, opening_radius_px, min_component_px
+    channel, threshold, opening_radius_px, local_contrast, local_noise_k, background_px, local_window_px,
+    local_margin_px, min_component_px
         As in :func:`tendrilkit.segmentation.segment_view` (the experiment's
         ``segmentation:`` section).
     skeleton : bool
@@ -142,7 +148,7 @@ def view_evidence(
         Grey levels over which the probability goes from 0.27 to 0.73.
     foreground : LabelledForeground, optional
         The labelled dark pixels of this image, ROI and keep-out box, made with
-        the same ``channel``, ``threshold`` and ``opening_radius_px``
+        the same ``channel``, ``threshold``, ``opening_radius_px`` and local options
         (:attr:`tendrilkit.segmentation.TendrilMask.foreground`): reused
         instead of thresholding and labelling the ROI again (the same result).
 
@@ -159,13 +165,16 @@ def view_evidence(
         raise ValueError(f"min_component_px must be >= 0, got {min_component_px}")
     if not probability_scale > 0:
         raise ValueError(f"probability_scale must be > 0, got {probability_scale}")
+    local = {"local_contrast": float(local_contrast), "local_noise_k": float(local_noise_k),
+             "background_px": int(background_px), "local_window_px": int(local_window_px),
+             "local_margin_px": int(local_margin_px)}
     if foreground is None:
         foreground = label_foreground(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
-                                      opening_radius_px=opening_radius_px)
-    elif (foreground.channel, foreground.threshold, foreground.opening_radius_px) != (channel, threshold,
-                                                                                       opening_radius_px):
-        raise ValueError("foreground was made with other segmentation options than channel, threshold and "
-                         "opening_radius_px")
+                                      opening_radius_px=opening_radius_px, **local)
+    elif ((foreground.channel, foreground.threshold, foreground.opening_radius_px, tuple(foreground.local_options))
+          != (channel, threshold, opening_radius_px, tuple(local.values()))):
+        raise ValueError("foreground was made with other segmentation options than channel, threshold, "
+                         "opening_radius_px and the local_* and background_px options")
     fg, offset, n, labels = foreground.foreground, foreground.roi_offset_xy, foreground.n_labels, foreground.labels
     if n > 1 and min_component_px > 1:
         areas = np.bincount(labels.ravel(), minlength=n)

@@ -178,6 +178,13 @@ class Segmentation(_Strict):
     ``opening_radius_px``: radius of the disk of the morphological opening (0:
     none; the reference opens with radius 5, which erases tendrils thinner than
     11 px); ``min_component_px``: components smaller than this are dropped.
+    Faint pixels (a pale tendril the threshold misses, under uneven light) are
+    added where the grey level is below its local background (a median over
+    ``background_px`` pixels) by more than ``local_contrast`` (relative, 0:
+    off), ``local_noise_k`` times the ROI's relative noise and half the
+    deepest such darkness within ``local_window_px``, farther than
+    ``local_margin_px`` from the thresholded pixels (see
+    :func:`tendrilkit.segmentation.faint_pixels`).
     The first frame takes the component at or nearest the base point, later
     frames the component nearest the previous centroid.
     """
@@ -187,6 +194,11 @@ class Segmentation(_Strict):
         default_factory=lambda: stage_default("segmentation", "threshold"))
     opening_radius_px: int = Field(default_factory=lambda: stage_default("segmentation", "opening_radius_px"), ge=0, le=1000)
     min_component_px: int = Field(default_factory=lambda: stage_default("segmentation", "min_component_px"), ge=0, le=10**9)
+    local_contrast: float = Field(default_factory=lambda: stage_default("segmentation", "local_contrast"), ge=0, lt=1)
+    local_noise_k: float = Field(default_factory=lambda: stage_default("segmentation", "local_noise_k"), ge=0, le=100)
+    background_px: int = Field(default_factory=lambda: stage_default("segmentation", "background_px"), ge=4, le=10**4)
+    local_window_px: int = Field(default_factory=lambda: stage_default("segmentation", "local_window_px"), ge=1, le=1000)
+    local_margin_px: int = Field(default_factory=lambda: stage_default("segmentation", "local_margin_px"), ge=0, le=1000)
 
 
 class Skeleton(_Strict):

@@ -65,9 +65,10 @@ def test_fixed_threshold_hsv_and_opening():
     assert abs(a.area_px - b.area_px) < 0.1 * a.area_px
     grey = grey_image(img, channel="hsv")
     assert grey[150, 400] < 130 and grey[10, 10] > 200
-    # a fixed threshold darker than the tendril finds nothing
+    # a fixed threshold darker than the tendril finds nothing (without the faint pixels, which find it)
     with pytest.raises(TendrilLostError, match="no component"):
-        segment_view(img, roi=ROI, keep_out=None, base_point_xy=(130, 200), threshold=30)
+        segment_view(img, roi=ROI, keep_out=None, base_point_xy=(130, 200), threshold=30, local_contrast=0)
+    assert segment_view(img, roi=ROI, keep_out=None, base_point_xy=(130, 200), threshold=30).area_px > 0.8 * a.area_px
 
 
 def test_lost_and_bad_arguments():
@@ -122,3 +123,58 @@ def test_evidence_from_the_segmentations_foreground_is_the_evidence_from_the_ima
     assert again.width_px == reused.width_px
     with pytest.raises(ValueError, match="other segmentation options"):
         view_evidence(img, **marks, foreground=fg, opening_radius_px=2)
+
+
+def pale_scene(*, seed=0, tendril_bgr=(160, 200, 190)) -> np.ndarray:
+    """A dark stem and a pale, tapering tendril on a board lit unevenly (vignetting), with sensor noise."""
+    h, w = 480, 640
+    yy, xx = np.mgrid[0:h, 0:w]
+    light = 1.0 - 0.35 * (((xx - 320) / 400.0) ** 2 + ((yy - 240) / 300.0) ** 2)
+    img = (np.array([215.0, 225.0, 230.0]) * light[..., None]).astype(np.float32)
+    tube = np.zeros((h, w), np.uint8)
+    pts = [(120 + 28 * i, 200 - 5 * i) for i in range(11)]  # (120, 200) -> (400, 150)
+    for i in range(10):
+        cv2.line(tube, pts[i], pts[i + 1], 255, 7 - i // 3)  # 7 px at the base, 4 px at the tip
+    a = cv2.GaussianBlur(tube.astype(np.float32) / 255.0, (0, 0), 0.7)[..., None]
+    img = img * (1 - a) + np.array(tendril_bgr, np.float32) * light[..., None] * a
+    cv2.line(img, (120, 60), (120, 340), (50, 110, 60), 13)
+    img += np.random.default_rng(seed).normal(0.0, 3.0, img.shape).astype(np.float32)
+    return np.clip(img, 0, 255).astype(np.uint8), tube > 0
+
+
+def test_faint_pixels_find_a_pale_tendril_that_otsu_leaves_with_the_board():
+    img, truth = pale_scene()
+    marks = dict(roi=ROI, keep_out=(110, 185, 25, 30), base_point_xy=(130, 200))
+    otsu = segment_view(img, local_contrast=0, **marks)
+    m = segment_view(img, **marks)
+    x0, y0 = m.roi_offset_xy
+    t = truth[y0:y0 + 300, x0:x0 + 400]
+    t[:, :35] = False  # the keep-out box and the stem
+    assert otsu.mask_roi[t].mean() < 0.1  # Otsu's threshold falls between the stem and the board
+    assert m.mask_roi[t].mean() > 0.8  # from base to tip
+    ys, xs = np.nonzero(m.mask_roi)
+    assert xs.max() + x0 >= 398  # the thin tip too
+    near = cv2.dilate(t.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    assert near[m.mask_roi].mean() > 0.97  # few false pixels
+
+
+def test_faint_pixels_leave_a_dark_tendril_as_the_threshold_finds_it():
+    img = scene()
+    for kw in ({}, {"channel": "hsv"}, {"threshold": 120}):
+        a = segment_view(img, roi=ROI, keep_out=(110, 185, 25, 30), base_point_xy=(130, 200), **kw)
+        b = segment_view(img, roi=ROI, keep_out=(110, 185, 25, 30), base_point_xy=(130, 200), local_contrast=0, **kw)
+        assert np.array_equal(a.foreground.foreground, b.foreground.foreground)
+        assert np.array_equal(a.mask_roi, b.mask_roi)
+
+
+def test_faint_pixels_follow_uneven_light_and_reject_bad_options():
+    from tendrilkit.segmentation import faint_pixels
+
+    img, _ = pale_scene(tendril_bgr=(215, 225, 230))  # no tendril: only the board, its vignetting and noise
+    g = grey_image(img)[50:350, 100:500].copy()
+    g[:, :40] = 230  # no stem
+    assert (faint_pixels(g) > 0).mean() < 0.002
+    for bad in ({"local_contrast": 1.0}, {"local_noise_k": -1}, {"background_px": 2}, {"local_window_px": 0},
+                {"local_margin_px": -1}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            segment_view(img, roi=ROI, keep_out=None, base_point_xy=(130, 200), **bad)
