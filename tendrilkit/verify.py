@@ -331,12 +331,17 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                 widths.append(2.0 * radius_px * float(np.median(cam.world_to_cam(X)[:, 2])) / float(cam.K[0, 0]))
             out[f"coverage_frac_v{v + 1}"] = _coverage(ev, dense[seen], d[seen], tolerance_px,
                                                        coverage_tolerance_px, cKDTree, inside_px, radius_px)
-            on = dense[seen & (d <= tolerance_px)]
-            if len(on) and len(ev.skeleton_xy):
-                out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
-                out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px)
-            out[f"base_on_tendril_frac_v{v + 1}"] = _base_on_tendril(ev, dense[keep], d[keep], tolerance_px)
             wide = on_wide(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO)
+            on_mask = seen & (d <= tolerance_px)
+            # the skeleton shows the tendril's middle only where its line is seen: on pixels wider than the
+            # tendril (a leaf it passes in front of) the skeleton is the blob's, not the tendril's
+            on = dense[on_mask & ~wide]
+            if on_mask.any() and len(ev.skeleton_xy):
+                if len(on):
+                    out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
+                out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px)
+            out[f"base_on_tendril_frac_v{v + 1}"] = _base_on_tendril(ev, dense[keep], d[keep], tolerance_px,
+                                                                     inside=inside_px)
             out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(wide, seen & (d <= tolerance_px))
             out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, seen & (d <= tolerance_px))
     out["views_checked"] = checked
@@ -344,13 +349,22 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     return out
 
 
-def _base_on_tendril(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, length_px: float = 30.0):
+def _base_on_tendril(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, length_px: float = 30.0, *,
+                     inside: np.ndarray | None = None):
     """Fraction of the curve's first ``length_px`` (outside the keep-out box) on a component leaving the base.
 
-    None when no component leaves the base mark in this view
-    (:func:`base_components`): nothing to compare with.
+    The components leaving the base mark are :func:`base_components` and,
+    given ``inside`` (the inside distance, :func:`_inside_distance`), those
+    at the base mark that reach the ROI's border but whose line near the
+    base is as thin as the thinnest one there (:func:`_thin_at_base`): the
+    tendril's own component reaches the border where clutter crossing it (a
+    twig, a petiole) or its coil does, while the stem it must not set off
+    along is thicker than the tendril. None when no component leaves the
+    base mark in this view: nothing to compare with.
     """
     comps = base_components(ev)
+    if inside is not None:
+        comps = np.union1d(comps, _thin_at_base(ev, inside))
     if comps.size == 0 or len(dense) == 0:
         return None
     first = dense[: int(length_px)]
@@ -368,6 +382,32 @@ def _base_on_tendril(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: fl
         win = ev.labels[max(r[k] - rad, 0):r[k] + rad + 1, max(c[k] - rad, 0):c[k] + rad + 1]
         hit.append(bool(np.isin(win, comps).any()))
     return float(np.mean(hit)) if hit else None
+
+
+def _thin_at_base(ev: ViewEvidence, inside: np.ndarray, extra_px: float = 30.0) -> np.ndarray:
+    """Labels of the components at the base mark whose line there is as thin as the thinnest one's.
+
+    A component's line width at the base is twice the median inside
+    distance of its skeleton pixels within the base mark's reach
+    (:func:`_near_base`) plus ``extra_px``, less one pixel; kept are those
+    at most :data:`WIDE_RATIO` times the thinnest. The tendril leaves the base as the thinnest line there, the
+    stem beside it is thicker (stems 2.9-4.6 mm, tendrils 0.8-2 mm on the
+    random scenes).
+    """
+    near = _near_base(ev)
+    sk = ev.skeleton_xy
+    if near.size == 0 or sk is None or len(sk) == 0:
+        return np.zeros(0, int)
+    off = ev.roi_offset_xy
+    r, c = (sk[:, 1] - off[1]).astype(int), (sk[:, 0] - off[0]).astype(int)
+    close = np.hypot(*(sk - ev.base_point_xy).T) <= _base_reach(ev) + extra_px
+    lab = ev.labels[r, c]
+    # a line's width is about twice its skeleton's inside distance less one (the skeleton's own pixel)
+    widths = {int(k): 2.0 * float(np.median(inside[r[m], c[m]])) - 1.0 for k in near if (m := close & (lab == k)).any()}
+    if not widths:
+        return np.zeros(0, int)
+    thinnest = min(widths.values())
+    return np.array(sorted(k for k, wd in widths.items() if wd <= WIDE_RATIO * thinnest), int)
 
 
 def _inside_distance(ev: ViewEvidence) -> np.ndarray:
@@ -471,11 +511,16 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     return float(n_near / max(n_near + n_free, 1))
 
 
+def _base_reach(ev: ViewEvidence) -> float:
+    """How far from the base mark a component is at the base, px: the keep-out box's half diagonal + 4 (3 without)."""
+    return 3.0 if ev.keep_out is None else 0.5 * float(np.hypot(ev.keep_out[2], ev.keep_out[3])) + 4.0
+
+
 def _near_base(ev: ViewEvidence) -> np.ndarray:
     """Labels of the dark components with a pixel near the base mark (see :func:`base_components`)."""
     L = ev.labels
     h, w = L.shape
-    reach = 3.0 if ev.keep_out is None else 0.5 * float(np.hypot(ev.keep_out[2], ev.keep_out[3])) + 4.0
+    reach = _base_reach(ev)
     bx, by = ev.base_point_xy - ev.roi_offset_xy
     r0, r1 = max(int(np.floor(by - reach)), 0), min(int(np.ceil(by + reach)) + 1, h)
     c0, c1 = max(int(np.floor(bx - reach)), 0), min(int(np.ceil(bx + reach)) + 1, w)
