@@ -6,7 +6,8 @@ import pytest
 
 from tendrilkit.camera import Camera
 from tendrilkit.evidence import view_evidence
-from tendrilkit.verify import Thresholds, base_components, image_check_messages, temporal_checks, verify_curve
+from tendrilkit.verify import Thresholds, image_check_messages, temporal_checks, verify_curve
+from tendrilkit.verify_base import base_components
 
 Z = 200.0  # every point at depth 200 mm: 5 px per mm with f = 1000
 
