@@ -29,7 +29,8 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         ``coverage_tolerance_px`` of it (:func:`_coverage`): how much of the
         tendril's pixels, from the base outward, the curve explains. Clutter
         joined to the tendril's pixels is left out (pixels wider than the
-        tendril, branches running out of the ROI, spurs). A shrunk curve (the
+        tendril, branches running out of the ROI, spurs, thin lines crossing
+        the curve: :mod:`tendrilkit.verify_crossing`). A shrunk curve (the
         tip missing), one that jumps to another component or one that runs
         along the stem instead of the tendril scores low.
     ``tip_continuation_px_v<i>``
@@ -94,6 +95,7 @@ import numpy as np
 
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
 from tendrilkit.verify_base import WIDE_RATIO, base_on_tendril, near_base
+from tendrilkit.verify_crossing import crossing_branches
 from tendrilkit.verify_tip import TIP_PX, on_wide, tip_continuation, tip_wide_fraction, wide_run_px
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "image_check_messages", "temporal_checks",
@@ -401,7 +403,10 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     * branches (8-connected runs of the remaining pixels) reaching the ROI's
       border: the stem, a shoot or a leaf's stalk come from outside the
       region the tendril moves in, the tendril does not;
-    * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs.
+    * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs;
+    * branches that run straight on across the curve into another
+      unexplained branch (:func:`tendrilkit.verify_crossing.crossing_branches`):
+      a thin line crossing the tendril (a second tendril, a stalk).
 
     The coverage is the explained skeleton over explained plus the
     tendril's unexplained branches.
@@ -457,6 +462,12 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     edge = np.minimum(np.minimum(fr, h - 1 - fr), np.minimum(fc, w - 1 - fc)) <= inside[fr, fc] + BORDER_PX
     tendril = (np.bincount(b, weights=edge, minlength=nb) == 0) & (size >= MIN_BRANCH_PX)
     tendril[0] = False
+    cand = np.nonzero(tendril)[0]
+    if cand.size:  # a thin line crossing the tendril: its arms continue each other across the curve
+        branch = np.zeros(len(sk), int)
+        branch[free] = b
+        tendril[cand[crossing_branches(dense, sk[~near], branch[~near], cand, cov_tol=cov_tol,
+                                                width_px=2.0 * radius_px if np.isfinite(radius_px) else 0.0)]] = False
     n_free = int(size[tendril].sum())
     return float(n_near / max(n_near + n_free, 1))
 

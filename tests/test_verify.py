@@ -307,3 +307,24 @@ def test_centre_is_measured_where_the_tendrils_line_is_seen():
     # a curve 1.5 px off the tendril's middle along its thin line is still off centre
     q = verify_curve(_tendril_mm() + np.array([0.0, 0.3, 0.0]), cams, ev)
     assert q["skeleton_mean_px_v1"] > 1.0
+
+
+def _crossing_line(at_frac, half_px=40):
+    """A thin dark line (as thin as the tendril) crossing it at ``at_frac``, inside the ROI (a second tendril)."""
+    def draw(img, cam):
+        c = cam.project(_tendril_mm()[int(at_frac * 199)][None])[0]
+        a, b = c - half_px * np.array([1.0, -1.0]), c + half_px * np.array([1.0, -1.0])
+        cv2.line(img, tuple(np.round(a).astype(int)), tuple(np.round(b).astype(int)), (30, 30, 30), 5, cv2.LINE_AA)
+    return draw
+
+
+def test_thin_line_crossing_the_tendril_is_not_unexplained_tendril():
+    """Its two arms continue each other across the curve: clutter, not a part of the tendril the curve missed."""
+    cams, ev = _scene(_crossing_line(0.5))
+    q = verify_curve(_tendril_mm(), cams, ev)
+    for v in (1, 2):
+        assert q[f"coverage_frac_v{v}"] >= 0.9
+    assert image_check_messages(q, 2, Thresholds()) == []
+    # a curve that stops at the crossing still leaves the rest of the tendril unexplained
+    short = verify_curve(_tendril_mm(frac=0.5), cams, ev)
+    assert short["coverage_frac_v1"] < 0.75 and short["coverage_frac_v2"] < 0.75
