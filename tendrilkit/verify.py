@@ -149,13 +149,7 @@ class Thresholds:
         A skeleton pixel within this distance of the projected curve is
         explained (4 px: the skeleton's spurs and its ends at the tip).
     min_coverage_frac : float
-        Smallest coverage, in two views or more (0.75): a part of the
-        tendril the curve misses is seen in every view that sees it, clutter
-        merged with the tendril in one view's projection is not (multi-view
-        right frames of random seeds 5015, 5027 and 5034, within 0.1-0.3 mm,
-        scored 0.59-0.71 in one view only; on development seeds 0-79 and
-        5000-5039 no frame becomes a silent failure, with either method,
-        when one view no longer suffices). On random scenes with the
+        Smallest coverage per view (0.75). On random scenes with the
         multi-view reconstruction (54 seeds) it alone catches 19 curves
         wrong by 1.6-12.6 mm that lie on dark pixels in every view (their
         second-lowest coverage over the views at most 0.86); right frames
@@ -512,14 +506,13 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
         if b is not None and b < th.min_base_on_tendril_frac:
             msgs.append(f"base: view {v} curve leaves the base off the tendril ({100 * b:.0f} % of its first 30 px on "
                         f"the component leaving the base mark, limit {100 * th.min_base_on_tendril_frac:.0f} %)")
+        c = q.get(f"coverage_frac_v{v}")
+        if c is not None and c < th.min_coverage_frac:
+            msgs.append(f"coverage: view {v} curve explains {100 * c:.0f} % of the tendril's skeleton "
+                        f"(limit {100 * th.min_coverage_frac:.0f} %)")
         b = q.get(f"base_px_v{v}")
         if b is not None and b > th.max_base_px:
             msgs.append(f"base: view {v} base {b:.1f} px from its mark (limit {th.max_base_px:g} px)")
-    cov = [(v, q.get(f"coverage_frac_v{v}")) for v in range(1, n_views + 1)]
-    low = [(v, c) for v, c in cov if c is not None and c < th.min_coverage_frac]
-    if len(low) >= 2:  # in two views at least: a part of the tendril the curve misses is seen in every view
-        msgs += [f"coverage: view {v} curve explains {100 * c:.0f} % of the tendril's skeleton "
-                 f"(limit {100 * th.min_coverage_frac:.0f} %)" for v, c in low]
     edges = [(v, q.get(f"tip_border_px_v{v}")) for v in range(1, n_views + 1)]
     at_edge = [(v, e) for v, e in edges if e is not None and e <= th.min_tip_border_px]
     if len(at_edge) >= 2:  # the stem runs out of the ROI, the tendril does not (in one view it may leave the image)
