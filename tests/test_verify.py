@@ -6,7 +6,8 @@ import pytest
 
 from tendrilkit.camera import Camera
 from tendrilkit.evidence import view_evidence
-from tendrilkit.verify import Thresholds, base_components, image_check_messages, temporal_checks, verify_curve
+from tendrilkit.verify import Thresholds, image_check_messages, temporal_checks, verify_curve
+from tendrilkit.verify_base import base_components
 
 Z = 200.0  # every point at depth 200 mm: 5 px per mm with f = 1000
 
@@ -271,3 +272,59 @@ def test_curve_on_clutter_merged_with_the_tendril_is_doubtful():
     assert any(m.startswith("merged: the curve runs on pixels wider than the tendril") and "view 2" in m for m in msgs)
     one = {**q, "wide_run_px_v2": 10.0}               # one view only (the tendril in front of a leaf there)
     assert not any(m.startswith("merged") for m in image_check_messages(one, 2, Thresholds()))
+
+
+def _twig(at_frac):
+    """A thin dark line (as thin as the tendril) crossing the tendril at ``at_frac`` and running out of the ROI."""
+    def draw(img, cam):
+        c = cam.project(_tendril_mm()[int(at_frac * 199)][None])[0]
+        cv2.line(img, (int(c[0]) - 40, int(c[1]) - 40), (int(c[0]) + 40, 299), (30, 30, 30), 5, cv2.LINE_AA)
+    return draw
+
+
+def test_tendril_joined_to_the_roi_border_still_leaves_the_base():
+    """Clutter crossing the tendril joins its component to the ROI's border: still the tendril, not the stem."""
+    cams, ev = _scene(_twig(0.7))
+    lab = ev[0].labels
+    assert lab[-1][lab[-1] > 0].size                       # the tendril's component now reaches the border
+    assert base_components(ev[0]).size == 0                 # so it no longer counts as leaving the base
+    q = verify_curve(_tendril_mm(), cams, ev)
+    assert q["base_on_tendril_frac_v1"] == 1.0 and q["base_on_tendril_frac_v2"] == 1.0
+    assert not any(m.startswith("base") for m in image_check_messages(q, 2, Thresholds()))
+    # a curve setting off along the stem (wider than the tendril) is still caught
+    q = verify_curve(_stem_mm()[::-1], cams, ev)
+    assert q["base_on_tendril_frac_v1"] == 0.0
+    assert any(m.startswith("base: view 1") for m in image_check_messages(q, 2, Thresholds()))
+
+
+def test_centre_is_measured_where_the_tendrils_line_is_seen():
+    """In front of a leaf the skeleton is the blob's middle, not the tendril's: those samples do not count."""
+    cams, ev = _scene(_leaf(0.5, axes=(40, 22)))
+    q = verify_curve(_tendril_mm(), cams, ev)
+    for v in (1, 2):
+        assert q[f"skeleton_mean_px_v{v}"] <= 0.8
+    assert not any(m.startswith("centre") for m in image_check_messages(q, 2, Thresholds()))
+    # a curve 1.5 px off the tendril's middle along its thin line is still off centre
+    q = verify_curve(_tendril_mm() + np.array([0.0, 0.3, 0.0]), cams, ev)
+    assert q["skeleton_mean_px_v1"] > 1.0
+
+
+def _crossing_line(at_frac, half_px=40):
+    """A thin dark line (as thin as the tendril) crossing it at ``at_frac``, inside the ROI (a second tendril)."""
+    def draw(img, cam):
+        c = cam.project(_tendril_mm()[int(at_frac * 199)][None])[0]
+        a, b = c - half_px * np.array([1.0, -1.0]), c + half_px * np.array([1.0, -1.0])
+        cv2.line(img, tuple(np.round(a).astype(int)), tuple(np.round(b).astype(int)), (30, 30, 30), 5, cv2.LINE_AA)
+    return draw
+
+
+def test_thin_line_crossing_the_tendril_is_not_unexplained_tendril():
+    """Its two arms continue each other across the curve: clutter, not a part of the tendril the curve missed."""
+    cams, ev = _scene(_crossing_line(0.5))
+    q = verify_curve(_tendril_mm(), cams, ev)
+    for v in (1, 2):
+        assert q[f"coverage_frac_v{v}"] >= 0.9
+    assert image_check_messages(q, 2, Thresholds()) == []
+    # a curve that stops at the crossing still leaves the rest of the tendril unexplained
+    short = verify_curve(_tendril_mm(frac=0.5), cams, ev)
+    assert short["coverage_frac_v1"] < 0.75 and short["coverage_frac_v2"] < 0.75

@@ -1,0 +1,117 @@
+"""Clutter crossing the tendril: unexplained skeleton branches that run straight on across the curve.
+
+The coverage (:mod:`tendrilkit.verify`) counts the tendril's skeleton that
+the projected curve leaves unexplained. A thin line crossing the tendril (a
+second tendril, a petiole, a marker card's stalk) joins the tendril's dark
+pixels and leaves two unexplained arms, one on each side of the curve, that
+continue each other in a straight line. A part of the tendril the curve
+misses does not: beyond the tip it is one arm; where the curve turns off the
+tendril onto clutter, the tendril's missed arm continues the curve's way in,
+not another unexplained arm. So an arm whose straight continuation across
+the curve is another unexplained arm is clutter crossing, not tendril
+(:func:`crossing_branches`). On the multi-view curves of random seeds 5000-5039
+right frames (within 0.1-0.2 mm of the truth) crossed by a thin line inside
+the ROI, which does not reach the border to be left out as the stem, scored
+a coverage of 0.56-0.74 in every view.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["crossing_branches"]
+
+
+def crossing_branches(dense_xy: np.ndarray, free_xy: np.ndarray, free_branch: np.ndarray, branches: np.ndarray, *,
+                      cov_tol: float, width_px: float = 0.0, arm_px: tuple[float, float] = (5.0, 25.0),
+                      min_sin: float = 0.25,
+                      max_cos: float = -0.8, gap_px: float = 6.0) -> np.ndarray:
+    """Which unexplained branches continue, across the curve, in another unexplained branch.
+
+    A branch's end is its pixel nearest the curve (it must lie within
+    ``cov_tol + 3`` px: attached), its direction that from the end to the
+    mean of its pixels between ``arm_px`` from the end. A branch that comes
+    back to the curve farther than ``arm_px[1]`` from its end is no arm:
+    it is a piece of the tendril between two explained parts (a turn of a
+    coil the curve skips, whose pieces cross each other where the coil is
+    seen end-on). Two branches are the
+    two arms of a line crossing the curve when their directions are opposite
+    (cosine at most ``max_cos``) and their ends lie on either side of the
+    band the curve explains and of the pixels the two lines share: at most
+    ``2 * (cov_tol + width_px) / sin(a) + gap_px`` px apart, ``a`` the angle
+    between the branch and the curve (its sine at least ``min_sin``: lines
+    crossing at a shallow angle stay merged and explained longer).
+
+    Parameters
+    ----------
+    dense_xy : (n, 2) float array
+        The projected curve resampled every pixel, px.
+    free_xy : (m, 2) float array
+        Unexplained skeleton pixels (farther than ``cov_tol`` from the
+        curve), px.
+    free_branch : (m,) int array
+        Each one's branch label (8-connected runs of thin unexplained
+        pixels, >= 1), 0 for pixels in no branch (wider than the tendril).
+    branches : (k,) int array
+        The branch labels to test; any other label may be the other arm.
+    cov_tol : float
+        A skeleton pixel within this distance of the curve is explained, px.
+    width_px : float
+        The tendril's width, px.
+    arm_px, min_sin, max_cos, gap_px : float
+        See above.
+
+    Returns
+    -------
+    (k,) bool array
+        Per branch in ``branches``: True when it is an arm of a crossing line.
+
+    Examples
+    --------
+    A horizontal curve, a vertical line crossing it (two arms) and a
+    vertical branch leaving it upwards only:
+
+    >>> curve = np.column_stack([np.arange(0.0, 100.0), np.full(100, 50.0)])
+    >>> up = np.column_stack([np.full(40, 30.0), np.linspace(10.0, 45.0, 40)])
+    >>> down = np.column_stack([np.full(40, 30.0), np.linspace(55.0, 90.0, 40)])
+    >>> lone = np.column_stack([np.full(40, 70.0), np.linspace(10.0, 45.0, 40)])
+    >>> xy = np.vstack([up, down, lone]); lab = np.repeat([1, 2, 3], 40)
+    >>> crossing_branches(curve, xy, lab, np.array([1, 2, 3]), cov_tol=4.0).tolist()
+    [True, True, False]
+    """
+    from scipy.spatial import cKDTree
+
+    out = np.zeros(len(branches), bool)
+    if len(dense_xy) < 2 or len(free_xy) == 0:
+        return out
+    curve = cKDTree(dense_xy)
+    d_all, j_all = curve.query(free_xy)
+    arms = {}  # label -> (end, direction, sine of its angle to the curve)
+    for k in np.unique(free_branch[free_branch > 0]):
+        mine = np.nonzero(free_branch == k)[0]
+        i = mine[int(np.argmin(d_all[mine]))]
+        if d_all[i] > cov_tol + 3.0:  # not attached to the curve
+            continue
+        end = free_xy[i]
+        r = np.hypot(*(free_xy[mine] - end).T)
+        if np.any((d_all[mine] <= cov_tol + 3.0) & (r > arm_px[1])):
+            continue  # it comes back to the curve elsewhere: a piece of the tendril between two explained parts
+        arm = free_xy[mine][(r >= arm_px[0]) & (r <= arm_px[1])]
+        if len(arm) == 0:
+            continue
+        u = arm.mean(axis=0) - end
+        if not np.hypot(*u) > 0:
+            continue
+        u = u / np.hypot(*u)
+        jc = int(j_all[i])
+        tang = dense_xy[min(jc + 3, len(dense_xy) - 1)] - dense_xy[max(jc - 3, 0)]
+        sin = abs(float(tang[0] * u[1] - tang[1] * u[0])) / max(float(np.hypot(*tang)), 1e-9)
+        arms[int(k)] = (end, u, sin)
+    for n, k in enumerate(branches):
+        if int(k) not in arms:
+            continue
+        end, u, sin = arms[int(k)]
+        reach = 2.0 * (cov_tol + width_px) / max(sin, min_sin) + gap_px
+        out[n] = any(m != int(k) and float(u @ u2) <= max_cos and float(np.hypot(*(end - e2))) <= reach
+                     for m, (e2, u2, _) in arms.items())
+    return out
