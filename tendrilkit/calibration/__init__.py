@@ -44,22 +44,31 @@ checks), ``ijcv25`` (the authors' stored poses and the paper's rig) and
 """
 
 from tendrilkit.calibration.bundle import BundleReport, bundle_adjust
-from tendrilkit.calibration.experiment import calibrate_views, experiment_intrinsics
+from tendrilkit.calibration.experiment import calibrate_views, experiment_intrinsics, marks_volume
 from tendrilkit.calibration.ijcv25 import RIG_DIR, calibration_from_ijcv25, cameras_from_ijcv25, ijcv25_rig
 from tendrilkit.calibration.markers import REFINE_METHODS, detect_markers
 from tendrilkit.calibration.poses import marker_pose
 from tendrilkit.calibration.rig import (
     MIN_BASELINE_FRACTION,
+    RIG_LIMIT_PX,
+    RIG_LIMIT_SIGMAS,
+    assess_rig,
     CalibrationResult,
     calibrate,
     calibrate_from_observations,
     check_calibration,
     corner_rms_px,
     rig_agreement_px,
+    rig_uncertainty_px,
 )
 
 __all__ = [
     "MIN_BASELINE_FRACTION",
+    "RIG_LIMIT_PX",
+    "RIG_LIMIT_SIGMAS",
+    "assess_rig",
+    "marks_volume",
+    "rig_uncertainty_px",
     "REFINE_METHODS",
     "RIG_DIR",
     "BundleReport",

@@ -92,6 +92,12 @@ class BundleReport:
         ``(view, marker_id)`` observations dropped as outliers (view 1-based).
     nfev : int
         Residual evaluations of the optimiser.
+    sigma_px : float
+        The corner noise (px, per coordinate) the adjusted residuals show
+        (their sum of squares over the degrees of freedom).
+    camera_cov : (n_views, 6, 6) float array
+        Covariance of each adjusted camera's pose (Rodrigues vector, translation
+        mm), ``sigma_px^2 (J^T J)^-1`` (infinite when the markers cannot pin the rig).
     converged : bool
         False when the adjustment ended with a corner rms above
         ``outlier_px / 3`` (it failed, e.g. from a start tens of degrees off);
@@ -108,6 +114,8 @@ class BundleReport:
     dropped: list[tuple[int, int]] = field(default_factory=list)
     nfev: int = 0
     converged: bool = True
+    sigma_px: float = float("nan")
+    camera_cov: np.ndarray | None = None
 
 
 def _reprojection_rows(cameras: list[Camera], observations: dict[int, dict[int, np.ndarray]],
@@ -252,8 +260,32 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
     mw = {world_id: W.copy()} | {m: X1[slot[m]] for m in ids}
     lengths = {world_id: float(length_mm)} | {m: float(np.linalg.norm(X1[slot[m]][1] - X1[slot[m]][0])) for m in ids}
     rms = lambda r: float(np.sqrt((r ** 2).reshape(-1, 2).sum(1).mean()))  # noqa: E731
+    sigma, cov = _camera_covariance(sol, n_cam)
     return {"cameras": cams, "markers_world": mw, "markers_world0": mw0, "lengths": lengths, "plane": plane,
-            "rms0": rms(r0), "rms1": rms(sol.fun), "nfev": int(sol.nfev)}
+            "rms0": rms(r0), "rms1": rms(sol.fun), "nfev": int(sol.nfev), "sigma_px": sigma, "camera_cov": cov}
+
+
+def _camera_covariance(sol, n_cam: int) -> tuple[float, np.ndarray]:
+    """The corner noise (px, per coordinate) the adjustment's residuals show and the covariance
+    (n_views, 6, 6) of each camera's pose (Rodrigues vector, translation mm) it implies.
+
+    ``sigma^2 = sum r^2 / (m - p)`` over the ``m`` residuals and ``p``
+    unknowns (the world marker's fixed corners set the gauge, so ``J^T J`` is
+    regular unless the markers cannot pin the rig: then the covariance is
+    infinite); the covariance is ``sigma^2 (J^T J)^-1``, first order.
+    """
+    J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
+    m, p = J.shape
+    sigma = float(np.sqrt(np.sum(sol.fun ** 2) / max(1, m - p)))
+    n_views = n_cam // 6
+    JtJ = J.T @ J
+    try:
+        if np.linalg.cond(JtJ) > 1e14:
+            raise np.linalg.LinAlgError
+        C = np.linalg.inv(JtJ)[:n_cam, :n_cam] * sigma ** 2
+    except np.linalg.LinAlgError:
+        return sigma, np.full((n_views, 6, 6), np.inf)
+    return sigma, np.stack([C[6 * v:6 * v + 6, 6 * v:6 * v + 6] for v in range(n_views)])
 
 
 def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.ndarray]], *,
@@ -357,5 +389,6 @@ def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.nd
     return cams, BundleReport(table=table, markers_world=mw, markers_world_single=mw0, marker_lengths_mm=result["lengths"],
                               on_plane=sorted(result["plane"]), rms_before_px=rms0,
                               rms_after_px=result["rms1"] if converged else rms0, dropped=dropped,
-                              nfev=int(nfev), converged=bool(converged))
+                              nfev=int(nfev), converged=bool(converged), sigma_px=result["sigma_px"],
+                              camera_cov=result["camera_cov"] if converged else None)
 
