@@ -193,17 +193,20 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
     slot = {m: i for i, m in enumerate(free)} | {m: nf + i for i, m in enumerate(plane)}
     W = marker_corners(length_mm)
     U = marker_corners(1.0)
-    views, slots, ks, xy = [], [], [], []
+    views, slots, ks, xy, wts = [], [], [], [], []
     for v in sorted(obs):
         for m, c in sorted(obs[v].items()):
             if m != world_id and m not in slot:
                 continue
+            side = float(np.mean(np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1)))
             for k in range(4):
                 views.append(v)
                 slots.append(-1 if m == world_id else slot[m])
                 ks.append(k)
                 xy.append(c[k])
+                wts.append(np.sqrt(side))
     views_a, slot_a, k_a, xy_a = np.array(views), np.array(slots), np.array(ks), np.array(xy)
+    wts_a = np.array(wts)[:, None] / np.sqrt(np.mean(np.square(wts)))
     n_cam = 6 * n_views
     off_plane = n_cam + 7 * nf
 
@@ -236,7 +239,7 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
             sel = views_a == v
             if sel.any():
                 res[sel] = cams0[v].with_pose(Rc[v], cp[v, 3:]).project(P[sel]) - xy_a[sel]
-        return res.ravel()
+        return (res * wts_a).ravel()
 
     x0 = np.concatenate([np.concatenate([[*c.rvec, *c.t_mm] for c in cams0])]
                         + [np.ravel(p_free)] + [np.ravel(p_plane)])
@@ -259,7 +262,7 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
     mw0 = {world_id: W.copy()} | {m: X0[slot[m]] for m in ids}
     mw = {world_id: W.copy()} | {m: X1[slot[m]] for m in ids}
     lengths = {world_id: float(length_mm)} | {m: float(np.linalg.norm(X1[slot[m]][1] - X1[slot[m]][0])) for m in ids}
-    rms = lambda r: float(np.sqrt((r ** 2).reshape(-1, 2).sum(1).mean()))  # noqa: E731
+    rms = lambda r: float(np.sqrt(((r.reshape(-1, 2) / wts_a) ** 2).sum(1).mean()))  # noqa: E731  (unweighted)
     sigma, cov = _camera_covariance(sol, n_cam)
     return {"cameras": cams, "markers_world": mw, "markers_world0": mw0, "lengths": lengths, "plane": plane,
             "rms0": rms(r0), "rms1": rms(sol.fun), "nfev": int(sol.nfev), "sigma_px": sigma, "camera_cov": cov}
@@ -301,7 +304,11 @@ def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.nd
     are the corner reprojection errors through each camera's lens distortion
     (:meth:`Camera.project`); ``scipy.optimize.least_squares`` minimises them
     with a robust ``loss`` (scale ``f_scale_px``) and the sparse Jacobian
-    structure (a corner depends on one camera and one marker). A marker whose
+    structure (a corner depends on one camera and one marker). Each corner's
+    residual is weighted by the square root of its marker's side in that view
+    (px): the corners come from edge points along every cell edge
+    (:func:`~tendrilkit.calibration.markers.detect_markers`), as many as the
+    side is long, so a small marker's corners are noisier. A marker whose
     mean error in a view stays above ``outlier_px`` after the first pass is
     dropped from that view and the adjustment rerun.
 

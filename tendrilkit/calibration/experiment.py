@@ -75,14 +75,15 @@ def calibrate_views(exp: "Experiment", *, image_sizes: list[tuple[int, int]], im
     return result
 
 
-def marks_volume(cameras: list[Camera], base_points_xy: list, rois: list) -> np.ndarray:
-    """Points (27, 3) mm spanning where the tendril can be, from a user's marks on frame 0.
+def marks_volume(cameras: list[Camera], base_points_xy: list, rois: list, *, n: int = 13) -> np.ndarray:
+    """Points (m, 3) mm where the tendril can be, from a user's marks on frame 0: the ROIs' visual hull.
 
-    The base point (``base_point`` of every view that has one, triangulated)
-    is the centre; the half-side is the largest ROI's half-diagonal in mm at
-    the base's depth (``roi`` ``[x, y, w, h]`` px; 100 mm without marks):
-    the cube's 8 corners, 12 edge middles, 6 face centres and centre. Without
-    two base points the world marker (the origin) is the centre.
+    A cube of ``n^3`` points around the base point (``base_point`` of every
+    view that has one, triangulated; without two, the world marker's origin),
+    its half-side the largest ROI's half-diagonal in mm at the base's depth
+    (``roi`` ``[x, y, w, h]`` px; 100 mm without ROIs); kept: the points in
+    front of the board (``z >= 0``) that every view with a ROI sees inside
+    it. Without any, the cube's centre.
     """
     obs = [None if b is None else np.asarray(b, float).reshape(1, 2) for b in base_points_xy]
     centre = np.zeros(3)
@@ -97,6 +98,13 @@ def marks_volume(cameras: list[Camera], base_points_xy: list, rois: list) -> np.
         depth = float((cam.R @ centre + cam.t_mm)[2])
         half.append(0.5 * np.hypot(roi[2], roi[3]) * depth / float(cam.K[0, 0]))
     h = max(half) if half else 100.0
-    g = np.array([-1.0, 0.0, 1.0])
-    cube = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
-    return centre + h * cube
+    g = np.linspace(-1.0, 1.0, n)
+    P = centre + h * np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    keep = P[:, 2] >= 0.0
+    for cam, roi in zip(cameras, rois):
+        if roi is None:
+            continue
+        xy = cam.project(P)
+        keep &= ((xy[:, 0] >= roi[0]) & (xy[:, 0] <= roi[0] + roi[2]) & (xy[:, 1] >= roi[1])
+                 & (xy[:, 1] <= roi[1] + roi[3]))
+    return P[keep] if keep.any() else centre[None]
