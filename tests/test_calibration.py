@@ -455,3 +455,26 @@ def test_rig_uncertainty_follows_the_markers():
     with pytest.warns(UserWarning, match="pin the rig"):
         flagged = assess_rig(single, P, world_id=WORLD_ID, length_mm=L)
     assert len(flagged.flags) == 3 and "FLAGGED" in flagged.summary()
+
+
+def test_marks_volume_is_the_rois_hull_around_the_base():
+    """The volume's points are seen inside every view's ROI, in front of the board, around the base."""
+    from tendrilkit.calibration import marks_volume
+
+    cams = distorted_rig()
+    base = np.array([90.0, -40.0, 20.0])
+    P = working_volume()
+    rois = []
+    for c in cams:
+        xy = c.project(P)
+        x0, y0 = np.floor(xy.min(axis=0)).astype(int)
+        x1, y1 = np.ceil(xy.max(axis=0)).astype(int)
+        rois.append([int(x0), int(y0), int(x1 - x0), int(y1 - y0)])
+    vol = marks_volume(cams, [c.project(base[None])[0] for c in cams], rois)
+    assert len(vol) > 50 and np.all(vol[:, 2] >= 0)
+    for c, (x, y, w, h) in zip(cams, rois):
+        xy = c.project(vol)
+        assert np.all((xy[:, 0] >= x) & (xy[:, 0] <= x + w) & (xy[:, 1] >= y) & (xy[:, 1] <= y + h))
+    assert np.linalg.norm(vol.mean(axis=0) - base) < 60
+    none = marks_volume(cams, [None] * 3, [None] * 3)  # no marks: a 100 mm cube about the world marker
+    assert np.allclose(none.mean(axis=0)[:2], 0.0) and none[:, 2].max() == 100.0

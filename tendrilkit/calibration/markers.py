@@ -323,10 +323,13 @@ def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "gri
         The frame (a grey (height, width) image is accepted too).
     dictionary : str
         A ``cv2.aruco`` predefined dictionary name, e.g. ``DICT_ARUCO_ORIGINAL``.
-    refine : {"edges", "subpix", "contour", "apriltag", "none"}, keyword-only
-        Corner refinement. ``edges`` (default): OpenCV's ``CORNER_REFINE_SUBPIX``
+    refine : {"grid", "edges", "subpix", "contour", "apriltag", "none"}, keyword-only
+        Corner refinement. ``edges``: OpenCV's ``CORNER_REFINE_SUBPIX``
         corners, then straight lines fitted to sub-pixel edge points of each side
-        (see Notes); the others are OpenCV's ``CORNER_REFINE_*`` methods alone.
+        (see Notes); ``grid`` (default): then one homography fitted to edge
+        points on every black-white edge of the cells (``_refine_corners_grid``;
+        a marker whose cells are under 4 px keeps its ``edges`` corners); the
+        others are OpenCV's ``CORNER_REFINE_*`` methods alone.
     camera : Camera, optional, keyword-only
         With it, the ``edges`` refinement fits the sides in undistorted
         coordinates (lens distortion bends straight edges).
@@ -349,6 +352,11 @@ def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "gri
     corner fit sees, and the dilation correction (see ``_refine_corners_edges``)
     keeps it unbiased under a non-linear response (gamma 2.2: 0.01 px).
     It costs ~60 ms per 1920x1080 frame.
+
+    ``grid`` on random phantom scenes (``bench_calibration.py scenes``): the
+    corners' rms error against the truth falls by about a quarter (e.g. 0.035
+    -> 0.029 px, 0.061 -> 0.040 px) and the calibrated rig's worst view on the
+    tendril improves most where few, small markers carry it.
     """
     if refine not in REFINE_METHODS:
         raise ValueError(f"refine: expected one of {', '.join(REFINE_METHODS)}, got {refine!r}")
