@@ -11,12 +11,13 @@ generated and calibrated, no reconstruction: per view the rig's max px over
 the tendril's points against the true cameras, its spread on the marks'
 volume and the flags (:func:`tendrilkit.calibration.assess_rig`).
 Measured 2026-11-30 (frames 6, the shared machine), rig max px per view,
-median / 90 % / max, scenes over 0.5 px: tuning seeds 0:70, ``edges`` (the
-four sides, unweighted adjustment, before) 0.108 / 0.265 / 0.679, 5 scenes;
-``grid`` with the size-weighted adjustment 0.100 / 0.220 / 0.451, none (15
-of 70 flagged). Untouched seeds 6000:6030 (29 calibrated: seed 6013's world
-marker is not detected in view 1 by either): ``edges`` 0.129 / 0.281 / 0.544,
-1 scene; ``grid`` 0.096 / 0.236 / 0.562, 1 scene (6019, flagged; 9 of 29 flagged).
+median / 90 % / max, scenes over 0.5 px. Tuning seeds 0:70: before
+(``edges``, unweighted adjustment; seeds 0:57 only) 0.109 / 0.248 / 0.666,
+4 scenes; ``edges`` with the weighted adjustment 0.108 / 0.265 / 0.679, 5;
+after (``grid``, weighted) 0.100 / 0.220 / 0.451, none (15 of 70 flagged).
+Untouched seeds 6000:6030 (29 calibrated: seed 6013's world marker is not
+detected in view 1 by OpenCV): before 0.134 / 0.297 / 0.544, 1 scene;
+after 0.096 / 0.236 / 0.562, 1 scene (6019, flagged; 9 of 29 flagged).
 
 ``synthetic``: exact corners plus noise; camera rotation error and agreement
 of the single-marker poses and of the bundle adjustment.
