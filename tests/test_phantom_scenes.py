@@ -291,3 +291,28 @@ def test_new_factor_scenes_are_deterministic():
         assert json.dumps(scene_meta(a), sort_keys=True) == json.dumps(scene_meta(b), sort_keys=True)
         for v in range(3):
             assert S.render_scene_view(a, 0, v).tobytes() == S.render_scene_view(b, 0, v).tobytes()
+
+
+def test_tip_leaf_on_the_outer_side_of_a_coil():
+    """At the end of a coil the turn before the tip lies ahead of it along its tangent: no leaf there
+    touches the tip (the first rounds give up); the later rounds find one on the coil's outer side,
+    touching the tip in the resting frames without piercing the tendril (dev seed 90's design)."""
+    from tendrilkit.phantom.scenes.clutter import _pierces, _place_tip_leaf, _plate3d, _Retry
+
+    th = np.linspace(0, 5 * np.pi, 400)  # 2.5 turns, radius 6 mm, pitch 4 mm, axis along x, 30 mm above the board
+    c = np.column_stack([4.0 * th / (2 * np.pi), 6.0 * np.cos(th), 30 + 6.0 * np.sin(th)])
+    s = np.r_[0, np.cumsum(np.linalg.norm(np.diff(c, axis=0), axis=1))]
+    ctx = {"curves": np.stack([c, c, c]), "radius": np.full(len(s), 0.6), "s": s}
+    with pytest.raises(_Retry, match="tip_leaf"):
+        _place_tip_leaf(dict(ctx, rest_frames=None), np.random.default_rng(0))
+    out = _place_tip_leaf(dict(ctx, rest_frames=np.array([1, 2])), np.random.default_rng(0))
+    assert {1, 2} <= set(out["touching_frames"])
+    nrm = np.asarray(out["normal"])
+    outward = c[-1] - c[s >= 0.75 * s[-1]].mean(axis=0)
+    assert np.dot(nrm, outward) > 0
+    poly = np.asarray(out["plate"])
+    centre = poly.mean(axis=0)
+    _, e1, e2 = _plate3d(centre, nrm, 1.0, 1.0, 0.0)
+    a = np.linalg.norm(poly - centre, axis=1).max()
+    b = np.linalg.norm(poly - centre, axis=1).min()
+    assert not _pierces(ctx["curves"], ctx["radius"], centre, nrm, e1, e2, a, b)

@@ -9,7 +9,11 @@ The method in four steps:
    corners refined from the marker's edges: sub-pixel edge points along each
    side, undistorted, one straight line per side, corners where the lines
    meet; the black border's measured width removes the bias that a non-linear
-   camera response puts on every edge (it would scale the whole rig).
+   camera response puts on every edge (it would scale the whole rig); then
+   (``refine="grid"``, the default) one homography fitted to sub-pixel points
+   on every black-white edge of the marker's cells, whose geometry the
+   dictionary gives: a 7 x 7-cell marker has several times more edge than
+   its four sides, and the corners it gives are the homography's.
 2. :func:`marker_pose`: the world marker's pose in each view,
    ``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)`` with the lens distortion. This
    single-marker pose is what the paper uses as the camera pose.
@@ -27,6 +31,11 @@ The method in four steps:
 
 :func:`rig_agreement_px` measures a calibration against another (the truth of
 a phantom) where it matters: on points of the tendril's working volume.
+:func:`rig_uncertainty_px` predicts it from the calibration's own data (the
+adjustment's covariance) and :func:`assess_rig` flags a view whose markers
+cannot pin the rig to :data:`RIG_LIMIT_PX` there; :func:`calibrate_views`
+assesses every rig from markers on the volume the marks span
+(:func:`marks_volume`).
 
 Why squares and not free 3D corners: a printed ArUco marker is a flat square,
 so 7 unknowns (pose and side) instead of 12 describe it exactly; the four
@@ -44,22 +53,31 @@ checks), ``ijcv25`` (the authors' stored poses and the paper's rig) and
 """
 
 from tendrilkit.calibration.bundle import BundleReport, bundle_adjust
-from tendrilkit.calibration.experiment import calibrate_views, experiment_intrinsics
+from tendrilkit.calibration.experiment import calibrate_views, experiment_intrinsics, marks_volume
 from tendrilkit.calibration.ijcv25 import RIG_DIR, calibration_from_ijcv25, cameras_from_ijcv25, ijcv25_rig
 from tendrilkit.calibration.markers import REFINE_METHODS, detect_markers
 from tendrilkit.calibration.poses import marker_pose
 from tendrilkit.calibration.rig import (
     MIN_BASELINE_FRACTION,
+    RIG_LIMIT_PX,
+    RIG_LIMIT_SIGMAS,
+    assess_rig,
     CalibrationResult,
     calibrate,
     calibrate_from_observations,
     check_calibration,
     corner_rms_px,
     rig_agreement_px,
+    rig_uncertainty_px,
 )
 
 __all__ = [
     "MIN_BASELINE_FRACTION",
+    "RIG_LIMIT_PX",
+    "RIG_LIMIT_SIGMAS",
+    "assess_rig",
+    "marks_volume",
+    "rig_uncertainty_px",
     "REFINE_METHODS",
     "RIG_DIR",
     "BundleReport",

@@ -92,6 +92,12 @@ class BundleReport:
         ``(view, marker_id)`` observations dropped as outliers (view 1-based).
     nfev : int
         Residual evaluations of the optimiser.
+    sigma_px : float
+        The corner noise (px, per coordinate) the adjusted residuals show
+        (their sum of squares over the degrees of freedom).
+    camera_cov : (n_views, 6, 6) float array
+        Covariance of each adjusted camera's pose (Rodrigues vector, translation
+        mm), ``sigma_px^2 (J^T J)^-1`` (infinite when the markers cannot pin the rig).
     converged : bool
         False when the adjustment ended with a corner rms above
         ``outlier_px / 3`` (it failed, e.g. from a start tens of degrees off);
@@ -108,6 +114,8 @@ class BundleReport:
     dropped: list[tuple[int, int]] = field(default_factory=list)
     nfev: int = 0
     converged: bool = True
+    sigma_px: float = float("nan")
+    camera_cov: np.ndarray | None = None
 
 
 def _reprojection_rows(cameras: list[Camera], observations: dict[int, dict[int, np.ndarray]],
@@ -185,17 +193,20 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
     slot = {m: i for i, m in enumerate(free)} | {m: nf + i for i, m in enumerate(plane)}
     W = marker_corners(length_mm)
     U = marker_corners(1.0)
-    views, slots, ks, xy = [], [], [], []
+    views, slots, ks, xy, wts = [], [], [], [], []
     for v in sorted(obs):
         for m, c in sorted(obs[v].items()):
             if m != world_id and m not in slot:
                 continue
+            side = float(np.mean(np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1)))
             for k in range(4):
                 views.append(v)
                 slots.append(-1 if m == world_id else slot[m])
                 ks.append(k)
                 xy.append(c[k])
+                wts.append(np.sqrt(side))
     views_a, slot_a, k_a, xy_a = np.array(views), np.array(slots), np.array(ks), np.array(xy)
+    wts_a = np.array(wts)[:, None] / np.sqrt(np.mean(np.square(wts)))
     n_cam = 6 * n_views
     off_plane = n_cam + 7 * nf
 
@@ -228,7 +239,7 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
             sel = views_a == v
             if sel.any():
                 res[sel] = cams0[v].with_pose(Rc[v], cp[v, 3:]).project(P[sel]) - xy_a[sel]
-        return res.ravel()
+        return (res * wts_a).ravel()
 
     x0 = np.concatenate([np.concatenate([[*c.rvec, *c.t_mm] for c in cams0])]
                         + [np.ravel(p_free)] + [np.ravel(p_plane)])
@@ -251,9 +262,33 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
     mw0 = {world_id: W.copy()} | {m: X0[slot[m]] for m in ids}
     mw = {world_id: W.copy()} | {m: X1[slot[m]] for m in ids}
     lengths = {world_id: float(length_mm)} | {m: float(np.linalg.norm(X1[slot[m]][1] - X1[slot[m]][0])) for m in ids}
-    rms = lambda r: float(np.sqrt((r ** 2).reshape(-1, 2).sum(1).mean()))  # noqa: E731
+    rms = lambda r: float(np.sqrt(((r.reshape(-1, 2) / wts_a) ** 2).sum(1).mean()))  # noqa: E731  (unweighted)
+    sigma, cov = _camera_covariance(sol, n_cam)
     return {"cameras": cams, "markers_world": mw, "markers_world0": mw0, "lengths": lengths, "plane": plane,
-            "rms0": rms(r0), "rms1": rms(sol.fun), "nfev": int(sol.nfev)}
+            "rms0": rms(r0), "rms1": rms(sol.fun), "nfev": int(sol.nfev), "sigma_px": sigma, "camera_cov": cov}
+
+
+def _camera_covariance(sol, n_cam: int) -> tuple[float, np.ndarray]:
+    """The corner noise (px, per coordinate) the adjustment's residuals show and the covariance
+    (n_views, 6, 6) of each camera's pose (Rodrigues vector, translation mm) it implies.
+
+    ``sigma^2 = sum r^2 / (m - p)`` over the ``m`` residuals and ``p``
+    unknowns (the world marker's fixed corners set the gauge, so ``J^T J`` is
+    regular unless the markers cannot pin the rig: then the covariance is
+    infinite); the covariance is ``sigma^2 (J^T J)^-1``, first order.
+    """
+    J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
+    m, p = J.shape
+    sigma = float(np.sqrt(np.sum(sol.fun ** 2) / max(1, m - p)))
+    n_views = n_cam // 6
+    JtJ = J.T @ J
+    try:
+        if np.linalg.cond(JtJ) > 1e14:
+            raise np.linalg.LinAlgError
+        C = np.linalg.inv(JtJ)[:n_cam, :n_cam] * sigma ** 2
+    except np.linalg.LinAlgError:
+        return sigma, np.full((n_views, 6, 6), np.inf)
+    return sigma, np.stack([C[6 * v:6 * v + 6, 6 * v:6 * v + 6] for v in range(n_views)])
 
 
 def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.ndarray]], *,
@@ -269,7 +304,11 @@ def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.nd
     are the corner reprojection errors through each camera's lens distortion
     (:meth:`Camera.project`); ``scipy.optimize.least_squares`` minimises them
     with a robust ``loss`` (scale ``f_scale_px``) and the sparse Jacobian
-    structure (a corner depends on one camera and one marker). A marker whose
+    structure (a corner depends on one camera and one marker). Each corner's
+    residual is weighted by the square root of its marker's side in that view
+    (px): the corners come from edge points along every cell edge
+    (:func:`~tendrilkit.calibration.markers.detect_markers`), as many as the
+    side is long, so a small marker's corners are noisier. A marker whose
     mean error in a view stays above ``outlier_px`` after the first pass is
     dropped from that view and the adjustment rerun.
 
@@ -357,5 +396,6 @@ def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.nd
     return cams, BundleReport(table=table, markers_world=mw, markers_world_single=mw0, marker_lengths_mm=result["lengths"],
                               on_plane=sorted(result["plane"]), rms_before_px=rms0,
                               rms_after_px=result["rms1"] if converged else rms0, dropped=dropped,
-                              nfev=int(nfev), converged=bool(converged))
+                              nfev=int(nfev), converged=bool(converged), sigma_px=result["sigma_px"],
+                              camera_cov=result["camera_cov"] if converged else None)
 

@@ -13,12 +13,13 @@ from tendrilkit.calibration import bundle
 from tendrilkit.calibration.bundle import BundleReport, _reprojection_rows
 from tendrilkit.calibration.markers import detect_markers
 from tendrilkit.calibration.poses import _choose_world_poses
-from tendrilkit.camera import Camera
+from tendrilkit.camera import Camera, rotation_from_rvec
 from tendrilkit.exceptions import ExperimentError
 from tendrilkit.geometry import marker_corners
 
 __all__ = ["MIN_BASELINE_FRACTION", "CalibrationResult", "calibrate", "calibrate_from_observations",
-           "check_calibration", "corner_rms_px", "rig_agreement_px"]
+           "check_calibration", "corner_rms_px", "rig_agreement_px", "rig_uncertainty_px",
+           "assess_rig", "RIG_LIMIT_PX", "RIG_LIMIT_SIGMAS"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,6 +50,11 @@ class CalibrationResult:
     bundle : BundleReport or None
         The adjustment's report (markers on the board plane, dropped
         observations, residuals) when it ran.
+    uncertainty_px : (n_views,) float array or None
+        The rig's spread on the working volume, px (:func:`assess_rig`), when assessed.
+    flags : tuple of str
+        One line per view the markers cannot pin to :data:`RIG_LIMIT_PX` on
+        the working volume (:func:`assess_rig`): use such a rig knowing it.
     """
 
     cameras: list[Camera]
@@ -59,6 +65,8 @@ class CalibrationResult:
     frame: int | None = None
     source: str = "markers"
     bundle: BundleReport | None = None
+    uncertainty_px: np.ndarray | None = None
+    flags: tuple[str, ...] = ()
 
     def summary(self) -> str:
         """Per view: markers seen, mean corner error single -> adjusted."""
@@ -85,6 +93,10 @@ class CalibrationResult:
             lines.append(extra + f"; rms {b.rms_before_px:.3f} -> {b.rms_after_px:.3f} px")
             if not b.converged:
                 lines.append("the bundle adjustment did not converge: the single-marker poses are kept")
+        if self.uncertainty_px is not None:
+            lines.append("rig spread on the marks' volume (1 sigma, px): "
+                         + ", ".join(f"view {v + 1} {u:.2f}" for v, u in enumerate(self.uncertainty_px)))
+        lines += [f"FLAGGED: {f}" for f in self.flags]
         return "\n".join(lines)
 
 
@@ -110,7 +122,7 @@ def _marker_table(rows: pd.DataFrame, markers_world: dict[int, np.ndarray],
 
 def calibrate(images: list[np.ndarray], intrinsics: list[Camera], *, dictionary: str, world_id: int,
               length_mm: float, bundle_adjust: bool = True, frame: int = 0,
-              refine: str = "edges") -> CalibrationResult:
+              refine: str = "grid") -> CalibrationResult:
     """Camera poses from the markers in one frame of every view.
 
     The world marker's single-marker pose (:func:`marker_pose`) is each camera's
@@ -199,6 +211,117 @@ def rig_agreement_px(cameras_a: list[Camera], cameras_b: list[Camera], points_wo
         raise ValueError("points_world: expected at least one finite point")
     d = np.array([np.linalg.norm(a.project(X) - b.project(X), axis=1) for a, b in zip(cameras_a, cameras_b)])
     return d.max(axis=1), d.mean(axis=1)
+
+
+def _pose_jacobian(cam: Camera, X: np.ndarray) -> np.ndarray:
+    """Jacobian (n, 2, 6) of the pixels of world points (n, 3) with respect to the camera's pose
+    (Rodrigues vector, translation mm), central differences through the lens distortion."""
+    p0 = np.r_[cam.rvec, cam.t_mm]
+    J = np.empty((len(X), 2, 6))
+    for i in range(6):
+        h = 1e-6 if i < 3 else 1e-3
+        e = np.zeros(6)
+        e[i] = h
+        a = cam.with_pose(rotation_from_rvec(p0[:3] + e[:3]), p0[3:] + e[3:]).project(X)
+        b = cam.with_pose(rotation_from_rvec(p0[:3] - e[:3]), p0[3:] - e[3:]).project(X)
+        J[:, :, i] = (a - b) / (2 * h)
+    return J
+
+
+def _single_covariance(result: "CalibrationResult", world_id: int, length_mm: float) -> tuple[float, np.ndarray]:
+    """The world marker's corners alone: noise (px) from their residual (2 degrees of freedom per
+    view, floored at 0.02 px) and each view's pose covariance (n_views, 6, 6)."""
+    W = marker_corners(length_mm)
+    res, Js = [], []
+    for v, cam in enumerate(result.cameras):
+        res.append(cam.project(W) - result.observations[v][world_id])
+        Js.append(_pose_jacobian(cam, W).reshape(-1, 6))
+    r = np.concatenate(res).ravel()
+    sigma = max(0.02, float(np.sqrt(np.sum(r ** 2) / max(1, len(r) - 6 * len(Js)))))
+    cov = []
+    for J in Js:
+        JtJ = J.T @ J
+        cov.append(np.linalg.inv(JtJ) * sigma ** 2 if np.linalg.cond(JtJ) < 1e14 else np.full((6, 6), np.inf))
+    return sigma, np.array(cov)
+
+
+def rig_uncertainty_px(result: "CalibrationResult", points_world: np.ndarray, *, world_id: int | None = None,
+                       length_mm: float | None = None) -> np.ndarray:
+    """How far each view may put the given world points, from the calibration's own data, pixels.
+
+    Per view, the largest over the points of the root-mean-square displacement
+    of a point's projection that the camera pose's covariance implies (first
+    order): from the bundle adjustment (:attr:`BundleReport.camera_cov`), else
+    from the world marker's four corners alone (``world_id`` and ``length_mm``
+    needed). It is the rig's one-sigma spread: a rig whose markers are few,
+    small and far from the points shows a large value.
+
+    Parameters
+    ----------
+    result : CalibrationResult
+    points_world : (n, 3) float array
+        The working volume, mm (NaN rows ignored).
+
+    Returns
+    -------
+    (n_views,) float array
+        Infinite for a view whose pose the markers do not determine; NaN when
+        there is nothing to assess (stored poses, or a failed adjustment).
+    """
+    X = np.asarray(points_world, float).reshape(-1, 3)
+    X = X[np.all(np.isfinite(X), axis=1)]
+    if len(X) == 0:
+        raise ValueError("points_world: expected at least one finite point")
+    if result.bundle is not None:
+        cov = result.bundle.camera_cov
+    elif result.source == "markers" and world_id is not None and length_mm is not None:
+        _, cov = _single_covariance(result, world_id, length_mm)
+    else:
+        cov = None
+    if cov is None:
+        return np.full(len(result.cameras), np.nan)
+    out = []
+    for cam, C in zip(result.cameras, cov):
+        if not np.all(np.isfinite(C)):
+            out.append(np.inf)
+            continue
+        J = _pose_jacobian(cam, X)
+        out.append(float(np.sqrt(np.einsum("nij,jk,nik->n", J, C, J)).max()))
+    return np.array(out)
+
+
+#: The rig must map the working volume within this many px of the truth (issue 11) ...
+RIG_LIMIT_PX = 0.5
+#: ... at this many sigmas of :func:`rig_uncertainty_px` over the marks' volume (conservative: that volume is larger than the
+#: tendril; on 37 random dev scenes 4 flagged, none of the others over 0.5 px).
+RIG_LIMIT_SIGMAS = 2.0
+
+
+def assess_rig(result: CalibrationResult, points_world: np.ndarray, *, world_id: int | None = None,
+               length_mm: float | None = None) -> CalibrationResult:
+    """The result with its spread on a working volume and a flag per view that the markers cannot pin.
+
+    A view is flagged when :data:`RIG_LIMIT_SIGMAS` times its
+    :func:`rig_uncertainty_px` exceeds :data:`RIG_LIMIT_PX` (with a warning):
+    its markers are too few, too small or too far from the volume for the rig
+    to be trusted to half a pixel there. Returns a new result (``uncertainty_px``, ``flags``).
+    """
+    import dataclasses
+
+    u = rig_uncertainty_px(result, points_world, world_id=world_id, length_mm=length_mm)
+    flags = []
+    for v, x in enumerate(u):
+        if np.isfinite(x) and RIG_LIMIT_SIGMAS * x <= RIG_LIMIT_PX:
+            continue
+        if np.isnan(x):
+            continue
+        seen = len(result.observations.get(v, {}))
+        flags.append(f"view {v + 1}: the markers ({seen} seen) pin the rig only to "
+                     f"{RIG_LIMIT_SIGMAS:g} x {x:.2f} px on the working volume (limit {RIG_LIMIT_PX:g} px): "
+                     "it needs more or larger markers near the tendril, seen by two or more views")
+    if flags:
+        warnings.warn("calibration: " + "; ".join(flags), stacklevel=2)
+    return dataclasses.replace(result, uncertainty_px=u, flags=tuple(flags))
 
 
 #: Two cameras closer than this fraction of their distance to the world marker cannot triangulate.

@@ -171,53 +171,82 @@ def _pierces(curves: np.ndarray, radius: np.ndarray, centre: np.ndarray, nrm: np
 
 
 def _place_tip_leaf(ph: dict, rng) -> dict:
-    """A leaf (plate) beyond and below the tip, placed so the tip rests on it in several frames."""
+    """A leaf (plate) beyond and below the tip, placed so the tip rests on it in several frames.
+
+    The leaf's normal leans from the tip's tangent downwards. In the later
+    rounds of :func:`~tendrilkit.phantom.scenes.make.make_scene` (``rest_frames``
+    given), when no such leaf works, the normal leans from the tip's outward
+    side instead (away from the distal quarter's centre): at the end of a
+    coil, the turn before the tip lies ahead of it along its tangent and
+    would hold a leaf there off the tip, while nothing of the tendril lies
+    beyond its outer side.
+    """
     curves, radius, s = ph["curves"], ph["radius"], ph["s"]
-    n, L = len(curves), float(s[-1])
-    need = min(2, n)
     rest = ph.get("rest_frames")  # relaxed: the leaf is placed where the tip rests after the curl
+    down = np.array([0.0, 0.0, -1.0])
+    T = curves[-1, -1] - curves[-1, -5]
+    T /= np.linalg.norm(T)
     for _ in range(12):
         a, b = float(rng.uniform(10.0, 16.0)), float(rng.uniform(6.0, 9.0))
-        T = curves[-1, -1] - curves[-1, -5]
-        T /= np.linalg.norm(T)
-        nrm = T + rng.uniform(0.3, 1.0) * np.array([0.0, 0.0, -1.0])
-        nrm /= np.linalg.norm(nrm)
-        if rest is not None:  # the tip slides along the leaf between the resting frames: the normal across its path
-            dv = curves[rest[-1], -1] - curves[rest[0], -1]
-            if np.linalg.norm(dv) > 1e-6:
-                dv /= np.linalg.norm(dv)
-                nrm = nrm - np.dot(nrm, dv) * dv
-                nrm /= np.linalg.norm(nrm)
-        tip = (curves if rest is None else curves[rest])[:, -1].mean(axis=0)
-        _, e1, e2 = _plate3d(tip, nrm, a, b, 0.0)
-        off = rng.uniform(-0.3, 0.3, size=2) * [a, b]
-        # the plane's offset along the normal: the most advanced tendril surface over its footprint
-        h = -np.inf
-        for c in (curves if rest is None else curves[rest]):
-            rel = c - tip
-            ins = ((rel @ e1 - off[0]) / a) ** 2 + ((rel @ e2 - off[1]) / b) ** 2 <= 1.0
-            if ins.any():
-                h = max(h, float(np.max(rel[ins] @ nrm + radius[ins])))
-        if not np.isfinite(h):
-            continue
-        centre = tip + off[0] * e1 + off[1] * e2 + (h + 0.02) * nrm
-        poly, _, _ = _plate3d(centre, nrm, a, b, 0.0)
-        if rest is not None and _pierces(curves, radius, centre, nrm, e1, e2, a, b):
-            continue
-        if poly[:, 2].min() < 0.5:
-            continue
-        near = s >= L - 8.0
-        touching = []
-        for f, c in enumerate(curves):
-            rel = c[near] - centre
-            ins = ((rel @ e1) / a) ** 2 + ((rel @ e2) / b) ** 2 <= 1.0
-            gap = -(rel @ nrm) - radius[near]
-            if np.any(ins & (gap < 0.5)):  # within 0.5 mm (2-3 px): touching in the images
-                touching.append(f)
-        if len(touching) < need:
-            continue
-        return {"plate": poly, "touching_frames": touching, "centre_mm": centre.tolist(), "normal": nrm.tolist()}
+        r = _tip_leaf(curves, radius, s, rest, T + rng.uniform(0.3, 1.0) * down, a, b, rng)
+        if r is not None:
+            return r
+    if rest is not None:
+        distal = curves[rest[-1], s >= 0.75 * s[-1]]
+        out = curves[rest[-1], -1] - distal.mean(axis=0)
+        out -= np.dot(out, T) * T
+        if np.linalg.norm(out) > 1e-6:
+            out /= np.linalg.norm(out)
+            for _ in range(12):
+                a, b = float(rng.uniform(10.0, 16.0)), float(rng.uniform(6.0, 9.0))
+                r = _tip_leaf(curves, radius, s, rest, out + rng.uniform(0.0, 0.6) * down, a, b, rng)
+                if r is not None:
+                    return r
     raise _Retry("tip_leaf: the tip rests on no leaf for several frames")
+
+
+def _tip_leaf(curves: np.ndarray, radius: np.ndarray, s: np.ndarray, rest, nrm: np.ndarray, a: float, b: float,
+              rng) -> dict | None:
+    """An elliptic leaf (semi-axes ``a``, ``b`` mm) of normal ``nrm`` just beyond the tip, or None when
+    it would pierce the tendril, reach below the board or touch the tip in fewer than two frames."""
+    n, L = len(curves), float(s[-1])
+    need = min(2, n)
+    nrm = nrm / np.linalg.norm(nrm)
+    if rest is not None:  # the tip slides along the leaf between the resting frames: the normal across its path
+        dv = curves[rest[-1], -1] - curves[rest[0], -1]
+        if np.linalg.norm(dv) > 1e-6:
+            dv /= np.linalg.norm(dv)
+            nrm = nrm - np.dot(nrm, dv) * dv
+            nrm /= np.linalg.norm(nrm)
+    tip = (curves if rest is None else curves[rest])[:, -1].mean(axis=0)
+    _, e1, e2 = _plate3d(tip, nrm, a, b, 0.0)
+    off = rng.uniform(-0.3, 0.3, size=2) * [a, b]
+    # the plane's offset along the normal: the most advanced tendril surface over its footprint
+    h = -np.inf
+    for c in (curves if rest is None else curves[rest]):
+        rel = c - tip
+        ins = ((rel @ e1 - off[0]) / a) ** 2 + ((rel @ e2 - off[1]) / b) ** 2 <= 1.0
+        if ins.any():
+            h = max(h, float(np.max(rel[ins] @ nrm + radius[ins])))
+    if not np.isfinite(h):
+        return None
+    centre = tip + off[0] * e1 + off[1] * e2 + (h + 0.02) * nrm
+    poly, _, _ = _plate3d(centre, nrm, a, b, 0.0)
+    if rest is not None and _pierces(curves, radius, centre, nrm, e1, e2, a, b):
+        return None
+    if poly[:, 2].min() < 0.5:
+        return None
+    near = s >= L - 8.0
+    touching = []
+    for f, c in enumerate(curves):
+        rel = c[near] - centre
+        ins = ((rel @ e1) / a) ** 2 + ((rel @ e2) / b) ** 2 <= 1.0
+        gap = -(rel @ nrm) - radius[near]
+        if np.any(ins & (gap < 0.5)):  # within 0.5 mm (2-3 px): touching in the images
+            touching.append(f)
+    if len(touching) < need:
+        return None
+    return {"plate": poly, "touching_frames": touching, "centre_mm": centre.tolist(), "normal": nrm.tolist()}
 
 
 def _hidden_by_plate(cam: Camera, plate: np.ndarray, pts: np.ndarray) -> np.ndarray:
