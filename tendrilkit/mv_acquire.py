@@ -56,6 +56,9 @@ def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: f
     d : (V, n) float array
         Capped distance, pixels.
     seen : (V, n) bool array
+        The view sees the place: inside its ROI, outside its keep-out box,
+        and not covered by a leaf or the stem (``covered`` of
+        :func:`tendrilkit.mv_evidence.skeleton_distance`).
     nearest : (V, n) int array
         With ``nearest``: the row of each view's ``skeleton_xy`` nearest the projection (-1: none).
     background : (V, n) bool array
@@ -67,9 +70,10 @@ def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: f
     near = np.empty((len(evidence), len(P)), int)
     bg = np.empty((len(evidence), len(P)), bool)
     for v, ev in enumerate(evidence):
-        dv, _, sv, near[v], bg[v] = skeleton_distance(ev, ev.camera.project(P), outside_px=cap_px, index=True)
+        dv, _, sv, near[v], bg[v], covered = skeleton_distance(ev, ev.camera.project(P), outside_px=cap_px,
+                                                               index=True)
         d[v] = np.minimum(dv, cap_px)
-        seen[v] = sv
+        seen[v] = sv & ~covered  # a leaf or the stem covers the place in this view: the other views decide
     return (d, seen, near, bg) if nearest else (d, seen)
 
 
