@@ -224,9 +224,9 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     prior_mm : float
         Arc length (from the base) the curve is known to have (tracking: the
         previous frame's curve, a tendril does not shrink). Up to it, a node
-        is kept while two views see it on their skeletons, also on pixels
-        the curve explains already (the tip lying over its own coil in a
-        view); beyond it, only on new pixels.
+        is kept, and the tip extended, while two views see it on their
+        skeletons, also on pixels the curve explains already (the tip lying
+        over its own coil in a view); beyond it, only on new pixels.
 
     Returns
     -------
@@ -250,7 +250,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         P = tip + step_mm * dirs
         d, seen, near, bg = point_costs(evidence, P, nearest=True)
         on = seen & (d <= ON_PX) & ~bg.any(axis=0)
-        if claims is not None:
+        if claims is not None and s_[-1] + step_mm * (len(ext) + 1) > prior_mm:
             for v, c in enumerate(claims):
                 on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
         on &= advance(evidence, np.repeat(tip[None], len(P), axis=0), P)

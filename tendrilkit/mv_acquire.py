@@ -323,5 +323,30 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         keep = len(nodes) - tail
         return nodes[:max(keep, 2)], score
 
-    best = min((trimmed(h) for h in finished), key=lambda t: t[1])
+    ends = [trimmed(h) for h in finished]
+    cut = _runs_out(evidence, [np.asarray(n, float) for n, _ in ends], step_mm)
+    length = np.array([len(n) for n, _ in ends], float)
+    inside = [e for e, c, n in zip(ends, cut, length) if not c and n >= 0.5 * length.max()]
+    best = min(inside or ends, key=lambda t: t[1])
     return np.asarray(best[0], float)
+
+
+def _runs_out(evidence: list[SkeletonEvidence], curves: list[np.ndarray], step_mm: float) -> np.ndarray:
+    """(n,) bool: whether each curve ends where two views or more stop seeing (the edge of their ROIs).
+
+    The place ``1.5 step_mm`` beyond the tip, straight on. The marks put the
+    tendril inside every ROI, so its tip is a free end that the views see; a
+    curve that ends at the ROIs' edges has run onto something that hangs in
+    from outside (a second tendril, a petiole, the stem).
+    """
+    out = np.zeros(len(curves), bool)
+    P = []
+    for X in curves:
+        t = X[-1] - X[-2] if len(X) >= 2 else np.zeros(3)
+        P.append(X[-1] + 1.5 * step_mm * t / max(np.linalg.norm(t), 1e-9))
+    P = np.asarray(P).reshape(-1, 3)
+    n_seen = np.zeros(len(curves), int)
+    for ev in evidence:
+        n_seen += skeleton_distance(ev, ev.camera.project(P))[2]
+    out[:] = n_seen < 2
+    return out
