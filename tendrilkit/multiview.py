@@ -52,13 +52,18 @@ from scipy.linalg import solveh_banded
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import DegenerateCurveError, TendrilLostError
 from tendrilkit.geometry import arc_length, resample_polyline, section_masks
-from tendrilkit.mv_acquire import ON_PX, advance, claim, cone_directions, grow_curve, point_costs
+from tendrilkit.mv_acquire import ON_PX, advance, claim, cone_directions, grow_curve, point_costs, runs_out
 from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
 from tendrilkit.triangulation import triangulate
 
 __all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "reconstruct_multiview",
            "base_point_from_marks", "distance_table"]
 
+
+
+#: A curve shorter than this (mm) that runs out of two views' ROIs is a stem stub, not the tendril: the marks put
+#: the tendril inside every ROI, and it is tens of millimetres long.
+STUB_MM = 20.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -425,6 +430,9 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
     length = _length(best["nodes_mm"])
     if length < 5 * segment_mm:
         raise TendrilLostError(f"the curve that two views explain is only {length:.1f} mm long")
+    if length < STUB_MM and runs_out(evidence, [best["nodes_mm"]], 2.0)[0]:
+        raise TendrilLostError(f"the only curve from the base that two views explain runs out of their ROIs after "
+                               f"{length:.1f} mm (a stem stub or a leaf's stalk, not the tendril)")
     keep = cands if keep_candidates else []
     return MultiviewResult(nodes_mm=best["nodes_mm"], mode=best["mode"], precision=best["precision"],
                            coverage=best["coverage"], note=note if best["mode"] == "acquired" else "", candidates=keep)

@@ -30,7 +30,7 @@ import numpy as np
 
 from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
 
-__all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance"]
+__all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out"]
 
 #: A point's distance to a view's skeleton is capped at this (pixels).
 CAP_PX = 10.0
@@ -324,14 +324,14 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         return nodes[:max(keep, 2)], score
 
     ends = [trimmed(h) for h in finished]
-    cut = _runs_out(evidence, [np.asarray(n, float) for n, _ in ends], step_mm)
+    cut = runs_out(evidence, [np.asarray(n, float) for n, _ in ends], step_mm)
     length = np.array([len(n) for n, _ in ends], float)
     inside = [e for e, c, n in zip(ends, cut, length) if not c and n >= 0.5 * length.max()]
     best = min(inside or ends, key=lambda t: t[1])
     return np.asarray(best[0], float)
 
 
-def _runs_out(evidence: list[SkeletonEvidence], curves: list[np.ndarray], step_mm: float) -> np.ndarray:
+def runs_out(evidence: list[SkeletonEvidence], curves: list[np.ndarray], step_mm: float) -> np.ndarray:
     """(n,) bool: whether each curve ends where two views or more stop seeing (the edge of their ROIs).
 
     The place ``1.5 step_mm`` beyond the tip, straight on. The marks put the
