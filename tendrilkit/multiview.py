@@ -33,12 +33,17 @@ Coverage (:func:`adjust_tip`)
     from the base outward and can neither shrink nor run on.
 
 Tracking (:func:`reconstruct_multiview`)
-    A frame starts from the previous frame's curve (identity carried in 3D).
+    A frame starts from the previous frame's curve (identity carried in 3D),
+    whose length is a prior: up to it, the tip is kept and extended wherever
+    two views see it on their skeletons, also over pixels the curve explains
+    already (a tip lying over its own coil in a view); beyond it, only over
+    new pixels.
     The result is checked on every view: precision (nodes on the skeleton)
     and coverage (skeleton pixels of the touched components explained). When
     there is no previous curve, or the check fails, the curve is acquired
     from the base (:func:`tendrilkit.mv_acquire.grow_curve`) and the better
-    of the two is kept.
+    of the two is kept. A curve under ``STUB_MM`` that runs out of two views'
+    ROIs is a stem stub, not the tendril: the frame fails.
 """
 
 from __future__ import annotations

@@ -17,7 +17,13 @@ the base point (triangulated from the marks) by a beam search,
 3. the ``beam`` best hypotheses (score = sum of step costs minus a reward per
    step, tips apart from each other) go on; a hypothesis with no acceptable
    step ends; the best-scoring one (the longest curve that the views explain)
-   is the tendril.
+   is the tendril, among those whose tip the views see (a curve that ends
+   where two views' ROIs end has run onto something hanging in from outside:
+   a second tendril, a petiole) unless none is half as long.
+
+A view in which a place lies deep inside a dark region wider than a tendril
+(a leaf or the stem over it, :data:`tendrilkit.mv_evidence.COVER_PX`) neither
+sees nor contradicts it there: that part rests on the other views.
 
 A stem stub between the ROI's edge and the keep-out box, or a leaf, ends
 after a few millimetres and loses against the tendril; a crossing in one view
