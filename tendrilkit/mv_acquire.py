@@ -22,7 +22,7 @@ the base point (triangulated from the marks) by a beam search,
    a second tendril, a petiole) unless none is half as long.
 
 A view in which a place lies deep inside a dark region wider than a tendril
-(a leaf or the stem over it, :data:`tendrilkit.mv_evidence.COVER_PX`) neither
+(a leaf or the stem over it, :data:`tendrilkit.mv_evidence.COVER_DEPTH_PX`) neither
 sees nor contradicts it there: that part rests on the other views.
 
 A stem stub between the ROI's edge and the keep-out box, or a leaf, ends

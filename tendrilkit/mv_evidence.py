@@ -20,12 +20,15 @@ from tendrilkit.camera import Camera
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
 
-__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance", "COVER_PX"]
+__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance", "COVER_PX", "COVER_DEPTH_PX"]
 
-#: A place this deep inside a dark region (pixels from the board) and farther than this from the skeleton is
-#: covered in that view (a leaf or the stem in front of or behind the tendril). A tendril's own pixels lie
-#: within its half-width (1-5 px) of its skeleton.
+#: A place ``COVER_DEPTH_PX`` or more inside a dark region (pixels from the board) and farther than
+#: ``COVER_PX`` from the skeleton is covered in that view (a leaf or the stem in front of or behind the
+#: tendril). A tendril's own pixels lie within its half-width (1-5 px) of its skeleton; where two thin
+#: structures cross (the tendril over its coil, a second tendril) the dark region is 4-5 px deep: not covered,
+#: else the crossing would not constrain the curve and it could turn onto the other branch there.
 COVER_PX = 3.0
+COVER_DEPTH_PX = 6.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,8 +59,8 @@ class SkeletonEvidence:
         image, outside the keep-out box.
     inside_px : (h, w) float32 array
         Per pixel, its distance to the nearest board pixel (0 on the board):
-        how deep inside a dark region it lies. A place ``COVER_PX`` or more
-        inside a region and farther than that from the skeleton is covered by
+        how deep inside a dark region it lies. A place ``COVER_DEPTH_PX`` or
+        more inside a region and farther than ``COVER_PX`` from the skeleton is covered by
         something wider than a tendril (a leaf, the stem): the view can
         neither see the tendril there nor contradict it
         (``covered`` of :func:`skeleton_distance`).
@@ -145,7 +148,7 @@ def skeleton_distance(ev: SkeletonEvidence, points_xy: np.ndarray, *, outside_px
     background : (n,) bool array
         With ``index``: seen, and on the board (outside ``near_foreground``).
     covered : (n,) bool array
-        With ``index``: seen, ``COVER_PX`` or more inside a dark region and
+        With ``index``: seen, ``COVER_DEPTH_PX`` or more inside a dark region and
         farther than ``COVER_PX`` from the skeleton (see :attr:`SkeletonEvidence.inside_px`).
     """
     p = np.asarray(points_xy, float)
@@ -183,5 +186,5 @@ def skeleton_distance(ev: SkeletonEvidence, points_xy: np.ndarray, *, outside_px
         seen[ok] = ev.seen[yi, xi]
         nearest[ok] = np.where(near, idx, -1)
         background[ok] = seen[ok] & ~ev.near_foreground[yi, xi]
-        covered[ok] = seen[ok] & (ev.inside_px[yi, xi] >= COVER_PX) & (d[ok] > COVER_PX)
+        covered[ok] = seen[ok] & (ev.inside_px[yi, xi] >= COVER_DEPTH_PX) & (d[ok] > COVER_PX)
     return (d, g, seen, nearest, background, covered) if index else (d, g, seen)
