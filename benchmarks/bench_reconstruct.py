@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/bench_reconstruct.py               # synthetic views, the IJCV25 rig
     .venv/bin/python benchmarks/bench_reconstruct.py phantom [S3]  # a rendered phantom frame
+    .venv/bin/python benchmarks/bench_reconstruct.py scenes 0:10 [DIR]  # multiview over random dev scenes
 
 Target: at most 0.2 s per frame (2D stage of three views, matching,
 triangulation, resampling, Table 1, piece-wise clothoid fit); for
@@ -12,6 +13,14 @@ acquisition (the first frame of a chunk, or tracking lost). One core:
 with other jobs are upper bounds. Prints the median of several repetitions,
 total and per stage, for both correspondence methods, and the time to read
 the three frames from the videos (phantom only).
+
+``scenes START:STOP``: ``reconstruction.method: multiview`` on every frame
+(6 per scene) of the random dev scenes of :mod:`tendrilkit.phantom.scenes`
+(seeds 0-9999 only; kept in DIR, default a temporary folder), in order,
+each frame tracked from the previous one when that one is ``ok`` and
+acquired otherwise, as ``tendrilkit reconstruct`` does: prints the median
+and the worst ms per frame over all of them (acquisitions included), wall
+and CPU (``time.process_time``), and the median per mode.
 """
 
 from __future__ import annotations
@@ -80,8 +89,51 @@ def phantom_frame(site: str = "S3"):
     return images, cams, exp, float(np.median(t_read))
 
 
+def scenes_frames(seeds: str, folder: str | None = None, n_frames: int = 6) -> None:
+    """Time multiview on every frame of random dev scenes (see the module's docstring)."""
+    from tendrilkit.extrinsics import calibrate_experiment
+    from tendrilkit.io import open_views
+    from tendrilkit.params import load_experiment
+    from tendrilkit.phantom import write_scene_experiment
+
+    start, stop = (int(x) for x in seeds.split(":"))
+    if stop > 10000:
+        raise SystemExit("seeds 10000 and above are reserved for the final benchmark")
+    root = Path(folder) if folder else Path(tempfile.mkdtemp(prefix="bench_reconstruct_scenes_"))
+    wall, cpu, modes = [], [], []
+    for seed in range(start, stop):
+        exp = load_experiment(write_scene_experiment(root / f"random-{seed}" / "scene", seed=seed, n_frames=n_frames))
+        exp = exp.model_copy(update={"reconstruction": exp.reconstruction.model_copy(update={"method": "multiview"})})
+        cams = calibrate_experiment(exp).cameras
+        sources = open_views(list(exp.videos))
+        images = [[s.read(f) for s in sources] for f in range(n_frames)]
+        for s in sources:
+            s.close()
+        reconstruct_frame(images[0], cams, exp, frame=0, fit=True)  # warm-up
+        state = None
+        for f in range(n_frames):
+            w0, c0 = time.perf_counter(), time.process_time()
+            r = reconstruct_frame(images[f], cams, exp, frame=f, previous_mm=state)
+            wall.append(time.perf_counter() - w0)
+            cpu.append(time.process_time() - c0)
+            modes.append("tracked" if state is not None else "acquired")
+            state = r.points_mm if r.status == "ok" else None
+    w, c, m = np.array(wall) * 1e3, np.array(cpu) * 1e3, np.array(modes)
+    print(f"multiview, random dev scenes {seeds} x {n_frames} frames ({len(w)} frames, {int((m == 'acquired').sum())} "
+          f"acquired), one core, load {os.getloadavg()[0]:.1f}:")
+    print(f"  per frame: median {np.median(w):6.1f} ms wall, {np.median(c):6.1f} ms cpu; worst {w.max():6.1f} ms wall, "
+          f"{c.max():6.1f} ms cpu [{'ok' if np.median(c) <= 150 else 'OVER'} vs 150 ms median]")
+    for mode in ("acquired", "tracked"):
+        if (m == mode).any():
+            print(f"  {mode:8s}: median {np.median(w[m == mode]):6.1f} ms wall, {np.median(c[m == mode]):6.1f} ms cpu "
+                  f"({int((m == mode).sum())} frames)")
+
+
 def main(argv: list[str]) -> None:
     cv2.setNumThreads(1)
+    if argv and argv[0] == "scenes":
+        scenes_frames(argv[1] if len(argv) > 1 else "0:5", argv[2] if len(argv) > 2 else None)
+        return
     if argv and argv[0] == "phantom":
         images, cams, exp, t_read = phantom_frame(argv[1] if len(argv) > 1 else "S3")
         what = f"phantom {argv[1] if len(argv) > 1 else 'S3'}"

@@ -33,12 +33,17 @@ Coverage (:func:`adjust_tip`)
     from the base outward and can neither shrink nor run on.
 
 Tracking (:func:`reconstruct_multiview`)
-    A frame starts from the previous frame's curve (identity carried in 3D).
+    A frame starts from the previous frame's curve (identity carried in 3D),
+    whose length is a prior: up to it, the tip is kept and extended wherever
+    two views see it on their skeletons, also over pixels the curve explains
+    already (a tip lying over its own coil in a view); beyond it, only over
+    new pixels.
     The result is checked on every view: precision (nodes on the skeleton)
     and coverage (skeleton pixels of the touched components explained). When
     there is no previous curve, or the check fails, the curve is acquired
     from the base (:func:`tendrilkit.mv_acquire.grow_curve`) and the better
-    of the two is kept.
+    of the two is kept. A curve under ``STUB_MM`` that runs out of two views'
+    ROIs is a stem stub, not the tendril: the frame fails.
 """
 
 from __future__ import annotations
@@ -52,13 +57,18 @@ from scipy.linalg import solveh_banded
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import DegenerateCurveError, TendrilLostError
 from tendrilkit.geometry import arc_length, resample_polyline, section_masks
-from tendrilkit.mv_acquire import ON_PX, advance, claim, cone_directions, grow_curve, point_costs
+from tendrilkit.mv_acquire import ON_PX, advance, claim, cone_directions, grow_curve, point_costs, runs_out
 from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
 from tendrilkit.triangulation import triangulate
 
 __all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "reconstruct_multiview",
            "base_point_from_marks", "distance_table"]
 
+
+
+#: A curve shorter than this (mm) that runs out of two views' ROIs is a stem stub, not the tendril: the marks put
+#: the tendril inside every ROI, and it is tens of millimetres long.
+STUB_MM = 20.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -211,7 +221,7 @@ def _support(evidence, P):
 
 
 def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: float = 0.5,
-               max_extend_mm: float = 60.0) -> np.ndarray:
+               max_extend_mm: float = 60.0, prior_mm: float = 0.0) -> np.ndarray:
     """Move the tip to where the views' evidence ends (extend, then trim), base kept.
 
     Parameters
@@ -221,6 +231,12 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     evidence : list of SkeletonEvidence
     step_mm : float
     max_extend_mm : float
+    prior_mm : float
+        Arc length (from the base) the curve is known to have (tracking: the
+        previous frame's curve, a tendril does not shrink). Up to it, a node
+        is kept, and the tip extended, while two views see it on their
+        skeletons, also on pixels the curve explains already (the tip lying
+        over its own coil in a view); beyond it, only on new pixels.
 
     Returns
     -------
@@ -228,7 +244,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         Nodes ending at the new tip (spacing of the input up to the tip;
         the caller resamples).
     """
-    X = [np.asarray(p, float) for p in _trim(np.asarray(X_mm, float), evidence)]
+    X = [np.asarray(p, float) for p in _trim(np.asarray(X_mm, float), evidence, prior_mm=prior_mm)]
     ext = []
     tip = X[-1]
     t = X[-1] - X[max(len(X) - 1 - max(int(round(2.0 / max(np.linalg.norm(X[-1] - X[-2]), 1e-6))), 1), 0)]
@@ -244,7 +260,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         P = tip + step_mm * dirs
         d, seen, near, bg = point_costs(evidence, P, nearest=True)
         on = seen & (d <= ON_PX) & ~bg.any(axis=0)
-        if claims is not None:
+        if claims is not None and s_[-1] + step_mm * (len(ext) + 1) > prior_mm:
             for v, c in enumerate(claims):
                 on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
         on &= advance(evidence, np.repeat(tip[None], len(P), axis=0), P)
@@ -262,12 +278,13 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     return np.asarray(X + ext, float)
 
 
-def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.5, radius_px: float = 4.0
-          ) -> np.ndarray:
+def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.5, radius_px: float = 4.0,
+          prior_mm: float = 0.0) -> np.ndarray:
     """The curve up to its last node that two views see on skeleton pixels the curve had not explained yet.
 
     A node's nearest skeleton pixel is explained already when the projection of the curve at least
-    ``lag_mm`` before the node passed within ``radius_px`` of it.
+    ``lag_mm`` before the node passed within ``radius_px`` of it. Nodes within ``prior_mm`` of arc length
+    from the base need only lie on the skeletons (see :func:`adjust_tip`).
     """
     from scipy.spatial import cKDTree
 
@@ -284,7 +301,7 @@ def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.
             continue
         tree = cKDTree(ev.camera.project(dense))
         for i, lst in zip(np.flatnonzero(ok), tree.query_ball_point(ev.skeleton_xy[near[v, ok]], radius_px)):
-            if lst and s_dense[min(lst)] <= s[i] - lag_mm:
+            if lst and s_dense[min(lst)] <= s[i] - lag_mm and s[i] > prior_mm:
                 on[v, i] = False
     good = np.flatnonzero(on.sum(axis=0) >= 2)
     last = int(good[-1]) if len(good) else 2
@@ -342,9 +359,9 @@ def _score(prec: np.ndarray, cov: np.ndarray) -> float:
     return float(s.mean()) if s.size else 0.0
 
 
-def _fit(X0, evidence, B, segment_mm):
+def _fit(X0, evidence, B, segment_mm, prior_mm=0.0):
     X = refine_curve(_resample(X0, segment_mm), evidence, base_mm=B, segment_mm=segment_mm)
-    X = adjust_tip(X, evidence)
+    X = adjust_tip(X, evidence, prior_mm=prior_mm)
     X = _resample(X, segment_mm)
     X = refine_curve(X, evidence, base_mm=B, segment_mm=_segment(X), cap_px=(8.0, 6.0), iterations=10, huber_px=3.0)
     return X
@@ -394,7 +411,7 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
     if previous_mm is not None and len(previous_mm) >= 3:
         P = np.asarray(previous_mm, float)
         P = P - P[0] + B  # the base does not move
-        X = _fit(P, evidence, B, segment_mm)
+        X = _fit(P, evidence, B, segment_mm, prior_mm=_length(P))
         prec, cov = curve_support(X, evidence)
         cands.append({"mode": "tracked", "nodes_mm": X, "precision": prec, "coverage": cov, "score": _score(prec, cov)})
         worst = float(np.nanmin(prec * cov)) if np.any(np.isfinite(prec * cov)) else 0.0
@@ -418,6 +435,9 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
     length = _length(best["nodes_mm"])
     if length < 5 * segment_mm:
         raise TendrilLostError(f"the curve that two views explain is only {length:.1f} mm long")
+    if length < STUB_MM and runs_out(evidence, [best["nodes_mm"]], 2.0)[0]:
+        raise TendrilLostError(f"the only curve from the base that two views explain runs out of their ROIs after "
+                               f"{length:.1f} mm (a stem stub or a leaf's stalk, not the tendril)")
     keep = cands if keep_candidates else []
     return MultiviewResult(nodes_mm=best["nodes_mm"], mode=best["mode"], precision=best["precision"],
                            coverage=best["coverage"], note=note if best["mode"] == "acquired" else "", candidates=keep)

@@ -17,7 +17,13 @@ the base point (triangulated from the marks) by a beam search,
 3. the ``beam`` best hypotheses (score = sum of step costs minus a reward per
    step, tips apart from each other) go on; a hypothesis with no acceptable
    step ends; the best-scoring one (the longest curve that the views explain)
-   is the tendril.
+   is the tendril, among those whose tip the views see (a curve that ends
+   where two views' ROIs end has run onto something hanging in from outside:
+   a second tendril, a petiole) unless none is half as long.
+
+A view in which a place lies deep inside a dark region wider than a tendril
+(a leaf or the stem over it, :data:`tendrilkit.mv_evidence.COVER_DEPTH_PX`) neither
+sees nor contradicts it there: that part rests on the other views.
 
 A stem stub between the ROI's edge and the keep-out box, or a leaf, ends
 after a few millimetres and loses against the tendril; a crossing in one view
@@ -30,7 +36,7 @@ import numpy as np
 
 from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
 
-__all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance"]
+__all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out"]
 
 #: A point's distance to a view's skeleton is capped at this (pixels).
 CAP_PX = 10.0
@@ -56,6 +62,9 @@ def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: f
     d : (V, n) float array
         Capped distance, pixels.
     seen : (V, n) bool array
+        The view sees the place: inside its ROI, outside its keep-out box,
+        and not covered by a leaf or the stem (``covered`` of
+        :func:`tendrilkit.mv_evidence.skeleton_distance`).
     nearest : (V, n) int array
         With ``nearest``: the row of each view's ``skeleton_xy`` nearest the projection (-1: none).
     background : (V, n) bool array
@@ -67,9 +76,10 @@ def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: f
     near = np.empty((len(evidence), len(P)), int)
     bg = np.empty((len(evidence), len(P)), bool)
     for v, ev in enumerate(evidence):
-        dv, _, sv, near[v], bg[v] = skeleton_distance(ev, ev.camera.project(P), outside_px=cap_px, index=True)
+        dv, _, sv, near[v], bg[v], covered = skeleton_distance(ev, ev.camera.project(P), outside_px=cap_px,
+                                                               index=True)
         d[v] = np.minimum(dv, cap_px)
-        seen[v] = sv
+        seen[v] = sv & ~covered  # a leaf or the stem covers the place in this view: the other views decide
     return (d, seen, near, bg) if nearest else (d, seen)
 
 
@@ -319,5 +329,30 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         keep = len(nodes) - tail
         return nodes[:max(keep, 2)], score
 
-    best = min((trimmed(h) for h in finished), key=lambda t: t[1])
+    ends = [trimmed(h) for h in finished]
+    cut = runs_out(evidence, [np.asarray(n, float) for n, _ in ends], step_mm)
+    length = np.array([len(n) for n, _ in ends], float)
+    inside = [e for e, c, n in zip(ends, cut, length) if not c and n >= 0.5 * length.max()]
+    best = min(inside or ends, key=lambda t: t[1])
     return np.asarray(best[0], float)
+
+
+def runs_out(evidence: list[SkeletonEvidence], curves: list[np.ndarray], step_mm: float) -> np.ndarray:
+    """(n,) bool: whether each curve ends where two views or more stop seeing (the edge of their ROIs).
+
+    The place ``1.5 step_mm`` beyond the tip, straight on. The marks put the
+    tendril inside every ROI, so its tip is a free end that the views see; a
+    curve that ends at the ROIs' edges has run onto something that hangs in
+    from outside (a second tendril, a petiole, the stem).
+    """
+    out = np.zeros(len(curves), bool)
+    P = []
+    for X in curves:
+        t = X[-1] - X[-2] if len(X) >= 2 else np.zeros(3)
+        P.append(X[-1] + 1.5 * step_mm * t / max(np.linalg.norm(t), 1e-9))
+    P = np.asarray(P).reshape(-1, 3)
+    n_seen = np.zeros(len(curves), int)
+    for ev in evidence:
+        n_seen += skeleton_distance(ev, ev.camera.project(P))[2]
+    out[:] = n_seen < 2
+    return out

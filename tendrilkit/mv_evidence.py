@@ -20,7 +20,15 @@ from tendrilkit.camera import Camera
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
 
-__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance"]
+__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance", "COVER_PX", "COVER_DEPTH_PX"]
+
+#: A place ``COVER_DEPTH_PX`` or more inside a dark region (pixels from the board) and farther than
+#: ``COVER_PX`` from the skeleton is covered in that view (a leaf or the stem in front of or behind the
+#: tendril). A tendril's own pixels lie within its half-width (1-5 px) of its skeleton; where two thin
+#: structures cross (the tendril over its coil, a second tendril) the dark region is 4-5 px deep: not covered,
+#: else the crossing would not constrain the curve and it could turn onto the other branch there.
+COVER_PX = 3.0
+COVER_DEPTH_PX = 6.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,6 +57,13 @@ class SkeletonEvidence:
     seen : (h, w) bool array
         Pixels where the view can see the tendril: inside the ROI and the
         image, outside the keep-out box.
+    inside_px : (h, w) float32 array
+        Per pixel, its distance to the nearest board pixel (0 on the board):
+        how deep inside a dark region it lies. A place ``COVER_DEPTH_PX`` or
+        more inside a region and farther than ``COVER_PX`` from the skeleton is covered by
+        something wider than a tendril (a leaf, the stem): the view can
+        neither see the tendril there nor contradict it
+        (``covered`` of :func:`skeleton_distance`).
     camera : Camera
         The view's calibrated camera.
     """
@@ -62,6 +77,7 @@ class SkeletonEvidence:
     tangent_xy: np.ndarray
     near_foreground: np.ndarray
     seen: np.ndarray
+    inside_px: np.ndarray
     camera: Camera
 
 
@@ -90,7 +106,8 @@ def skeleton_evidence(ev: ViewEvidence, camera: Camera) -> SkeletonEvidence:
     centre, tangent = _local_lines(xy, tree)
     return SkeletonEvidence(offset_xy=off, foreground=ev.foreground, skeleton=skel, skeleton_xy=xy, tree=tree,
                             centre_xy=centre, tangent_xy=tangent, near_foreground=ev.distance_px <= 2.0,
-                            seen=seen, camera=camera)
+                            seen=seen, inside_px=cv2.distanceTransform(ev.foreground.astype(np.uint8), cv2.DIST_L2, 5),
+                            camera=camera)
 
 
 def _local_lines(xy: np.ndarray, tree: cKDTree, radius_px: float = 3.5, k: int = 9):
@@ -130,6 +147,9 @@ def skeleton_distance(ev: SkeletonEvidence, points_xy: np.ndarray, *, outside_px
         With ``index``: the row of ``skeleton_xy`` nearest each point (-1: none within ``outside_px``).
     background : (n,) bool array
         With ``index``: seen, and on the board (outside ``near_foreground``).
+    covered : (n,) bool array
+        With ``index``: seen, ``COVER_DEPTH_PX`` or more inside a dark region and
+        farther than ``COVER_PX`` from the skeleton (see :attr:`SkeletonEvidence.inside_px`).
     """
     p = np.asarray(points_xy, float)
     x = p[:, 0] - ev.offset_xy[0]
@@ -141,6 +161,7 @@ def skeleton_distance(ev: SkeletonEvidence, points_xy: np.ndarray, *, outside_px
     seen = np.zeros(len(p), bool)
     nearest = np.full(len(p), -1)
     background = np.zeros(len(p), bool)
+    covered = np.zeros(len(p), bool)
     if ok.any():
         dd, idx = ev.tree.query(p[ok], distance_upper_bound=outside_px)
         near = np.isfinite(dd)
@@ -165,4 +186,5 @@ def skeleton_distance(ev: SkeletonEvidence, points_xy: np.ndarray, *, outside_px
         seen[ok] = ev.seen[yi, xi]
         nearest[ok] = np.where(near, idx, -1)
         background[ok] = seen[ok] & ~ev.near_foreground[yi, xi]
-    return (d, g, seen, nearest, background) if index else (d, g, seen)
+        covered[ok] = seen[ok] & (ev.inside_px[yi, xi] >= COVER_DEPTH_PX) & (d[ok] > COVER_PX)
+    return (d, g, seen, nearest, background, covered) if index else (d, g, seen)
