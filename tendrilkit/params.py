@@ -370,9 +370,13 @@ class Calibration(_Strict):
     marker the view sees, pixels) has failed: the run stops with exit code 2
     naming the view and the figure (wrong intrinsics, a video of another
     size...); ``null`` accepts any calibration (the command line's
-    ``--accept-calibration``)."""
+    ``--accept-calibration``); ``corner_refine``: how each marker's corners
+    are measured: ``edges`` (default: a straight line fitted to each side's
+    sub-pixel edge points) or ``grid`` (then one homography fitted to every
+    black-white edge of the marker's cells: a tighter rig, see the README)."""
 
     bundle_adjust: bool = True
+    corner_refine: Literal["edges", "grid"] = "edges"
     max_corner_rms_px: Annotated[float, Field(gt=0, le=L.MAX_OPTION_PX)] | None = 1.5
 
 

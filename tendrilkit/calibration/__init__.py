@@ -10,7 +10,8 @@ The method in four steps:
    side, undistorted, one straight line per side, corners where the lines
    meet; the black border's measured width removes the bias that a non-linear
    camera response puts on every edge (it would scale the whole rig); then
-   (``refine="grid"``, the default) one homography fitted to sub-pixel points
+   (``refine="grid"``, the experiment file's ``calibration.corner_refine:
+   grid``) one homography fitted to sub-pixel points
    on every black-white edge of the marker's cells, whose geometry the
    dictionary gives: a 7 x 7-cell marker has several times more edge than
    its four sides, and the corners it gives are the homography's.

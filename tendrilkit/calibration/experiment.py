@@ -42,7 +42,8 @@ def calibrate_views(exp: "Experiment", *, image_sizes: list[tuple[int, int]], im
     (:func:`~tendrilkit.calibration.ijcv25.calibration_from_ijcv25`).
     Otherwise ``images`` (frame ``frames.start`` of every view, BGR) go
     through :func:`~tendrilkit.calibration.rig.calibrate` with the
-    experiment's ``marker`` and ``calibration.bundle_adjust``.
+    experiment's ``marker``, ``calibration.bundle_adjust`` and
+    ``calibration.corner_refine``.
 
     The result is then checked (:func:`check_calibration`): every view's
     marker corners must reproject within ``calibration.max_corner_rms_px``
@@ -67,7 +68,8 @@ def calibrate_views(exp: "Experiment", *, image_sizes: list[tuple[int, int]], im
         if images is None:
             raise ValueError("images: expected frame frames.start of every view to calibrate from the markers")
         result = calibrate(images, intr, dictionary=exp.marker.dictionary, world_id=exp.marker.id,
-                           length_mm=exp.marker.length_mm, bundle_adjust=exp.calibration.bundle_adjust, frame=start)
+                           length_mm=exp.marker.length_mm, bundle_adjust=exp.calibration.bundle_adjust, frame=start,
+                           refine=exp.calibration.corner_refine)
     check_calibration(result, max_corner_rms_px=exp.calibration.max_corner_rms_px)
     if result.source != "ijcv25":
         volume = marks_volume(result.cameras, [m.base_point for m in exp.views], [m.roi for m in exp.views])

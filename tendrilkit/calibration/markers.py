@@ -313,7 +313,7 @@ def _line_residuals(H: np.ndarray, pts: np.ndarray, lines: np.ndarray) -> tuple[
     return r, J
 
 
-def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "grid",
+def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "edges",
                    camera: Camera | None = None) -> dict[int, np.ndarray]:
     """ArUco markers of one image: ``{marker_id: corners (4, 2) px}``.
 
@@ -326,7 +326,7 @@ def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "gri
     refine : {"grid", "edges", "subpix", "contour", "apriltag", "none"}, keyword-only
         Corner refinement. ``edges``: OpenCV's ``CORNER_REFINE_SUBPIX``
         corners, then straight lines fitted to sub-pixel edge points of each side
-        (see Notes); ``grid`` (default): then one homography fitted to edge
+        (see Notes; the default); ``grid``: then one homography fitted to edge
         points on every black-white edge of the cells (``_refine_corners_grid``;
         a marker whose cells are under 4 px keeps its ``edges`` corners); the
         others are OpenCV's ``CORNER_REFINE_*`` methods alone.

@@ -122,7 +122,7 @@ def _marker_table(rows: pd.DataFrame, markers_world: dict[int, np.ndarray],
 
 def calibrate(images: list[np.ndarray], intrinsics: list[Camera], *, dictionary: str, world_id: int,
               length_mm: float, bundle_adjust: bool = True, frame: int = 0,
-              refine: str = "grid") -> CalibrationResult:
+              refine: str = "edges") -> CalibrationResult:
     """Camera poses from the markers in one frame of every view.
 
     The world marker's single-marker pose (:func:`marker_pose`) is each camera's
