@@ -214,14 +214,42 @@ def faint_pixels(
     small = cv2.resize(grey, (max(w // step, 1), max(h // step, 1)), interpolation=cv2.INTER_AREA)
     k = max(3, (int(background_px) // step) | 1)
     bg_small = cv2.medianBlur(small, k) if min(small.shape) >= 2 else small
-    bg = cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR).astype(np.float32)
-    ratio = grey.astype(np.float32) / np.maximum(bg, np.float32(1.0))
-    sample = ratio[::3, ::3]
-    sigma = 1.4826 * float(np.median(np.abs(sample - np.median(sample))))
+    bg = cv2.max(cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR), 1)  # uint8, 1-255
+    sigma = 1.4826 * _ratio_mad(grey[::3, ::3], bg[::3, ::3])
     c = max(float(local_contrast), float(local_noise_k) * sigma)
-    depth = np.float32(1.0) - ratio
+    depth = np.float32(1.0) - grey.astype(np.float32) / bg.astype(np.float32)
     half = np.float32(0.5) * cv2.dilate(depth, cv2.getStructuringElement(cv2.MORPH_RECT, (int(local_window_px),) * 2))
     return cv2.bitwise_and(cv2.compare(depth, c, cv2.CMP_GT), cv2.compare(depth, half, cv2.CMP_GT))
+
+
+def _weighted_median(values: np.ndarray, counts: np.ndarray) -> np.float32:
+    """``np.median`` of the float32 multiset holding ``values[i]`` ``counts[i]`` times (same value, bit for bit)."""
+    order = np.argsort(values, kind="stable")
+    cum = np.cumsum(counts[order])
+    n = int(cum[-1])
+    ranks = [n // 2 - 1, n // 2] if n % 2 == 0 else [n // 2]
+    middle = values[order[np.searchsorted(cum, ranks, side="right")]]
+    return np.mean(middle)  # as np.median: the mean of the one or two middle values, in float32
+
+
+def _ratio_mad(grey: np.ndarray, bg: np.ndarray) -> float:
+    """Median absolute deviation of ``grey / bg`` (float32), from the histogram of the (grey, bg) pairs.
+
+    Equal to ``np.median(np.abs(r - np.median(r)))`` with
+    ``r = grey.astype(np.float32) / bg.astype(np.float32)``: ``r`` takes one
+    value per (grey, bg) pair, so the two medians are taken over the few
+    thousand pairs present, weighted by their counts, not over every pixel.
+
+    Parameters
+    ----------
+    grey, bg : (h, w) uint8 arrays
+        Grey level and background (1-255) of the sampled pixels.
+    """
+    counts = np.bincount((grey.astype(np.int32) << 8 | bg).ravel(), minlength=65536)
+    pairs = np.flatnonzero(counts)
+    ratio = (pairs >> 8).astype(np.float32) / (pairs & 255).astype(np.float32)
+    m = _weighted_median(ratio, counts[pairs])
+    return float(_weighted_median(np.abs(ratio - m), counts[pairs]))
 
 
 def foreground_roi(
