@@ -201,7 +201,14 @@ def faint_pixels(
 
     Notes
     -----
-    About 1 ms on a 500 x 500 px region (one core).
+    About 3 ms on an 800 x 800 px region (one core), most of it the 4x area
+    reduction and the median of step 1. The result does not depend on how it
+    is computed: the noise is taken from the histogram of (grey, background)
+    pairs (:math:`g / b` has one value per pair), and the float work of step 3
+    is done only in bands of rows around pixels whose grey level is below the
+    background's level at which :math:`d > c` (read from the table of
+    :math:`d` over all pairs), on the columns those span; the mask is the same,
+    bit for bit, as with every pixel computed.
 
     Example
     -------
