@@ -146,6 +146,9 @@ def grey_image(image_bgr: np.ndarray, *, channel: str = "blue") -> np.ndarray:
     raise ValueError(f"channel must be 'blue' or 'hsv', got {channel!r}")
 
 
+_BAND_ROWS = 64  # rows per band of faint_pixels' float work
+
+
 def faint_pixels(
     grey: np.ndarray,
     *,
@@ -198,7 +201,14 @@ def faint_pixels(
 
     Notes
     -----
-    About 1 ms on a 500 x 500 px region (one core).
+    About 3 ms on an 800 x 800 px region (one core), most of it the 4x area
+    reduction and the median of step 1. The result does not depend on how it
+    is computed: the noise is taken from the histogram of (grey, background)
+    pairs (:math:`g / b` has one value per pair), and the float work of step 3
+    is done only in bands of rows around pixels whose grey level is below the
+    background's level at which :math:`d > c` (read from the table of
+    :math:`d` over all pairs), on the columns those span; the mask is the same,
+    bit for bit, as with every pixel computed.
 
     Example
     -------
@@ -214,14 +224,72 @@ def faint_pixels(
     small = cv2.resize(grey, (max(w // step, 1), max(h // step, 1)), interpolation=cv2.INTER_AREA)
     k = max(3, (int(background_px) // step) | 1)
     bg_small = cv2.medianBlur(small, k) if min(small.shape) >= 2 else small
-    bg = cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR).astype(np.float32)
-    ratio = grey.astype(np.float32) / np.maximum(bg, np.float32(1.0))
-    sample = ratio[::3, ::3]
-    sigma = 1.4826 * float(np.median(np.abs(sample - np.median(sample))))
+    bg = cv2.max(cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR), 1)  # uint8, 1-255
+    sigma = 1.4826 * _ratio_mad(grey[::3, ::3], bg[::3, ::3])
     c = max(float(local_contrast), float(local_noise_k) * sigma)
-    depth = np.float32(1.0) - ratio
+    # d > c only where grey < darker[bg] (d falls as grey rises; d(255, bg) <= 0 < c, so darker <= 255)
+    levels = np.arange(256, dtype=np.float32)[:, None]
+    table = np.float32(1.0) - levels / np.maximum(levels.T, np.float32(1.0))  # d of every (grey, bg) pair
+    darker = np.count_nonzero(cv2.compare(table, c, cv2.CMP_GT), axis=0).astype(np.uint8)
+    candidate = cv2.compare(grey, cv2.LUT(bg, darker), cv2.CMP_LT)
+    out = np.zeros((h, w), np.uint8)
+    kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (int(local_window_px),) * 2)
+    r = int(local_window_px) // 2
+    # The float work in bands of rows, on the columns of their candidates only: at a pixel with d > c the
+    # window's largest d is at a pixel with d > c (d itself is one), within r rows of the band.
+    for y0 in range(0, h, _BAND_ROWS):
+        y1 = min(y0 + _BAND_ROWS, h)
+        e0, e1 = max(y0 - r, 0), min(y1 + r, h)
+        bx, _, bw, _ = cv2.boundingRect(candidate[y0:y1])
+        if bw == 0:
+            continue
+        bx, _, bw, _ = cv2.boundingRect(candidate[e0:e1])
+        g, b = grey[e0:e1, bx:bx + bw], bg[e0:e1, bx:bx + bw]
+        depth = np.float32(1.0) - g.astype(np.float32) / b.astype(np.float32)
+        half = np.float32(0.5) * cv2.dilate(depth, kernel)
+        out[y0:y1, bx:bx + bw] = cv2.bitwise_and(cv2.compare(depth, c, cv2.CMP_GT),
+                                                 cv2.compare(depth, half, cv2.CMP_GT))[y0 - e0:y1 - e0]
+    return out
+    # the window's largest d at a pixel with d > c is at a pixel with d > c, inside the box: cropping changes nothing
+    g, b = grey[by:by + bh, bx:bx + bw], bg[by:by + bh, bx:bx + bw]
+    depth = np.float32(1.0) - g.astype(np.float32) / b.astype(np.float32)
     half = np.float32(0.5) * cv2.dilate(depth, cv2.getStructuringElement(cv2.MORPH_RECT, (int(local_window_px),) * 2))
-    return cv2.bitwise_and(cv2.compare(depth, c, cv2.CMP_GT), cv2.compare(depth, half, cv2.CMP_GT))
+    out[by:by + bh, bx:bx + bw] = cv2.bitwise_and(cv2.compare(depth, c, cv2.CMP_GT), cv2.compare(depth, half, cv2.CMP_GT))
+    return out
+
+
+def _weighted_median(values: np.ndarray, counts: np.ndarray) -> np.float32:
+    """``np.median`` of the float32 multiset holding ``values[i]`` ``counts[i]`` times (same value, bit for bit)."""
+    order = np.argsort(values)
+    cum = np.cumsum(counts[order], dtype=np.int64)
+    n = int(cum[-1])
+    ranks = [n // 2 - 1, n // 2] if n % 2 == 0 else [n // 2]
+    middle = values[order[np.searchsorted(cum, ranks, side="right")]]
+    return np.mean(middle)  # as np.median: the mean of the one or two middle values, in float32
+
+
+def _ratio_mad(grey: np.ndarray, bg: np.ndarray) -> float:
+    """Median absolute deviation of ``grey / bg`` (float32), from the histogram of the (grey, bg) pairs.
+
+    Equal to ``np.median(np.abs(r - np.median(r)))`` with
+    ``r = grey.astype(np.float32) / bg.astype(np.float32)``: ``r`` takes one
+    value per (grey, bg) pair, so the two medians are taken over the few
+    thousand pairs present, weighted by their counts, not over every pixel.
+
+    Parameters
+    ----------
+    grey, bg : (h, w) uint8 arrays
+        Grey level and background (1-255) of the sampled pixels.
+    """
+    if grey.size < 2 ** 24:  # calcHist counts in float32: exact below 2**24
+        counts = cv2.calcHist([np.ascontiguousarray(grey), np.ascontiguousarray(bg)], [0, 1], None, [256, 256],
+                              [0, 256, 0, 256]).ravel()
+    else:
+        counts = np.bincount((grey.astype(np.int64) << 8 | bg).ravel(), minlength=65536)
+    pairs = np.flatnonzero(counts)
+    ratio = (pairs >> 8).astype(np.float32) / (pairs & 255).astype(np.float32)
+    m = _weighted_median(ratio, counts[pairs])
+    return float(_weighted_median(np.abs(ratio - m), counts[pairs]))
 
 
 def foreground_roi(
@@ -311,7 +379,8 @@ def foreground_roi(
             faint[b0:b1, a0:a1] = 0
         if local_margin_px > 0:  # the rim of what the threshold found stays its own (dark tendrils unchanged)
             r = int(local_margin_px)
-            faint[cv2.dilate(fg, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))) > 0] = 0
+            near = cv2.dilate(fg, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
+            faint = cv2.bitwise_and(faint, cv2.compare(near, 0, cv2.CMP_EQ))
         fg = cv2.bitwise_or(fg, faint)
     return fg, np.array([x0, y0])
 

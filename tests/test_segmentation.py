@@ -178,3 +178,36 @@ def test_faint_pixels_follow_uneven_light_and_reject_bad_options():
                 {"local_margin_px": -1}):
         with pytest.raises(ValueError, match=next(iter(bad))):
             segment_view(img, roi=ROI, keep_out=None, base_point_xy=(130, 200), **bad)
+
+
+def _faint_pixels_every_pixel(grey, *, local_contrast=0.1, local_noise_k=5.0, background_px=36, local_window_px=9):
+    """faint_pixels' definition computed on every pixel (np.median noise, full-image depth and dilation)."""
+    h, w = grey.shape
+    small = cv2.resize(grey, (max(w // 4, 1), max(h // 4, 1)), interpolation=cv2.INTER_AREA)
+    k = max(3, (int(background_px) // 4) | 1)
+    bg_small = cv2.medianBlur(small, k) if min(small.shape) >= 2 else small
+    bg = cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR).astype(np.float32)
+    ratio = grey.astype(np.float32) / np.maximum(bg, np.float32(1.0))
+    sample = ratio[::3, ::3]
+    c = max(local_contrast, local_noise_k * 1.4826 * float(np.median(np.abs(sample - np.median(sample)))))
+    depth = np.float32(1.0) - ratio
+    half = np.float32(0.5) * cv2.dilate(depth, cv2.getStructuringElement(cv2.MORPH_RECT, (local_window_px,) * 2))
+    return cv2.bitwise_and(cv2.compare(depth, c, cv2.CMP_GT), cv2.compare(depth, half, cv2.CMP_GT))
+
+
+@pytest.mark.parametrize("opts", [{}, {"local_contrast": 0.05, "local_noise_k": 0.0}, {"local_contrast": 0.01, "local_noise_k": 3.0},
+                                  {"background_px": 20, "local_window_px": 4}, {"local_window_px": 1}])
+def test_faint_pixels_equal_their_definition_on_every_pixel(opts):
+    # faint_pixels skips pixels that cannot pass and takes the noise from a histogram: the mask must not change
+    from tendrilkit.segmentation import faint_pixels
+    rng = np.random.default_rng(3)
+    yy, xx = np.mgrid[0:300, 0:260]
+    board = 150 + 60 * xx / 260 + rng.normal(0, 3, (300, 260))            # uneven light, noise
+    board[np.abs(yy - 0.004 * (xx - 130) ** 2 - 60) < 2.5] *= 0.8          # a pale arc
+    board[200:215, 20:90] *= 0.3                                           # a dark leaf
+    pale = np.clip(board, 0, 255).astype(np.uint8)
+    noise = rng.integers(0, 256, (97, 131)).astype(np.uint8)
+    for grey in (pale, noise, pale[:7, :5], pale[:2, :300]):
+        got, want = faint_pixels(grey, **opts), _faint_pixels_every_pixel(grey, **opts)
+        assert got.dtype == np.uint8 and np.array_equal(got, want)
+    assert faint_pixels(pale, **opts).any()
