@@ -83,7 +83,7 @@ def calibrate_to_dir(experiment_path: str | Path, out_dir: str | Path, *, overri
         for s in sources:
             s.close()
     res = calibrate_experiment(exp)
-    write_cameras(res.cameras, out / "cameras.json")
+    write_cameras(res.cameras, out / "cameras.json", quality=res.view_quality())
     write_csv(res.markers, out / "calibration_markers.csv")
     how = {"ijcv25": "the authors' stored poses (ijcv25)",
            "bundle": "the world marker and bundle adjustment over the markers two or more views see",

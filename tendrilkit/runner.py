@@ -355,7 +355,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     if cameras is None:
         calib = calibrate_experiment(exp)
         cameras = calib.cameras
-        write_cameras(cameras, out / "cameras.json")
+        write_cameras(cameras, out / "cameras.json", quality=calib.view_quality())
         write_result(calib.markers, out / "calibration_markers.csv", schema.CALIBRATION_MARKERS)
         write_json({"stamp": cal_stamp}, stamp_path)
 

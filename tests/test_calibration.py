@@ -257,6 +257,10 @@ def test_calibrate_to_dir_ijcv25_layout(tmp_path):
         np.testing.assert_allclose(a.t_mm, b.t_mm)
     t = read_csv(tmp_path / "out" / "calibration_markers.csv", required=("view", "marker_id", "stage", "mean_px", "max_px"))
     assert (t.max_px < 0.5).all()
+    import json
+
+    entries = json.loads((tmp_path / "out" / "cameras.json").read_text())  # stored poses: not assessed, never flagged
+    assert [(e["rig_spread_px"], e["rig_flagged"]) for e in entries] == [(None, False)] * 3
 
 
 def test_calibrate_to_dir_from_frames(tmp_path, rendered):
@@ -269,6 +273,14 @@ def test_calibrate_to_dir_from_frames(tmp_path, rendered):
     got = read_cameras(tmp_path / "out" / "cameras.json")
     mx, _ = rig_agreement_px(got, cams, working_volume())
     assert mx.max() < 0.5
+    import json
+
+    # the rig's assessment is kept with the rig: a spread per view, flagged exactly where the summary says FLAGGED
+    entries = json.loads((tmp_path / "out" / "cameras.json").read_text())
+    assert all(isinstance(e["rig_spread_px"], float) and e["rig_spread_px"] > 0 for e in entries)
+    flagged = {int(line.split()[2].rstrip(":")) for line in summary.splitlines() if line.startswith("FLAGGED: view")}
+    assert {e["view"] for e in entries if e["rig_flagged"]} == flagged
+    assert {e["view"] for e in entries if 2 * e["rig_spread_px"] > 0.5} == flagged
 
 
 # ------------------------------------------------------- bundle adjustment
@@ -455,6 +467,12 @@ def test_rig_uncertainty_follows_the_markers():
     with pytest.warns(UserWarning, match="pin the rig"):
         flagged = assess_rig(single, P, world_id=WORLD_ID, length_mm=L)
     assert len(flagged.flags) == 3 and "FLAGGED" in flagged.summary()
+    q = flagged.view_quality()  # what cameras.json keeps of it
+    assert [e["rig_flagged"] for e in q] == [True] * 3
+    np.testing.assert_allclose([e["rig_spread_px"] for e in q], u1, atol=1e-4)
+    well = calibrate_from_observations(observe_markers(cams, markers, np.random.default_rng(5), 0.03), intr,
+                                       world_id=WORLD_ID, length_mm=L)
+    assert [e["rig_flagged"] for e in assess_rig(well, P).view_quality()] == [False] * 3  # the well-pinned rig
 
 
 def test_marks_volume_is_the_rois_hull_around_the_base():

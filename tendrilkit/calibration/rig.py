@@ -68,6 +68,19 @@ class CalibrationResult:
     uncertainty_px: np.ndarray | None = None
     flags: tuple[str, ...] = ()
 
+    def view_quality(self) -> list[dict]:
+        """Per view, the rig's assessment as ``cameras.json`` records it (README, "Result files").
+
+        ``rig_spread_px``: the rig's 1-sigma spread on the marks' volume, px
+        (None when not assessed: stored poses); ``rig_flagged``: the view is
+        one of :attr:`flags` (its markers cannot pin the rig to
+        :data:`RIG_LIMIT_PX` there).
+        """
+        flagged = {int(f.split(":", 1)[0].split()[1]) for f in self.flags}
+        u = self.uncertainty_px
+        return [{"rig_spread_px": None if u is None or not np.isfinite(u[v]) else round(float(u[v]), 4),
+                 "rig_flagged": (v + 1) in flagged} for v in range(len(self.cameras))]
+
     def summary(self) -> str:
         """Per view: markers seen, mean corner error single -> adjusted."""
         t = self.markers

@@ -449,9 +449,17 @@ def read_frame_record(path: str | Path, fingerprint: str, frame: int) -> dict | 
 
 
 # ---------------------------------------------------------------- cameras.json
-def write_cameras(cameras: list[Camera], path: str | Path) -> None:
-    """``cameras.json``: one object per view, view order (EXPERIMENT_FORMAT.md)."""
-    write_json([cam.to_dict(i + 1) for i, cam in enumerate(cameras)], path)
+def write_cameras(cameras: list[Camera], path: str | Path, *, quality: list[dict] | None = None) -> None:
+    """``cameras.json``: one object per view, view order (EXPERIMENT_FORMAT.md).
+
+    ``quality``: per view, extra keys appended to its object (the rig's
+    assessment, ``CalibrationResult.view_quality``: ``rig_spread_px``,
+    ``rig_flagged``); readers ignore keys they do not know.
+    """
+    entries = [cam.to_dict(i + 1) for i, cam in enumerate(cameras)]
+    for e, q in zip(entries, quality or []):
+        e.update(q)
+    write_json(entries, path)
 
 
 def read_cameras(path: str | Path) -> list[Camera]:
