@@ -76,10 +76,9 @@ class CalibrationResult:
         one of :attr:`flags` (its markers cannot pin the rig to
         :data:`RIG_LIMIT_PX` there).
         """
-        flagged = {int(f.split(":", 1)[0].split()[1]) for f in self.flags}
         u = self.uncertainty_px
         return [{"rig_spread_px": None if u is None or not np.isfinite(u[v]) else round(float(u[v]), 4),
-                 "rig_flagged": (v + 1) in flagged} for v in range(len(self.cameras))]
+                 "rig_flagged": u is not None and _pins_too_loosely(u[v])} for v in range(len(self.cameras))]
 
     def summary(self) -> str:
         """Per view: markers seen, mean corner error single -> adjusted."""
@@ -310,6 +309,12 @@ RIG_LIMIT_PX = 0.5
 RIG_LIMIT_SIGMAS = 2.0
 
 
+def _pins_too_loosely(spread_px: float) -> bool:
+    """A view's rig spread (1 sigma, px) that :func:`assess_rig` flags: over the limit at
+    :data:`RIG_LIMIT_SIGMAS`, or infinite (the markers do not constrain it); NaN (not assessed) is not."""
+    return not np.isnan(spread_px) and not (RIG_LIMIT_SIGMAS * spread_px <= RIG_LIMIT_PX)
+
+
 def assess_rig(result: CalibrationResult, points_world: np.ndarray, *, world_id: int | None = None,
                length_mm: float | None = None) -> CalibrationResult:
     """The result with its spread on a working volume and a flag per view that the markers cannot pin.
@@ -324,9 +329,7 @@ def assess_rig(result: CalibrationResult, points_world: np.ndarray, *, world_id:
     u = rig_uncertainty_px(result, points_world, world_id=world_id, length_mm=length_mm)
     flags = []
     for v, x in enumerate(u):
-        if np.isfinite(x) and RIG_LIMIT_SIGMAS * x <= RIG_LIMIT_PX:
-            continue
-        if np.isnan(x):
+        if not _pins_too_loosely(x):
             continue
         seen = len(result.observations.get(v, {}))
         flags.append(f"view {v + 1}: the markers ({seen} seen) pin the rig only to "
