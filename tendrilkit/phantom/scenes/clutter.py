@@ -186,22 +186,26 @@ def _place_tip_leaf(ph: dict, rng) -> dict:
     down = np.array([0.0, 0.0, -1.0])
     T = curves[-1, -1] - curves[-1, -5]
     T /= np.linalg.norm(T)
-    for _ in range(12):
-        a, b = float(rng.uniform(10.0, 16.0)), float(rng.uniform(6.0, 9.0))
-        r = _tip_leaf(curves, radius, s, rest, T + rng.uniform(0.3, 1.0) * down, a, b, rng)
-        if r is not None:
-            return r
+
+    def attempts(towards, lean_lo, lean_hi):  # 12 leaves of random size, normal `towards` leaning down
+        for _ in range(12):
+            a, b = float(rng.uniform(10.0, 16.0)), float(rng.uniform(6.0, 9.0))
+            r = _tip_leaf(curves, radius, s, rest, towards + rng.uniform(lean_lo, lean_hi) * down, a, b, rng)
+            if r is not None:
+                return r
+        return None
+
+    r = attempts(T, 0.3, 1.0)
+    if r is not None:
+        return r
     if rest is not None:
         distal = curves[rest[-1], s >= 0.75 * s[-1]]
         out = curves[rest[-1], -1] - distal.mean(axis=0)
         out -= np.dot(out, T) * T
         if np.linalg.norm(out) > 1e-6:
-            out /= np.linalg.norm(out)
-            for _ in range(12):
-                a, b = float(rng.uniform(10.0, 16.0)), float(rng.uniform(6.0, 9.0))
-                r = _tip_leaf(curves, radius, s, rest, out + rng.uniform(0.0, 0.6) * down, a, b, rng)
-                if r is not None:
-                    return r
+            r = attempts(out / np.linalg.norm(out), 0.0, 0.6)
+            if r is not None:
+                return r
     raise _Retry("tip_leaf: the tip rests on no leaf for several frames")
 
 
