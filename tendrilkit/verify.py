@@ -442,8 +442,9 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     sk, sr, sc = sk[mine], sr[mine], sc[mine]
     if len(sk) == 0:
         return 0.0
-    dist, _ = tree_cls(dense).query(sk, distance_upper_bound=cov_tol + 1e-9)
-    near = np.isfinite(dist)
+    # one query serves the coverage (within cov_tol) and the crossing arms (attached within cov_tol + 3)
+    dist, nearest = tree_cls(dense).query(sk, distance_upper_bound=cov_tol + 3.0 + 1e-9)
+    near = dist < cov_tol + 1e-9
     n_near = int(near.sum())
     free = ~near
     if np.isfinite(radius_px) and radius_px > 0:  # the tendril's thin line, not a leaf's blob or a thicker stem
@@ -467,7 +468,8 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
         branch = np.zeros(len(sk), int)
         branch[free] = b
         tendril[cand[crossing_branches(dense, sk[~near], branch[~near], cand, cov_tol=cov_tol,
-                                                width_px=2.0 * radius_px if np.isfinite(radius_px) else 0.0)]] = False
+                                                width_px=2.0 * radius_px if np.isfinite(radius_px) else 0.0,
+                                                nearest=(dist[~near], nearest[~near]))]] = False
     n_free = int(size[tendril].sum())
     return float(n_near / max(n_near + n_free, 1))
 

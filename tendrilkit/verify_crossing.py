@@ -25,7 +25,8 @@ __all__ = ["crossing_branches"]
 def crossing_branches(dense_xy: np.ndarray, free_xy: np.ndarray, free_branch: np.ndarray, branches: np.ndarray, *,
                       cov_tol: float, width_px: float = 0.0, arm_px: tuple[float, float] = (5.0, 25.0),
                       min_sin: float = 0.25,
-                      max_cos: float = -0.8, gap_px: float = 6.0) -> np.ndarray:
+                      max_cos: float = -0.8, gap_px: float = 6.0,
+                      nearest: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Which unexplained branches continue, across the curve, in another unexplained branch.
 
     A branch's end is its pixel nearest the curve (it must lie within
@@ -60,6 +61,11 @@ def crossing_branches(dense_xy: np.ndarray, free_xy: np.ndarray, free_branch: np
         The tendril's width, px.
     arm_px, min_sin, max_cos, gap_px : float
         See above.
+    nearest : ((m,) float array, (m,) int array), optional
+        Each unexplained pixel's distance to ``dense_xy`` (px) and the index
+        of its nearest curve point, as ``cKDTree.query`` gives them (when the
+        caller has them already); only those within ``cov_tol + 3`` px are
+        read, farther ones may be ``inf``. Default: queried here.
 
     Returns
     -------
@@ -84,8 +90,7 @@ def crossing_branches(dense_xy: np.ndarray, free_xy: np.ndarray, free_branch: np
     out = np.zeros(len(branches), bool)
     if len(dense_xy) < 2 or len(free_xy) == 0:
         return out
-    curve = cKDTree(dense_xy)
-    d_all, j_all = curve.query(free_xy)
+    d_all, j_all = cKDTree(dense_xy).query(free_xy) if nearest is None else nearest
     arms = {}  # label -> (end, direction, sine of its angle to the curve)
     for k in np.unique(free_branch[free_branch > 0]):
         mine = np.nonzero(free_branch == k)[0]
