@@ -40,6 +40,7 @@ Example
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import cv2
 import numpy as np
@@ -93,6 +94,18 @@ class ViewEvidence:
     def shape(self) -> tuple[int, int]:
         """``(h, w)`` of the ROI crop."""
         return self.foreground.shape
+
+    @cached_property
+    def inside_px(self) -> np.ndarray:
+        """(h, w) float32: every foreground pixel's distance to the nearest board pixel, px (0 on the board).
+
+        How deep inside a dark region a pixel lies: about half the local
+        width on a line's middle. Computed once, when first read (the checks
+        and the multi-view method both read it; read only).
+        """
+        out = cv2.distanceTransform(self.foreground.view(np.uint8), cv2.DIST_L2, 5)
+        out.flags.writeable = False
+        return out
 
     def in_keep_out(self, xy: np.ndarray) -> np.ndarray:
         """(n,) bool: which full-image points ``xy`` (n, 2) lie in the keep-out box."""

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -58,7 +57,8 @@ class SkeletonEvidence:
         Pixels where the view can see the tendril: inside the ROI and the
         image, outside the keep-out box.
     inside_px : (h, w) float32 array
-        Per pixel, its distance to the nearest board pixel (0 on the board):
+        :attr:`tendrilkit.evidence.ViewEvidence.inside_px` (the same array):
+        per pixel, its distance to the nearest board pixel (0 on the board):
         how deep inside a dark region it lies. A place ``COVER_DEPTH_PX`` or
         more inside a region and farther than ``COVER_PX`` from the skeleton is covered by
         something wider than a tendril (a leaf, the stem): the view can
@@ -106,7 +106,7 @@ def skeleton_evidence(ev: ViewEvidence, camera: Camera) -> SkeletonEvidence:
     centre, tangent = _local_lines(xy, tree)
     return SkeletonEvidence(offset_xy=off, foreground=ev.foreground, skeleton=skel, skeleton_xy=xy, tree=tree,
                             centre_xy=centre, tangent_xy=tangent, near_foreground=ev.distance_px <= 2.0,
-                            seen=seen, inside_px=cv2.distanceTransform(ev.foreground.astype(np.uint8), cv2.DIST_L2, 5),
+                            seen=seen, inside_px=ev.inside_px,
                             camera=camera)
 
 

@@ -338,7 +338,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
         out[f"tip_border_px_v{v + 1}"] = float(min(u, w - 1 - u, t, h - 1 - t))
         if ev.skeleton_xy is not None:
             seen = keep & roi_contains(ev, dense)
-            inside_px = _inside_distance(ev)
+            inside_px = ev.inside_px
             radius_px = _tendril_radius_px(ev, inside_px, dense[seen & (d <= tolerance_px)], coverage_tolerance_px)
             if np.isfinite(radius_px):  # px to mm at the curve's median depth in this view
                 widths.append(2.0 * radius_px * float(np.median(cam.world_to_cam(X)[:, 2])) / float(cam.K[0, 0]))
@@ -360,13 +360,6 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     out["views_checked"] = checked
     out["line_width_mm"] = float(np.median(widths)) if widths else None
     return out
-
-
-def _inside_distance(ev: ViewEvidence) -> np.ndarray:
-    """(h, w) float32: distance of every foreground pixel to the background, px (about half the local width)."""
-    import cv2
-
-    return cv2.distanceTransform(ev.foreground.view(np.uint8), cv2.DIST_L2, 5)
 
 
 def _tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, cov_tol: float) -> float:
