@@ -217,9 +217,9 @@ def _grid_edges(white: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.array(a), np.array(b), np.array(n)
 
 
-def _apply_h(H: np.ndarray, p: np.ndarray) -> np.ndarray:
-    q = np.column_stack([p, np.ones(len(p))]) @ H.T
-    return q[:, :2] / q[:, 2:3]
+def _map_h(H: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """(n, 2) points through the homography ``H`` (as the side refinement maps them)."""
+    return cv2.perspectiveTransform(np.asarray(p, np.float64)[None], np.asarray(H, np.float64))[0]
 
 
 def _refine_corners_grid(grey: np.ndarray, corners_xy: np.ndarray, white: np.ndarray, *, camera: Camera | None,
@@ -255,7 +255,7 @@ def _refine_corners_grid(grey: np.ndarray, corners_xy: np.ndarray, white: np.nda
     line_n = np.repeat(np.abs(en), k, axis=0)  # the piece's line: line_n . p = line_c (marker units)
     line_c = np.sum(line_n * P, axis=1)
     eps = 0.25 / cells
-    q0, q1 = _apply_h(H, P), _apply_h(H, P + eps * N)
+    q0, q1 = _map_h(H, P), _map_h(H, P + eps * N)
     if camera is not None:
         q0, q1 = camera.distort_points(q0), camera.distort_points(q1)
     d = q1 - q0
@@ -286,7 +286,7 @@ def _refine_corners_grid(grey: np.ndarray, corners_xy: np.ndarray, white: np.nda
         if np.array_equal(new, keep) or new.sum() < 40:
             break
         keep = new
-    c = _apply_h(np.append(p, 1.0).reshape(3, 3), U)
+    c = _map_h(np.append(p, 1.0).reshape(3, 3), U)
     if camera is not None:
         c = camera.distort_points(c)
     if not np.all(np.isfinite(c)) or np.abs(c - corners_xy).max() > 1.0:
