@@ -195,6 +195,20 @@ def _min_gap_of(k):
 
 
 @njit(cache=True)
+def _value_caps(knots, L, out):
+    """Largest step of each knot value: the law may turn the frame by about 1 rad more per step.
+
+    A value's hat spans its two neighbouring segments (width ``w``): changing it by
+    ``d`` turns the frame by about ``d w / 2`` over that span, so ``1 / w``, and never less
+    than ``1 / L`` (a law of one segment).
+    """
+    m = knots.shape[0]
+    for j in range(m):
+        w = knots[min(j + 1, m - 1)] - knots[max(j - 1, 0)]
+        out[j] = max(1.0 / L, 1.0 / w) if w > 0 else 1.0 / L
+
+
+@njit(cache=True)
 def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
     mk, mt = kk.shape[0], kt.shape[0]
     ik = mk - 2 if (free_knots and mk > 2) else 0
@@ -209,8 +223,8 @@ def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
     is_knot[mk:mk + ik] = True
     is_knot[mk + ik + mt:] = True
     L = s[-1] - s[0]
-    max_value_step = 1.0 / L
     max_knot_step = 0.1 * L
+    cap = np.empty(npar)
     gap_k = max(min(min_gap, 0.5 * _min_gap_of(kk)), 1e-6 * L)
     gap_t = max(min(min_gap, 0.5 * _min_gap_of(kt)), 1e-6 * L)
     ck = _unpack_nb(p, kk, kt, free_knots)
@@ -240,6 +254,8 @@ def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
         Pq, Tq, Bq, Rq, Xq = P, T, B, R, X
         if not np.all(np.isfinite(H)) or not np.all(np.isfinite(g)):
             break
+        _value_caps(ck[0], L, cap[:mk])
+        _value_caps(ck[2], L, cap[mk + ik:mk + ik + mt])
         for _ in range(12):
             if mu > 1e12:
                 break
@@ -255,7 +271,7 @@ def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
                 elif is_knot[i]:
                     if abs(v) > max_knot_step:
                         ok = False
-                elif abs(v) > max_value_step:
+                elif abs(v) > cap[i]:
                     ok = False
             if not ok:
                 mu *= 10.0
