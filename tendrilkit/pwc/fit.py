@@ -286,7 +286,7 @@ def fit_piecewise_clothoid(
 #: ``auto`` searches again when the fit's rms residual exceeds this multiple of the data's
 #: noise (:func:`tendrilkit.frenet.noise_sigma_mm`; on the seeded 0.15 mm curves a good fit
 #: leaves 0.7-0.95 of it, a search that took a wrong turn 1.2-4).
-RETRY_NOISE_RATIO = 1.0
+RETRY_NOISE_RATIO = 0.9
 
 
 def _missed(best, target_r2, points_mm, n):

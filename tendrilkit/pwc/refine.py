@@ -209,6 +209,23 @@ def _value_caps(knots, L, out):
 
 
 @njit(cache=True)
+def _gap_fraction(knots, inner_step, gap):
+    """Largest fraction (<= 1) of a step of the inner knots keeping consecutive knots ``gap`` apart (0.99 of it)."""
+    m = knots.shape[0]
+    if inner_step.shape[0] == 0:
+        return 1.0
+    a = 1.0
+    for i in range(m - 1):
+        d0 = inner_step[i - 1] if i > 0 else 0.0
+        d1 = inner_step[i] if i < m - 2 else 0.0
+        closing = d0 - d1
+        if closing > 0:
+            room = knots[i + 1] - knots[i] - gap
+            a = min(a, 0.99 * max(room, 0.0) / closing)
+    return a
+
+
+@njit(cache=True)
 def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
     mk, mt = kk.shape[0], kt.shape[0]
     ik = mk - 2 if (free_knots and mk > 2) else 0
@@ -268,14 +285,15 @@ def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
                 v = step[i]
                 if not np.isfinite(v):
                     ok = False
-                elif is_knot[i]:
-                    if abs(v) > max_knot_step:
-                        ok = False
-                elif abs(v) > cap[i]:
-                    ok = False
+                else:  # a step beyond a parameter's reach is clipped to it
+                    c = max_knot_step if is_knot[i] else cap[i]
+                    step[i] = min(max(v, -c), c)
             if not ok:
                 mu *= 10.0
                 continue
+            # knots that would come closer than the gap: their steps shortened to keep them apart
+            step[mk:mk + ik] *= _gap_fraction(ck[0], step[mk:mk + ik], gap_k)
+            step[mk + ik + mt:] *= _gap_fraction(ck[2], step[mk + ik + mt:], gap_t)
             q = p + step
             cq = _unpack_nb(q, kk, kt, free_knots)
             if _min_gap_of(cq[0]) < gap_k or _min_gap_of(cq[2]) < gap_t:
