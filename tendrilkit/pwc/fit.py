@@ -166,7 +166,7 @@ def fit_piecewise_clothoid(
     n_points: int | None = None,
     lookahead: int = 1,
     insertions: bool = True,
-    quick_iterations: int = 4,
+    quick_iterations: int = 2,
     max_candidates: int = 40,
     retries: bool = True,
 ) -> PWCFit:
