@@ -363,48 +363,6 @@ def _hinge_means(s, xs):
     return G
 
 
-@njit(cache=True)
-def _hinge_gains(s, data, kk, vk, kt, vt, free_knots, xk, xt):
-    """First-order SSE drops of a hinge at each position ``xk`` (curvature) and ``xt`` (torsion).
-
-    With the column-scaled current Jacobian ``Js`` (normal matrix ``H``, a whisper of ridge)
-    and a hinge's column ``c``: its part orthogonal to ``Js`` has ``c_perp^T r = c^T r -
-    z^T H^{-1} Js^T r`` and ``|c_perp|^2 = |c|^2 - z^T H^{-1} z``, ``z = Js^T c``.
-    """
-    f, P, T, B, R, X = _lm_evaluate(s, kk, vk, kt, vt, data)
-    J = _lm_jacobian(s, P, T, B, R, X, _law_columns(s, kk, vk, free_knots), _law_columns(s, kt, vt, free_knots))
-    m = J.shape[1]
-    for q in range(m):
-        acc = 0.0
-        for i in range(J.shape[0]):
-            acc += J[i, q] * J[i, q]
-        sc = np.sqrt(acc) + 1e-300
-        for i in range(J.shape[0]):
-            J[i, q] /= sc
-    H = J.T @ J
-    for q in range(m):
-        H[q, q] += 1e-10
-    r = (X - data).ravel()
-    nk, nt = xk.shape[0], xt.shape[0]
-    C = np.ascontiguousarray(_lm_jacobian(s, P, T, B, R, X, _hinge_means(s, xk), _hinge_means(s, xt))[:, : nk + nt])
-    Jt = np.ascontiguousarray(J.T)
-    Z = Jt @ C
-    W = np.linalg.solve(H, Z)
-    a = W.T @ (Jt @ r)
-    cr = np.ascontiguousarray(C.T) @ r
-    gains = np.empty(nk + nt)
-    for q in range(nk + nt):
-        cc = 0.0
-        zz = 0.0
-        for i in range(C.shape[0]):
-            cc += C[i, q] * C[i, q]
-        for i in range(m):
-            zz += Z[i, q] * W[i, q]
-        num = cr[q] - a[q]
-        gains[q] = num * num / (max(cc - zz, 0.0) + 1e-300)
-    return gains
-
-
 def _best_insertions(prep, lk, lt):
     """Score test for one more knot: the best new knot position for each law.
 
@@ -415,21 +373,33 @@ def _best_insertions(prep, lk, lt):
     ``(x_kappa, gain_kappa), (x_tau, gain_tau)`` (``None`` where no room).
     """
     s, data = prep.s, prep.data
+    f, P, T, B, R, X = _lm_evaluate(s, lk.knots_mm, lk.values, lt.knots_mm, lt.values, data)
+    Gk = _law_columns(s, lk.knots_mm, lk.values, prep.free_knots)
+    Gt = _law_columns(s, lt.knots_mm, lt.values, prep.free_knots)
+    J = _lm_jacobian(s, P, T, B, R, X, Gk, Gt)
+    # projection off the current columns by the (small) normal equations; column-scaled
+    scale = np.sqrt(np.einsum("ij,ij->j", J, J)) + 1e-300
+    Js = J / scale
+    H = Js.T @ Js
+    H.flat[:: H.shape[0] + 1] += 1e-10
+    r = (X - data).ravel()
     gap = prep.min_gap_mm
     xs = np.arange(s[0] + gap, s[-1] - gap, max(gap / 2, (s[-1] - s[0]) / 200))
     oks = [np.min(np.abs(xs[:, None] - law.knots_mm[None, :]), axis=1) >= gap for law in (lk, lt)]
     nk, nt = int(oks[0].sum()), int(oks[1].sum())
     if nk + nt == 0:
         return [None, None]
-    f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
-    gains = _hinge_gains(s, data, f(lk.knots_mm), f(lk.values), f(lt.knots_mm), f(lt.values), bool(prep.free_knots),
-                         f(xs[oks[0]]), f(xs[oks[1]]))
+    # both laws' hinge columns in one pass (each column is computed on its own)
+    C = _lm_jacobian(s, P, T, B, R, X, _hinge_means(s, xs[oks[0]]), _hinge_means(s, xs[oks[1]]))[:, : nk + nt]
+    Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
+    num = (Cp.T @ r) ** 2
+    den = np.einsum("ij,ij->j", Cp, Cp) + 1e-300
     out = []
     for ok, cols in zip(oks, (slice(0, nk), slice(nk, nk + nt))):
         if not ok.any():
             out.append(None)
             continue
-        gain = gains[cols]
+        gain = num[cols] / den[cols]
         j = int(np.argmax(gain))
         out.append((float(xs[ok][j]), float(gain[j])))
     return out

@@ -18,6 +18,10 @@ from tendrilkit.pwc.search import penalty_path
 
 __all__: list[str] = []
 
+#: Levenberg-Marquardt iterations of the candidate each step of the search moves to (the
+#: final one is then refined to convergence).
+STEP_ITERATIONS = 10
+
 
 def _mid_penalty(lo: float, hi: float) -> float:
     if not np.isfinite(hi):
@@ -152,9 +156,11 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
                 m, cand = mm, cc
         if not better(cand, cur):
             break
-        if refine:  # candidates are compared after a few iterations; the chosen one converges
-            cand = scored(*refined(cand[0], cand[1]), row=cand[5])
+        if refine:  # candidates are compared after a few iterations; the chosen one goes further
+            cand = scored(*refined(cand[0], cand[1], STEP_ITERATIONS), row=cand[5])
         state, cur = m, cand
+    if refine:  # and the last one converges
+        cur = scored(*refined(cur[0], cur[1]), row=cur[5])
     a, b = state
     lk, lt, irow = cur[0], cur[1], cur[5]
     rows[irow][5] = 1.0
