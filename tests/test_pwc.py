@@ -503,3 +503,54 @@ def test_searches_sharing_a_memo_give_the_same_fits(monkeypatch):
     for key in ("lk", "lt"):
         assert np.array_equal(shared[key].knots_mm, fresh[key].knots_mm)
         assert np.array_equal(shared[key].values, fresh[key].values)
+
+
+def test_gap_fraction_keeps_knots_apart():
+    """The fraction of a knot step that keeps consecutive knots ``gap`` apart (0.99 of the room)."""
+    from tendrilkit.pwc.refine import _gap_fraction
+
+    knots = np.array([0.0, 10.0, 12.0, 30.0])
+    # knot 1 moves 5 mm towards knot 2 (2 mm away, 1 mm of room above the gap)
+    assert _gap_fraction(knots, np.array([5.0, 0.0]), 1.0) == pytest.approx(0.99 * 1.0 / 5.0)
+    # both move apart, or together the same way: no limit
+    assert _gap_fraction(knots, np.array([-3.0, 3.0]), 1.0) == 1.0
+    assert _gap_fraction(knots, np.array([4.0, 4.0]), 1.0) == 1.0
+    # the last inner knot towards the end; no inner knots at all
+    assert _gap_fraction(knots, np.array([0.0, 20.0]), 1.0) == pytest.approx(0.99 * 17.0 / 20.0)
+    assert _gap_fraction(np.array([0.0, 30.0]), np.zeros(0), 1.0) == 1.0
+    for step in (np.array([5.0, 0.0]), np.array([-9.5, 7.0]), np.array([3.0, -4.0])):
+        moved = knots + np.concatenate([[0.0], _gap_fraction(knots, step, 1.0) * step, [0.0]])
+        assert np.min(np.diff(moved)) >= 1.0
+
+
+def test_refinement_recovers_a_far_tip_value_in_few_iterations():
+    """A tip value's step is capped by its own reach (1 / the width of its segment), not 1/L:
+    a torsion tip value 6/L off comes back in 10 iterations as far as in 200."""
+    from tendrilkit.pwc.refine import _refine_laws_lm
+
+    tc = random_pwc_curve(7)
+    s, data = tc.s_mm, tc.clean_mm
+    kk, vk = tc.kappa_knots
+    kt, vt = tc.tau_knots
+    L = s[-1] - s[0]
+    vt_off = vt.copy()
+    vt_off[-1] += 6.0 / L
+    sse = {}
+    for it in (10, 200):
+        _, sse[it] = _refine_laws_lm(s, data, kk, vk, kt, vt_off, free_knots=False, iterations=it, rtol=0.0)
+    _, sse_true = _refine_laws_lm(s, data, kk, vk, kt, vt, free_knots=False, iterations=0)
+    assert sse[200] <= sse_true  # as close as the true laws (the data are the exact positions)
+    assert sse[10] <= 1.01 * sse[200], (sse, sse_true)
+
+
+def test_auto_searches_again_when_residuals_exceed_the_noise():
+    """``_missed``: below target R^2, or an rms residual above RETRY_NOISE_RATIO of the noise."""
+    import tendrilkit.pwc.fit as F
+    from tendrilkit.frenet import noise_sigma_mm
+
+    P = random_pwc_curve(3).points_mm
+    sigma, n = noise_sigma_mm(P), len(P)
+    sse_at = lambda ratio: (ratio * sigma) ** 2 * 3 * n  # noqa: E731
+    assert not F._missed((None, None, sse_at(0.8), 0.9999), 0.999, P, n)
+    assert F._missed((None, None, sse_at(1.2 * F.RETRY_NOISE_RATIO), 0.9999), 0.999, P, n)
+    assert F._missed((None, None, sse_at(0.5), 0.99), 0.999, P, n)
