@@ -18,7 +18,12 @@ frame goes (CPU per stage, measured in a second pass).
 compares with another checkout on the same machine load: the per-frame fit (CPU and wall) and the
 fit command, the two run alternately in fresh processes (``--rounds`` each), and prints the ratios
 (new / old) with the load average. Each fit process loads its checkout's ``tendrilkit`` from its
-working directory.
+working directory. It also fits, with both, every seeded noisy ground-truth curve of this benchmark
+(seeds 1000-1039 of the per-frame figures, 5000-5099 of the fit command) and ``--extra`` more
+(seeds 2000-2199 by default; development seeds only, < 10000) and prints the accuracy rule of issue 17:
+median / mean / 95th percentile / worst mean distance to the truth, segment counts agreeing with the
+truth, R2, and the per-curve changes (how many better or worse, the worst change, every curve worse
+by more than 0.02 mm).
 """
 
 from __future__ import annotations
@@ -46,9 +51,11 @@ def main() -> None:
     ap.add_argument("--curves", type=int, default=40, help="ground-truth curves for the per-frame figures")
     ap.add_argument("--baseline", type=Path, help="a checkout of the old code: compare with it, then stop")
     ap.add_argument("--rounds", type=int, default=3, help="--baseline: alternate runs of each")
+    ap.add_argument("--extra", type=int, default=200, help="--baseline: more ground-truth curves (seeds from 2000)")
     args = ap.parse_args()
     if args.baseline is not None:
         _compare(args.baseline.resolve(), args.curves, args.frames, args.rounds)
+        _compare_accuracy(args.baseline.resolve(), args.curves, args.frames, args.extra)
         return
 
     curves = [random_pwc_curve(1000 + i) for i in range(args.curves)]
@@ -245,6 +252,61 @@ def _compare(baseline: Path, n_curves: int, n_frames: int, rounds: int) -> None:
               f"{m['new'][1]:.2f} s CPU (target <= 2 s); new/old wall {m['new'][0] / m['old'][0]:.2f}, "
               f"CPU {m['new'][1] / m['old'][1]:.2f}; result files {'identical' if same else 'DIFFERENT'} "
               f"(load average {os.getloadavg()[0]:.1f})")
+
+
+_ACCURACY = """
+import json, os, sys
+sys.path.insert(0, os.getcwd())
+from tendrilkit.pwc import fit_piecewise_clothoid
+from tendrilkit.pwc.datasets import mean_distance_mm, random_pwc_curve
+out = {{}}
+for seed in {seeds}:
+    tc = random_pwc_curve(seed)
+    f = fit_piecewise_clothoid(tc.points_mm)
+    out[seed] = [mean_distance_mm(f.points_mm, tc.dense_mm), f.r2, f.sse_mm2, f.n_segments_kappa,
+                 f.n_segments_tau, tc.kappa_knots[0].size - 1, tc.tau_knots[0].size - 1]
+print(json.dumps(out))
+"""
+
+
+def _compare_accuracy(baseline: Path, n_curves: int, n_frames: int, n_extra: int) -> None:
+    """Issue 17's accuracy rule: old and new on every seeded ground-truth curve, aggregate and per curve."""
+    import json
+
+    sets = {"per-frame curves": list(range(1000, 1000 + n_curves)), "fit-command curves": list(range(5000, 5000 + n_frames)),
+            "extra curves": list(range(2000, 2000 + n_extra))}
+    seeds = [s for v in sets.values() for s in v]
+    if max(seeds) >= 10000:
+        print("--extra: seeds from 10000 are kept for the final benchmark")
+        raise SystemExit(2)
+    res = {}
+    for name, cwd in (("old", baseline), ("new", REPO)):
+        r = subprocess.run([sys.executable, "-c", _ACCURACY.format(seeds=seeds)], cwd=cwd, capture_output=True,
+                           text=True, check=True)
+        res[name] = {int(k): v for k, v in json.loads(r.stdout).items()}
+
+    def figures(d, ks):
+        m = np.array([d[k][0] for k in ks])
+        r2 = np.array([d[k][1] for k in ks])
+        agree = np.mean([d[k][3] == d[k][5] and d[k][4] == d[k][6] for k in ks])
+        return (f"mean distance median {np.median(m):.4f} mean {m.mean():.4f} p95 {np.percentile(m, 95):.4f} "
+                f"worst {m.max():.4f} mm; segment counts as the truth {100 * agree:.0f} %; "
+                f"R2 mean {r2.mean():.6f} min {r2.min():.6f}")
+
+    print("accuracy on the seeded noisy ground-truth curves (0.15 mm noise), old / new:")
+    for name, ks in (*sets.items(), ("all", seeds)):
+        print(f"  {name} ({len(ks)}): old {figures(res['old'], ks)}")
+        print(f"  {' ' * len(name)} ({len(ks)}): new {figures(res['new'], ks)}")
+    d = np.array([res["new"][k][0] - res["old"][k][0] for k in seeds])
+    worst = int(np.argmax(d))
+    print(f"  per curve: {int(np.sum(d < -1e-9))} better, {int(np.sum(d > 1e-9))} worse, "
+          f"{int(np.sum(np.abs(d) <= 1e-9))} unchanged; worst change {d[worst]:+.4f} mm (seed {seeds[worst]}), "
+          f"best {d.min():+.4f} mm")
+    bad = [k for k, x in zip(seeds, d) if x > 0.02]
+    print("  worse by more than 0.02 mm: " + (", ".join(
+        f"seed {k} {res['old'][k][0]:.4f} -> {res['new'][k][0]:.4f} mm (segments {res['old'][k][3]}+{res['old'][k][4]} -> "
+        f"{res['new'][k][3]}+{res['new'][k][4]}, truth {res['old'][k][5]}+{res['old'][k][6]}; SSE "
+        f"{res['old'][k][2]:.2f} -> {res['new'][k][2]:.2f} mm2)" for k in bad) if bad else "none"))
 
 
 if __name__ == "__main__":

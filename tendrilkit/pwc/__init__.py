@@ -76,6 +76,10 @@ Selection of the penalties (:func:`fit_piecewise_clothoid`):
     asks for it (the hinge whose Jacobian column best explains them), since
     curvature and torsion estimated from noisy points place knots poorly near
     the ends and where torsion is weak.
+    A search that ends below ``target_r2``, or whose rms residual exceeds
+    0.9 of the data's noise (:func:`tendrilkit.frenet.noise_sigma_mm`; a good
+    fit leaves 0.7-0.9 of it on the seeded curves, one that took a wrong turn
+    1.2-4), searches again (``retries``).
 ``selection="fixed"``
     The given ``penalty_kappa``, ``penalty_tau`` (dimensionless, above).
 :func:`grid_search_penalties`
@@ -84,7 +88,16 @@ Selection of the penalties (:func:`fit_piecewise_clothoid`):
 
 Refinement (``refine=True``, tendrilkit's addition): the knot values and the
 inner knot positions of both laws are fitted by Levenberg-Marquardt to the
-registered 3D points (analytic Jacobian, compiled). A curvature bias of
+registered 3D points (analytic Jacobian, compiled). Each step stays within the
+reach of the linear model: a knot value moves by at most the inverse width of
+its two segments (at least :math:`1/L`; the value turns the frame by about a
+radian), a knot by at most :math:`L/10`, and a longer component is clipped to
+that; knots that would come closer than the minimum gap have their steps
+shortened. (Raising the damping until the whole step fits instead made a
+weakly determined tip value crawl at :math:`1/L` per iteration, and a search
+compared candidates far from their optimum.) The forward search compares
+candidates after ``quick_iterations``, refines the one it moves to for 10
+iterations and the final one to convergence. A curvature bias of
 :math:`10^{-3}` /mm moves the tip of a 150 mm tendril by about 10 mm, so laws
 fitted in curvature space alone (the paper; ``refine=False``) are far less
 accurate than the points they came from. With 0.15 mm noise on 120-200 mm

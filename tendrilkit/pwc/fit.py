@@ -218,9 +218,10 @@ def fit_piecewise_clothoid(
         ``auto``: the search stops after evaluating this many candidates (a
         bound on the time per frame on hard, noisy curves).
     retries : bool
-        ``auto`` with ``refine``: when the search ends below ``target_r2``,
-        search again with one more step of lookahead, then with half the
-        smoothing length, and keep the preferred result.
+        ``auto`` with ``refine``: when the search ends below ``target_r2``, or
+        with an rms residual above :data:`RETRY_NOISE_RATIO` of the data's
+        noise, search again with one more step of lookahead, then with half
+        the smoothing length, and keep the preferred result.
 
     Returns
     -------
@@ -284,8 +285,9 @@ def fit_piecewise_clothoid(
 
 
 #: ``auto`` searches again when the fit's rms residual exceeds this multiple of the data's
-#: noise (:func:`tendrilkit.frenet.noise_sigma_mm`; on the seeded 0.15 mm curves a good fit
-#: leaves 0.7-0.95 of it, a search that took a wrong turn 1.2-4).
+#: noise (:func:`tendrilkit.frenet.noise_sigma_mm`, of the points as given; the residual is
+#: measured on them resampled, which averages some noise away: on the seeded 0.15 mm curves
+#: a good fit leaves 0.7-0.9 of it, a search that took a wrong turn 1.2-4).
 RETRY_NOISE_RATIO = 0.9
 
 
