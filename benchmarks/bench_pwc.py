@@ -281,6 +281,7 @@ def _compare_accuracy(baseline: Path, n_curves: int, n_frames: int, n_extra: int
 
     sets = {"per-frame curves": list(range(1000, 1000 + n_curves)), "fit-command curves": list(range(5000, 5000 + n_frames)),
             "extra curves": list(range(2000, 2000 + n_extra))}
+    sets = {k: v for k, v in sets.items() if v}  # --extra 0: none
     seeds = [s for v in sets.values() for s in v]
     if max(seeds) >= 10000:
         print("--extra: seeds from 10000 are kept for the final benchmark")
