@@ -96,6 +96,7 @@ import numpy as np
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
 from tendrilkit.verify_base import WIDE_RATIO, base_on_tendril, near_base
 from tendrilkit.verify_crossing import crossing_branches
+from tendrilkit.verify_self import self_contact_message, self_distance_mm
 from tendrilkit.verify_tip import TIP_PX, on_wide, tip_continuation, tip_wide_fraction, wide_run_px
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "image_check_messages", "temporal_checks",
@@ -234,6 +235,15 @@ class Thresholds:
         shoot merged with the tendril (seed 67, 1.7 mm mean, 7 mm max) or
         skip a coil over a leaf along clutter (seeds 21, 63, 76: 1.7-7.6 mm)
         102-230 px.
+    min_self_distance_frac : float
+        Smallest distance between two parts of the curve more than 5 mm
+        apart along it (``self_distance_mm``), as a fraction of the line
+        width (``line_width_mm``) (1.0): a tendril's centrelines cannot come
+        closer than its width, or the tube would pass through itself
+        (:mod:`tendrilkit.verify_self`). Right multi-view frames of
+        development seeds 0-39: at least 1.8 widths; the curves that cut
+        across a loop whose passes touch in two views, or run out along a
+        second tendril and back: 0.04-0.8.
     """
 
     tolerance_px: float = 2.0
@@ -254,6 +264,7 @@ class Thresholds:
     min_pwc_r2: float = 0.5
     max_tip_wide_frac: float = 0.5
     max_wide_run_px: float = 80.0
+    min_self_distance_frac: float = 1.0
 
     @classmethod
     def from_params(cls, section) -> "Thresholds":
@@ -273,7 +284,7 @@ def view_columns(n_views: int) -> list[str]:
     # added later, so after the others (the result files' columns only grow at their end)
     cols += [f"tip_border_px_v{v}" for v in range(1, n_views + 1)] + ["line_width_mm"]
     return cols + [f"{stem}_v{v}" for stem in ("tip_wide_frac", "wide_run_px")
-                   for v in range(1, n_views + 1)]
+                   for v in range(1, n_views + 1)] + ["self_distance_mm"]
 
 
 def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
@@ -359,6 +370,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, seen & (d <= tolerance_px))
     out["views_checked"] = checked
     out["line_width_mm"] = float(np.median(widths)) if widths else None
+    out["self_distance_mm"] = self_distance_mm(X)
     return out
 
 
@@ -535,6 +547,9 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
     if lw is not None and lw > th.max_line_width_mm:
         msgs.append(f"width: the curve runs on a line {lw:.1f} mm wide (median over the views, limit "
                     f"{th.max_line_width_mm:g} mm): a stem, not a tendril")
+    m = self_contact_message(q.get("self_distance_mm"), lw, th.min_self_distance_frac)
+    if m:
+        msgs.append(m)
     r2 = q.get("pwc_r2")
     if r2 is not None and np.isfinite(r2) and r2 < th.min_pwc_r2:
         msgs.append(f"fit: piece-wise clothoid R2 {r2:.3f} (limit {th.min_pwc_r2:g})")

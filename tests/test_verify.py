@@ -328,3 +328,25 @@ def test_thin_line_crossing_the_tendril_is_not_unexplained_tendril():
     # a curve that stops at the crossing still leaves the rest of the tendril unexplained
     short = verify_curve(_tendril_mm(frac=0.5), cams, ev)
     assert short["coverage_frac_v1"] < 0.75 and short["coverage_frac_v2"] < 0.75
+
+
+def test_curve_passing_through_itself_is_caught(scene):
+    """A hairpin on the tendril's own pixels (out along it and 15 mm back, 0.2 mm beside itself: a curve running
+    out along a second tendril and back, random seed 2) lies on the tendril in every view, yet a tendril cannot
+    pass through itself: its two parts come closer than the tendril's width (1.6 mm measured here)."""
+    from tendrilkit.verify_self import self_distance_mm
+
+    cams, ev = scene
+    T = _tendril_mm(400)
+    out = T[:300]
+    back = T[300 - 2:200:-1] + np.array([0.0, 0.0, 0.2])  # back along itself, 0.2 mm towards the cameras
+    hairpin = np.vstack([out, back])
+    q = verify_curve(_tendril_mm(), cams, ev)
+    assert q["self_distance_mm"] >= 4.9 and q["line_width_mm"] == pytest.approx(1.6, abs=0.4)
+    assert image_check_messages(q, 2, Thresholds()) == []
+    qh = verify_curve(hairpin, cams, ev)
+    assert qh["self_distance_mm"] == pytest.approx(self_distance_mm(hairpin)) and qh["self_distance_mm"] < 0.3
+    msgs = image_check_messages(qh, 2, Thresholds())
+    assert any(m.startswith("self:") for m in msgs), msgs
+    assert image_check_messages(qh, 2, Thresholds(min_self_distance_frac=0.1)) == [m for m in msgs
+                                                                                 if not m.startswith("self:")]
