@@ -350,3 +350,39 @@ def test_curve_passing_through_itself_is_caught(scene):
     assert any(m.startswith("self:") for m in msgs), msgs
     assert image_check_messages(qh, 2, Thresholds(min_self_distance_frac=0.1)) == [m for m in msgs
                                                                                  if not m.startswith("self:")]
+
+
+def _occluder(at_frac, axes=(30, 14), rim_px=3):
+    """A dark ellipse centred on the tendril at ``at_frac`` of its samples, with a light rim: an object in front
+    of the tendril that splits its pixels in two components (the leaf of random seed 14, the shoot of seed 22)."""
+    def draw(img, cam):
+        c = np.round(cam.project(_tendril_mm()[int(at_frac * 199)][None])[0]).astype(int)
+        cv2.ellipse(img, (int(c[0]), int(c[1])), (axes[0] + rim_px, axes[1] + rim_px), 0, 0, 360, (240, 240, 240), -1)
+        cv2.ellipse(img, (int(c[0]), int(c[1])), axes, 0, 0, 360, (30, 30, 30), -1)
+    return draw
+
+
+def test_curve_stopping_at_an_object_the_tendril_passes_behind_is_caught():
+    """The curve stops where a leaf hides the tendril in both views; the rest of the tendril, beyond the leaf,
+    is a component of its own: the coverage and the tip continuation do not see it, the look ahead does."""
+    cams, ev = _scene(_occluder(0.6))
+    T = _tendril_mm()
+    c = cams[0].project(T[int(0.6 * 199)][None])[0]
+    xy = cams[0].project(T)
+    inside_rim = ((xy[:, 0] - c[0]) / 34) ** 2 + ((xy[:, 1] - c[1]) / 18) ** 2 <= 1
+    short = T[:int(np.argmax(inside_rim))]                      # up to the leaf's rim
+    q = verify_curve(short, cams, ev)
+    for v in (1, 2):
+        assert q[f"on_tendril_frac_v{v}"] == 1.0 and q[f"tip_continuation_px_v{v}"] <= 3.0
+        assert q[f"coverage_frac_v{v}"] >= 0.9                 # the rest lies in a component the curve misses
+        assert q[f"beyond_tip_px_v{v}"] > 40                    # the tendril's line beyond the leaf
+    msgs = image_check_messages(q, 2, Thresholds())
+    assert [m for m in msgs if m.startswith("beyond:")] == [
+        f"beyond: the tendril goes on across an object ahead of the curve's tip (a leaf, a shoot it passes behind) in "
+        f"view 1 ({q['beyond_tip_px_v1']:.0f} px), view 2 ({q['beyond_tip_px_v2']:.0f} px) (limit 10 px)"], msgs
+    assert not any(m.startswith(("tip:", "beyond:")) for m in image_check_messages({**q, "beyond_tip_px_v2": 0.0}, 2,
+                                                                                  Thresholds()))
+    # the whole tendril (through the leaf) leaves nothing ahead of its tip
+    full = verify_curve(T, cams, ev)
+    assert full["beyond_tip_px_v1"] == 0.0 and full["beyond_tip_px_v2"] == 0.0
+    assert not any(m.startswith(("tip:", "beyond:")) for m in image_check_messages(full, 2, Thresholds()))
