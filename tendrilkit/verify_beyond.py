@@ -96,32 +96,27 @@ def beyond_tip_px(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray,
     if len(ray) == 0:
         return 0.0
     light = ev.distance_px[rc[:, 1], rc[:, 0]] > tol
-    run = 0
-    stop = len(ray)
-    for i, is_light in enumerate(light):
-        run = run + 1 if is_light else 0
-        if run > gap_px:
-            stop = i + 1 - run
-            break
-    ray = ray[:stop]
-    if len(ray) == 0:
+    k = int(np.floor(gap_px)) + 1  # the ray stops where a run of more than gap_px light samples starts
+    runs = np.flatnonzero(np.convolve(light.astype(np.int32), np.ones(k, np.int32), "valid") == k)
+    stop = int(runs[0]) if runs.size else len(ray)
+    if stop == 0:
         return 0.0
-    # the unexplained thin skeleton pixels and their branches
+    # met: thin skeleton pixels ahead of the tip (within ``cone_deg`` of its direction: the tendril bends a little
+    # behind the object), no farther than the dark pixels along the ray reach, plus a gap and the coverage tolerance
     sr = (sk[:, 1] - off[1]).astype(int)
     sc = (sk[:, 0] - off[0]).astype(int)
-    free = cKDTree(dense_xy).query(sk, distance_upper_bound=cov_tol + 1e-9)[0] > cov_tol
-    free &= inside_px[sr, sc] <= wide_ratio * radius_px
-    if not free.any():
-        return 0.0
-    fxy = sk[free]
-    # met: ahead of the tip (within ``cone_deg`` of its direction: the tendril bends a little behind the object),
-    # no farther than the dark pixels along the ray reach, plus a gap and the coverage tolerance
-    rel = fxy - tip
+    thin = inside_px[sr, sc] <= wide_ratio * radius_px
+    rel = sk - tip
     r = np.hypot(*rel.T)
-    ahead = (r <= stop + gap_px + cov_tol) & (rel @ u >= np.cos(np.radians(cone_deg)) * r)
+    ahead = thin & (r <= stop + gap_px + cov_tol) & (rel @ u >= np.cos(np.radians(cone_deg)) * r)
     if not ahead.any():
         return 0.0
-    hit = np.nonzero(ahead)[0]
+    # the unexplained thin skeleton pixels and their branches
+    free = thin & (cKDTree(dense_xy).query(sk, distance_upper_bound=cov_tol + 1e-9)[0] > cov_tol)
+    if not (ahead & free).any():
+        return 0.0
+    fxy = sk[free]
+    hit = np.nonzero(ahead[free])[0]
     import cv2
 
     img = np.zeros((h, w), np.uint8)

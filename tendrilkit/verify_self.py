@@ -77,8 +77,10 @@ def self_distance_mm(points_mm: np.ndarray, *, separation_mm: float = SEPARATION
     far = np.abs(s[:, None] - s[None, :]) > separation_mm
     if not far.any():
         return None
-    d2 = np.sum((X[:, None, :] - X[None, :, :]) ** 2, axis=2)
-    return float(np.sqrt(d2[far].min()))
+    Xc = X - X.mean(axis=0)  # centred: the expansion below loses no digits to a far origin
+    n2 = np.einsum("ij,ij->i", Xc, Xc)
+    d2 = n2[:, None] + n2[None, :] - 2.0 * (Xc @ Xc.T)
+    return float(np.sqrt(max(float(d2[far].min()), 0.0)))
 
 
 def self_contact_message(distance_mm: float | None, line_width_mm: float | None, min_frac: float) -> str | None:
