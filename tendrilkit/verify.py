@@ -61,6 +61,9 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         tendril (:func:`tendrilkit.verify_tip.wide_run_px`): a curve running
         along clutter merged with the tendril (a shoot alongside it, a leaf),
         where the images do not show the tendril's line.
+    ``self_distance_mm``, ``beyond_tip_px_v<i>``
+        The curve's nearest approach to itself (:mod:`tendrilkit.verify_self`)
+        and the tendril met ahead of its tip (:mod:`tendrilkit.verify_beyond`).
     ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s``
         Against the previous reconstructed frame that passed the image checks
         (:func:`temporal_checks`): relative change of length (%), mean
@@ -237,25 +240,15 @@ class Thresholds:
         skip a coil over a leaf along clutter (seeds 21, 63, 76: 1.7-7.6 mm)
         102-230 px.
     min_self_distance_frac : float
-        Smallest distance between two parts of the curve more than 5 mm
-        apart along it (``self_distance_mm``), as a fraction of the line
-        width (``line_width_mm``) (1.0): a tendril's centrelines cannot come
-        closer than its width, or the tube would pass through itself
-        (:mod:`tendrilkit.verify_self`). Right multi-view frames of
-        development seeds 0-39: at least 1.8 widths; the curves that cut
-        across a loop whose passes touch in two views, or run out along a
-        second tendril and back: 0.04-0.8.
+        Smallest distance between two parts of the curve over 5 mm apart
+        along it (``self_distance_mm``), in line widths (1.0): a tendril
+        cannot pass through itself (:mod:`tendrilkit.verify_self`, which
+        gives the measurements).
     max_beyond_tip_px : float
-        Thin unexplained skeleton met ahead of the projected tip across dark
-        pixels and small gaps (``beyond_tip_px_v<i>``,
-        :func:`tendrilkit.verify_beyond.beyond_tip_px`), px, in two views or
-        more (10 px): the tendril going on behind or over an object the curve
-        stopped at. On the multi-view curves of development seeds 0-39, the
-        85 frames right on all three criteria score 0 px in their
-        second-worst view (one frame 134 px in one view: a second tendril
-        ahead of the tip); curves that stop at an occluding leaf, a shoot or
-        a leaf the coil rests on, 17-74 mm short of the tip (reported ``ok``
-        before), 70-780 px in two views or more.
+        Thin unexplained skeleton ahead of the tip across an object
+        (``beyond_tip_px_v<i>``), px, in two views or more (10 px): the
+        tendril going on behind a leaf or a shoot the curve stopped at
+        (:mod:`tendrilkit.verify_beyond`, which gives the measurements).
     """
 
     tolerance_px: float = 2.0
