@@ -137,7 +137,8 @@ def main() -> None:
     print(f"false alarms among frames right on all three criteria: {int((all3.status == 'doubtful').sum())} of {len(all3)}")
     for stem, worst in (("on_tendril_frac", "min"), ("off_tendril_max_px", "max"), ("skeleton_mean_px", "max"),
                         ("coverage_frac", "min"), ("tip_continuation_px", "max"), ("base_on_tendril_frac", "min"),
-                        ("base_px", "max"), ("tip_wide_frac", "max"), ("wide_run_px", "max")):
+                        ("base_px", "max"), ("tip_wide_frac", "max"), ("wide_run_px", "max"),
+                        ("beyond_tip_px", "max")):
         cols = [c for c in t.columns if c.startswith(stem + "_v")]
         agg = ((lambda df: df[cols].astype(float).min(axis=1)) if worst == "min"
                else (lambda df: df[cols].astype(float).max(axis=1)))

@@ -425,6 +425,8 @@ class Verification(_Strict):
     min_pwc_r2: float = Field(0.5, le=1)
     max_tip_wide_frac: float = Field(0.5, ge=0, le=1)
     max_wide_run_px: PositiveFloat = 80.0
+    min_self_distance_frac: NonNegFloat = 1.0
+    max_beyond_tip_px: NonNegFloat = 10.0
 
 
 class Analysis(_Strict):

@@ -61,6 +61,9 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         tendril (:func:`tendrilkit.verify_tip.wide_run_px`): a curve running
         along clutter merged with the tendril (a shoot alongside it, a leaf),
         where the images do not show the tendril's line.
+    ``self_distance_mm``, ``beyond_tip_px_v<i>``
+        The curve's nearest approach to itself (:mod:`tendrilkit.verify_self`)
+        and the tendril met ahead of its tip (:mod:`tendrilkit.verify_beyond`).
     ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s``
         Against the previous reconstructed frame that passed the image checks
         (:func:`temporal_checks`): relative change of length (%), mean
@@ -95,7 +98,9 @@ import numpy as np
 
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
 from tendrilkit.verify_base import WIDE_RATIO, base_on_tendril, near_base
+from tendrilkit.verify_beyond import beyond_tip_px
 from tendrilkit.verify_crossing import crossing_branches
+from tendrilkit.verify_self import self_contact_message, self_distance_mm
 from tendrilkit.verify_tip import TIP_PX, on_wide, tip_continuation, tip_wide_fraction, wide_run_px
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "image_check_messages", "temporal_checks",
@@ -234,6 +239,16 @@ class Thresholds:
         shoot merged with the tendril (seed 67, 1.7 mm mean, 7 mm max) or
         skip a coil over a leaf along clutter (seeds 21, 63, 76: 1.7-7.6 mm)
         102-230 px.
+    min_self_distance_frac : float
+        Smallest distance between two parts of the curve over 5 mm apart
+        along it (``self_distance_mm``), in line widths (1.0): a tendril
+        cannot pass through itself (:mod:`tendrilkit.verify_self`, which
+        gives the measurements).
+    max_beyond_tip_px : float
+        Thin unexplained skeleton ahead of the tip across an object
+        (``beyond_tip_px_v<i>``), px, in two views or more (10 px): the
+        tendril going on behind a leaf or a shoot the curve stopped at
+        (:mod:`tendrilkit.verify_beyond`, which gives the measurements).
     """
 
     tolerance_px: float = 2.0
@@ -254,6 +269,8 @@ class Thresholds:
     min_pwc_r2: float = 0.5
     max_tip_wide_frac: float = 0.5
     max_wide_run_px: float = 80.0
+    min_self_distance_frac: float = 1.0
+    max_beyond_tip_px: float = 10.0
 
     @classmethod
     def from_params(cls, section) -> "Thresholds":
@@ -273,7 +290,8 @@ def view_columns(n_views: int) -> list[str]:
     # added later, so after the others (the result files' columns only grow at their end)
     cols += [f"tip_border_px_v{v}" for v in range(1, n_views + 1)] + ["line_width_mm"]
     return cols + [f"{stem}_v{v}" for stem in ("tip_wide_frac", "wide_run_px")
-                   for v in range(1, n_views + 1)]
+                   for v in range(1, n_views + 1)] + ["self_distance_mm"] + [
+        f"beyond_tip_px_v{v}" for v in range(1, n_views + 1)]
 
 
 def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
@@ -357,8 +375,11 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                                                                      inside=inside_px)
             out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(wide, seen & (d <= tolerance_px))
             out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, seen & (d <= tolerance_px))
+            out[f"beyond_tip_px_v{v + 1}"] = beyond_tip_px(ev, dense, inside_px, radius_px, cov_tol=coverage_tolerance_px,
+                                                           tol=tolerance_px, wide_ratio=WIDE_RATIO)
     out["views_checked"] = checked
     out["line_width_mm"] = float(np.median(widths)) if widths else None
+    out["self_distance_mm"] = self_distance_mm(X)
     return out
 
 
@@ -535,6 +556,15 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
     if lw is not None and lw > th.max_line_width_mm:
         msgs.append(f"width: the curve runs on a line {lw:.1f} mm wide (median over the views, limit "
                     f"{th.max_line_width_mm:g} mm): a stem, not a tendril")
+    beyond = [(v, q.get(f"beyond_tip_px_v{v}")) for v in range(1, n_views + 1)]
+    beyond = [(v, b) for v, b in beyond if b is not None and b > th.max_beyond_tip_px]
+    if len(beyond) >= 2:  # in two views at least: a second tendril or a stalk crosses the tendril in one view
+        msgs.append("beyond: the tendril goes on across an object ahead of the curve's tip (a leaf, a shoot it passes "
+                    "behind) in " + ", ".join(f"view {v} ({b:.0f} px)" for v, b in beyond)
+                    + f" (limit {th.max_beyond_tip_px:g} px)")
+    m = self_contact_message(q.get("self_distance_mm"), lw, th.min_self_distance_frac)
+    if m:
+        msgs.append(m)
     r2 = q.get("pwc_r2")
     if r2 is not None and np.isfinite(r2) and r2 < th.min_pwc_r2:
         msgs.append(f"fit: piece-wise clothoid R2 {r2:.3f} (limit {th.min_pwc_r2:g})")

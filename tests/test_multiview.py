@@ -166,6 +166,28 @@ def test_workers_identical_and_accurate(tmp_path):
 
 
 @pytest.mark.slow
+def test_grid_calibration_loop_cut_across_is_not_ok(tmp_path):
+    """The scene of :func:`test_workers_identical_and_accurate` calibrated with ``corner_refine: grid``: frame 4,
+    acquired through a loop whose passes touch in two views, cuts across from one pass to the other (mean 0.34 mm,
+    max 2.9 mm) with every projection on the tendril's pixels; its centreline comes within 0.07 mm of itself on
+    a 1.7 mm wide tendril, which no tendril can (:mod:`tendrilkit.verify_self`): it must not be reported ok."""
+    from tendrilkit.evaluation import accuracy_against_truth
+    from tendrilkit.phantom import write_phantom_experiment
+
+    exp = Path(write_phantom_experiment("S3", tmp_path / "exp", n_frames=5, seed=11))
+    exp.write_text(exp.read_text() + "reconstruction:\n  method: multiview\n  chunk_frames: 2\n"
+                   "calibration:\n  corner_refine: grid\n")
+    r = _run(exp, tmp_path / "out", 1)
+    assert r.returncode in (0, 1), r.stderr
+    acc = accuracy_against_truth(pd.read_csv(tmp_path / "out" / "curves.csv"),
+                                 pd.read_csv(tmp_path / "exp" / "ground_truth" / "gt_curves.csv"))
+    frames = pd.read_csv(tmp_path / "out" / "frames.csv").set_index("frame")
+    ok = acc[acc.frame.map(frames.status) == "ok"]
+    assert len(ok) >= 4, acc
+    assert ok.mean_mm.max() <= 0.5 and ok.max_mm.max() <= 2.0 and ok.tip_mm.max() <= 2.0, acc
+
+
+@pytest.mark.slow
 def test_leaf_hiding_the_tendril_in_two_views_dev_scene_4(tmp_path):
     """Dev scene 4 (random, seed 4), frame 0: a leaf lies over the tendril in views 1 and 2 for ~10 mm, and a
     second tendril crosses it in every view just before. The covered views leave that part to view 3; the

