@@ -46,6 +46,7 @@ import cv2
 import numpy as np
 
 from tendrilkit.segmentation import LabelledForeground, _box, grey_image, label_foreground
+from tendrilkit.skeleton.thinning import thin
 
 __all__ = ["ViewEvidence", "view_evidence", "sample_distance", "roi_contains"]
 
@@ -232,14 +233,13 @@ def view_evidence(
 
 def _skeleton(mask: np.ndarray, offset: np.ndarray) -> tuple[np.ndarray, float]:
     """Skeleton pixels (m, 2) full-image xy of a mask, and area / skeleton length (px)."""
-    from tendrilkit.skeleton.graph import skeletonize_strips  # the 2D stage's own thinning (strip by strip, faster)
 
     nz = cv2.findNonZero(mask.view(np.uint8))
     if nz is None:
         return np.zeros((0, 2)), float("nan")
     x0, y0, w, h = cv2.boundingRect(nz)
     sub = mask[y0:y0 + h, x0:x0 + w]
-    sk = skeletonize_strips(np.ascontiguousarray(sub.view(np.uint8)) * np.uint8(255))
+    sk = thin(sub)
     r, c = np.nonzero(sk)
     xy = np.column_stack([c + x0 + offset[0], r + y0 + offset[1]]).astype(float)
     width = float(len(nz)) / max(len(xy), 1)
