@@ -62,3 +62,17 @@ def test_thin_is_skimage_skeletonize_on_a_phantom_view():
         fg = label_foreground(phantom.render_view(ph, 1, v), roi=marks["roi"], keep_out=marks["keep_out"]).foreground
         assert fg.any()
         assert np.array_equal(thin(fg), skeletonize(fg > 0))
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_thin_strips_is_the_strips_of_skimage_skeletonize(seed, monkeypatch):
+    """The 2D stage's strip-by-strip thinning: the same bands thinned by skimage give the same skeleton."""
+    import tendrilkit.skeleton.thinning as thinning
+
+    img = _strokes(seed, shape=(420, 260))
+    fast = thinning.thin_strips(img)
+    assert fast.dtype == bool and fast.shape == img.shape and fast.any()
+    monkeypatch.setattr(thinning, "thin", lambda m: skeletonize(np.asarray(m) > 0))
+    assert np.array_equal(fast, thinning.thin_strips(img))
+    small = img[:150]                                   # up to two strips: thinned whole
+    assert np.array_equal(thinning.thin_strips(small), skeletonize(small > 0))

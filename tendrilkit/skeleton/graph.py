@@ -1,6 +1,6 @@
 """The skeleton graph: nodes, branches and their surgery.
 
-The thinned mask (:func:`tendrilkit.skeleton.thinning.thin`) is split into
+The thinned mask (:func:`tendrilkit.skeleton.thinning.thin_strips`) is split into
 branches (:func:`_build_graph`: the pixel graph of :func:`skeleton_graph`,
 skan's graph, computed without importing skan or compiling its uncached
 kernels in every process); spurs are pruned

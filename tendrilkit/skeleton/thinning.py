@@ -34,10 +34,11 @@ True
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from numba import njit
 
-__all__ = ["thin"]
+__all__ = ["thin", "thin_strips"]
 
 #: Per neighbourhood code (north-west 1, north 2, north-east 4, east 8, south-east 16, south 32, south-west 64,
 #: west 128): 1 a pixel removable in the first sub-iteration, 2 in the second, 3 in both, 0 kept. The table
@@ -79,6 +80,59 @@ def thin(mask: np.ndarray) -> np.ndarray:
     padded[1:-1, 1:-1] = m != 0
     _thin_padded(padded, _LUT)
     return np.ascontiguousarray(padded[1:-1, 1:-1]).view(bool)
+
+
+def thin_strips(mask: np.ndarray, strip: int = 96) -> np.ndarray:
+    """The skeleton of a mask thinned strip by strip (:func:`thin` on overlapping bands): the 2D stage's.
+
+    How the walk (:func:`tendrilkit.skeleton.order_skeleton`) and the
+    evidence (:func:`tendrilkit.evidence.view_evidence`) have thinned their
+    masks since scikit-image's whole-box thinning cost 9 ms on a 400 x 800 px
+    box: each horizontal strip of ``strip`` rows is thinned with ``margin``
+    extra rows above and below (three of the mask's thicknesses, at least
+    24 px), cropped to the columns its rows use. A pixel depends only on
+    pixels within one pixel per sub-iteration, so the strips almost always
+    give the whole box's skeleton (no pixel differs on 240 masks of the four
+    phantom sites), but not always (9 pixels of one view of one frame of the
+    random scene of seed 7 differ). :func:`thin` makes the whole box's
+    skeleton at a fraction of the strips' former cost; the strips are kept so
+    that results stay identical: thinning whole would change those rare
+    frames (a decision for whoever accepts result changes).
+
+    Parameters
+    ----------
+    mask : (h, w) array
+        Nonzero: foreground.
+    strip : int
+        Rows per strip.
+
+    Returns
+    -------
+    (h, w) bool array
+    """
+    m8 = np.asarray(mask)
+    if m8.ndim != 2:
+        raise ValueError(f"mask must be a 2D array, got shape {m8.shape}")
+    m8 = np.ascontiguousarray(m8 != 0).view(np.uint8)
+    H, W = m8.shape
+    if H <= 2 * strip:
+        return thin(m8)
+    contours, _ = cv2.findContours(m8, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
+    perimeter = sum(cv2.arcLength(c, True) for c in contours)
+    thickness = 2.0 * float(np.count_nonzero(m8)) / max(perimeter, 1.0)
+    margin = max(24, int(np.ceil(3 * thickness)) + 4)
+    rows_any = m8.any(axis=1)
+    out = np.zeros((H, W), bool)
+    for r0 in range(0, H, strip):
+        r1 = min(r0 + strip, H)
+        if not rows_any[r0:r1].any():
+            continue
+        a0, a1 = max(r0 - margin, 0), min(r1 + margin, H)
+        band = m8[a0:a1]
+        cols = np.flatnonzero(band.any(axis=0))
+        c0, c1 = max(cols[0] - 1, 0), min(cols[-1] + 2, W)
+        out[r0:r1, c0:c1] = thin(band[:, c0:c1])[r0 - a0 : r1 - a0]
+    return out
 
 
 @njit(cache=True)
