@@ -175,8 +175,8 @@ def view_evidence(
         As in :func:`tendrilkit.segmentation.segment_view` (the experiment's
         ``segmentation:`` section).
     skeleton : bool
-        Compute ``skeleton_xy`` and ``width_px`` (about 3-6 ms on a 1080p
-        view's ROI; the rest takes 1-2 ms).
+        Compute ``skeleton_xy`` and ``width_px`` (about 2 ms on a 1080p
+        phantom view's ROI, by :func:`tendrilkit.skeleton.thinning.thin_strips`).
     probability : bool
         Compute ``probability``: :math:`1 / (1 + e^{(g - t) / c})` with ``g``
         the grey level, ``t`` the threshold (Otsu's or the fixed one) and
