@@ -16,7 +16,7 @@ frame, on the region of interest (ROI) only:
 * ``labels``: the 8-connected components of ``foreground`` (0: background);
 * ``distance_px``: for every ROI pixel, the Euclidean distance in pixels to
   the nearest foreground pixel (0 on the tendril), float32 (OpenCV's 5 x 5
-  chamfer distance: within 2 % of the exact one);
+  chamfer distance: within 2 % of the exact one), computed when first read;
 * ``skeleton_xy``: the one-pixel skeleton of ``foreground``, full-image pixel
   positions (optional);
 * ``probability``: a soft tendril probability, a logistic function of how
@@ -24,7 +24,9 @@ frame, on the region of interest (ROI) only:
 
 :func:`sample_distance` reads ``distance_px`` at sub-pixel positions
 (bilinear): the data term of a curve fitted to the images, and the precision
-measure of the verification.
+measure of the verification. Until something reads the whole ``distance_px``,
+it transforms only the box around the positions (the same values: see its
+Notes), a third of the ROI for a curve on the tendril.
 
 Example
 -------
@@ -46,6 +48,7 @@ import cv2
 import numpy as np
 
 from tendrilkit.segmentation import LabelledForeground, _box, grey_image, label_foreground
+from tendrilkit.skeleton.thinning import thin_strips
 
 __all__ = ["ViewEvidence", "view_evidence", "sample_distance", "roi_contains"]
 
@@ -63,7 +66,8 @@ class ViewEvidence:
         Component label of every foreground pixel (1, 2, ...), 0 elsewhere.
     distance_px : (h, w) float32 array
         Distance of every crop pixel to the nearest foreground pixel, px
-        (0 on the foreground; the crop's diagonal if there is none).
+        (0 on the foreground; the crop's diagonal if there is none);
+        computed when first read, read only.
     roi_offset_xy : (2,) int array
         Full-image pixel ``(x, y)`` of the crop's pixel ``[0, 0]``.
     base_point_xy : (2,) float array
@@ -82,7 +86,6 @@ class ViewEvidence:
 
     foreground: np.ndarray
     labels: np.ndarray
-    distance_px: np.ndarray
     roi_offset_xy: np.ndarray
     base_point_xy: np.ndarray
     keep_out: np.ndarray | None = None
@@ -96,14 +99,35 @@ class ViewEvidence:
         return self.foreground.shape
 
     @cached_property
+    def distance_px(self) -> np.ndarray:
+        """(h, w) float32: every crop pixel's distance to the nearest foreground pixel, px (see the class)."""
+        fg = self.foreground.view(np.uint8)
+        if fg.any():
+            # the 5x5 chamfer mask: within 2 % of the exact Euclidean distance, 2-3 times faster than the exact one
+            out = cv2.distanceTransform(cv2.compare(fg, 0, cv2.CMP_EQ), cv2.DIST_L2, 5)
+        else:
+            out = np.full(fg.shape, float(np.hypot(*fg.shape)), np.float32)
+        out.flags.writeable = False
+        return out
+
+    @cached_property
     def inside_px(self) -> np.ndarray:
         """(h, w) float32: every foreground pixel's distance to the nearest board pixel, px (0 on the board).
 
         How deep inside a dark region a pixel lies: about half the local
         width on a line's middle. Computed once, when first read (the checks
-        and the multi-view method both read it; read only).
+        and the multi-view method both read it; read only), on the
+        foreground's bounding box grown by one pixel: a foreground pixel's
+        nearest background pixel is never farther than that box's rim, and the
+        chamfer distance of a pixel inside the box only takes paths inside it
+        (the values are those of the whole crop's transform, bit for bit).
         """
-        out = cv2.distanceTransform(self.foreground.view(np.uint8), cv2.DIST_L2, 5)
+        fg = self.foreground.view(np.uint8)
+        out = np.zeros(fg.shape, np.float32)
+        x, y, w, h = cv2.boundingRect(fg)
+        if w:  # on the foreground's box grown by a pixel (background, or the crop's edge): the same distances
+            y0, y1, x0, x1 = max(y - 1, 0), min(y + h + 1, fg.shape[0]), max(x - 1, 0), min(x + w + 1, fg.shape[1])
+            out[y0:y1, x0:x1] = cv2.distanceTransform(np.ascontiguousarray(fg[y0:y1, x0:x1]), cv2.DIST_L2, 5)
         out.flags.writeable = False
         return out
 
@@ -151,8 +175,8 @@ def view_evidence(
         As in :func:`tendrilkit.segmentation.segment_view` (the experiment's
         ``segmentation:`` section).
     skeleton : bool
-        Compute ``skeleton_xy`` and ``width_px`` (about 3-6 ms on a 1080p
-        view's ROI; the rest takes 1-2 ms).
+        Compute ``skeleton_xy`` and ``width_px`` (about 2 ms on a 1080p
+        phantom view's ROI, by :func:`tendrilkit.skeleton.thinning.thin_strips`).
     probability : bool
         Compute ``probability``: :math:`1 / (1 + e^{(g - t) / c})` with ``g``
         the grey level, ``t`` the threshold (Otsu's or the fixed one) and
@@ -189,21 +213,19 @@ def view_evidence(
         raise ValueError("foreground was made with other segmentation options than channel, threshold, "
                          "opening_radius_px and the local_* and background_px options")
     fg, offset, n, labels = foreground.foreground, foreground.roi_offset_xy, foreground.n_labels, foreground.labels
+    mask = None
     if n > 1 and min_component_px > 1:
-        areas = np.bincount(labels.ravel(), minlength=n)
-        small = areas < min_component_px
+        small = foreground.areas < min_component_px  # the areas from the foreground's pixels, not the whole crop
         small[0] = False
         if small.any():
-            remap = np.cumsum(~small) - 1  # background stays 0; kept labels renumbered 1, 2, ...
+            remap = (np.cumsum(~small) - 1).astype(np.int32)  # background stays 0; kept labels renumbered 1, 2, ...
             remap[small] = 0
-            labels = remap.astype(np.int32)[labels]
-            fg = np.where(labels > 0, np.uint8(255), np.uint8(0))
-    mask = fg > 0
-    if mask.any():
-        # the 5x5 chamfer mask: within 2 % of the exact Euclidean distance, 2-3 times faster than the exact one
-        dist = cv2.distanceTransform(np.where(mask, np.uint8(0), np.uint8(255)), cv2.DIST_L2, 5)
-    else:
-        dist = np.full(mask.shape, float(np.hypot(*mask.shape)), np.float32)
+            rows, cols, lab = foreground.pixels  # relabel the foreground's pixels only (the rest stays 0)
+            labels = np.zeros(labels.shape, np.int32)
+            labels[rows, cols] = remap[lab]
+            mask = labels > 0
+    if mask is None:
+        mask = fg > 0
 
     skel_xy, width = None, float("nan")
     if skeleton:
@@ -225,23 +247,22 @@ def view_evidence(
             prob[max(ky - offset[1], 0):max(ky + kh - offset[1], 0), max(kx - offset[0], 0):max(kx + kw - offset[0], 0)] = 0
 
     ko = None if keep_out is None else np.array(_box(keep_out, "keep_out"), int)
-    return ViewEvidence(foreground=mask, labels=labels, distance_px=dist, roi_offset_xy=np.asarray(offset, int),
+    return ViewEvidence(foreground=mask, labels=labels, roi_offset_xy=np.asarray(offset, int),
                         base_point_xy=np.asarray(base_point_xy, float).reshape(2), keep_out=ko,
                         skeleton_xy=skel_xy, width_px=width, probability=prob)
 
 
 def _skeleton(mask: np.ndarray, offset: np.ndarray) -> tuple[np.ndarray, float]:
     """Skeleton pixels (m, 2) full-image xy of a mask, and area / skeleton length (px)."""
-    from tendrilkit.skeleton.graph import skeletonize_strips  # the 2D stage's own thinning (strip by strip, faster)
-
     nz = cv2.findNonZero(mask.view(np.uint8))
     if nz is None:
         return np.zeros((0, 2)), float("nan")
     x0, y0, w, h = cv2.boundingRect(nz)
     sub = mask[y0:y0 + h, x0:x0 + w]
-    sk = skeletonize_strips(np.ascontiguousarray(sub.view(np.uint8)) * np.uint8(255))
-    r, c = np.nonzero(sk)
-    xy = np.column_stack([c + x0 + offset[0], r + y0 + offset[1]]).astype(float)
+    # cv2.findNonZero: the pixels in np.nonzero's (raster) order, several times faster on a large sparse array
+    sk = cv2.findNonZero(thin_strips(sub).view(np.uint8))
+    sk = np.zeros((0, 2), np.int32) if sk is None else sk.reshape(-1, 2)
+    xy = (sk + [x0 + offset[0], y0 + offset[1]]).astype(float)
     width = float(len(nz)) / max(len(xy), 1)
     return xy, width
 
@@ -275,10 +296,18 @@ def sample_distance(ev: ViewEvidence, xy: np.ndarray) -> np.ndarray:
 
     Notes
     -----
-    Plain numpy gather: about 10 µs for 200 points, 60 µs for 10 000.
+    Plain numpy gather: about 10 µs for 200 points, 60 µs for 10 000, once
+    ``distance_px`` is there. Before, only the box of the pixels read, grown
+    by :data:`LOCAL_MARGIN_PX`, is transformed (:func:`_local_distance`): a
+    foreground pixel outside that box is more than the margin away (the
+    chamfer distance is at least the chessboard one), and the chamfer distance
+    between two pixels of a box takes only paths inside it, so every value up
+    to the margin is the whole ROI's, bit for bit; a larger one, or boxes
+    over half the ROI, makes the whole ``distance_px``. The positions are
+    boxed in runs of :data:`LOCAL_RUN` (a curve's positions come along it).
     """
     xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-    h, w = ev.distance_px.shape
+    h, w = ev.shape
     u = xy[:, 0] - ev.roi_offset_xy[0]
     v = xy[:, 1] - ev.roi_offset_xy[1]
     uc = np.clip(u, 0.0, w - 1.0)
@@ -292,9 +321,59 @@ def sample_distance(ev: ViewEvidence, xy: np.ndarray) -> np.ndarray:
     j1 = np.minimum(j0 + 1, w - 1)
     fv = vc - i0
     fu = uc - j0
-    D = ev.distance_px
-    d = (D[i0, j0] * (1 - fu) * (1 - fv) + D[i0, j1] * fu * (1 - fv)
-         + D[i1, j0] * (1 - fu) * fv + D[i1, j1] * fu * fv).astype(float)
+    corners = None if "distance_px" in ev.__dict__ else _local_distance(ev, [i0, i0, i1, i1], [j0, j1, j0, j1], ~bad)
+    if corners is None:
+        D = ev.distance_px
+        corners = D[i0, j0], D[i0, j1], D[i1, j0], D[i1, j1]
+    d00, d01, d10, d11 = corners
+    d = (d00 * (1 - fu) * (1 - fv) + d01 * fu * (1 - fv) + d10 * (1 - fu) * fv + d11 * fu * fv).astype(float)
     d += np.hypot(u - uc, v - vc)
     d[bad] = np.nan
     return d
+
+
+#: Margin of the boxes :func:`sample_distance` transforms around the pixels it reads, px.
+LOCAL_MARGIN_PX = 16
+#: Consecutive positions per box: a curve's positions come in order along it, and the boxes of its short runs
+#: cover much less of the ROI than the box of the whole curve.
+LOCAL_RUN = 256
+
+
+def _local_distance(ev: ViewEvidence, rows: list, cols: list, use: np.ndarray) -> list | None:
+    """``ev.distance_px[rows[k], cols[k]]`` for every k, from boxes around the pixels read (see :func:`sample_distance`).
+
+    ``rows``, ``cols``: lists of (n,) int arrays of crop pixels, one per
+    corner of the bilinear interpolation; ``use``: (n,) bool, the positions
+    whose values count (the others get 0). The positions are taken in runs of
+    :data:`LOCAL_RUN`, each run's pixels from the transform of their own box
+    grown by :data:`LOCAL_MARGIN_PX`. None when the boxes would not pay (over
+    half the ROI together) or a value exceeds the margin: then the whole
+    transform is needed.
+    """
+    h, w = ev.shape
+    n = len(use)
+    boxes = []
+    for s in range(0, n, LOCAL_RUN):
+        u = use[s:s + LOCAL_RUN]
+        if not u.any():
+            continue
+        r = np.concatenate([a[s:s + LOCAL_RUN][u] for a in rows])
+        c = np.concatenate([a[s:s + LOCAL_RUN][u] for a in cols])
+        m = LOCAL_MARGIN_PX
+        boxes.append((s, max(int(r.min()) - m, 0), min(int(r.max()) + m + 1, h), max(int(c.min()) - m, 0),
+                      min(int(c.max()) + m + 1, w)))
+    if not boxes or sum((r1 - r0) * (c1 - c0) for _, r0, r1, c0, c1 in boxes) > 0.5 * h * w:
+        return None
+    out = [np.zeros(n, np.float32) for _ in rows]
+    for s, r0, r1, c0, c1 in boxes:
+        sub = np.ascontiguousarray(ev.foreground[r0:r1, c0:c1]).view(np.uint8)
+        if not sub.any():
+            return None
+        D = cv2.distanceTransform(cv2.compare(sub, 0, cv2.CMP_EQ), cv2.DIST_L2, 5)
+        u = use[s:s + LOCAL_RUN]
+        for v, a, b in zip(out, rows, cols):
+            vals = D[a[s:s + LOCAL_RUN][u] - r0, b[s:s + LOCAL_RUN][u] - c0]
+            if vals.max() > LOCAL_MARGIN_PX:
+                return None
+            v[s:s + LOCAL_RUN][u] = vals
+    return out

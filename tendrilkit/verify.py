@@ -467,12 +467,15 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
         return 1.0 if n_near else 0.0
     import cv2
 
-    img = np.zeros((h, w), np.uint8)
-    img[sr[free], sc[free]] = 1
-    nb, blab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
-    b = blab[sr[free], sc[free]]
-    size = np.bincount(b, minlength=nb)
     fr, fc = sr[free], sc[free]
+    # labelled on the free pixels' box (starting on an even row and column: the labelling's 2 x 2 blocks and
+    # raster order, hence the labels, are those of the whole crop)
+    r0, c0 = int(fr.min()) & ~1, int(fc.min()) & ~1
+    img = np.zeros((int(fr.max()) + 1 - r0, int(fc.max()) + 1 - c0), np.uint8)
+    img[fr - r0, fc - c0] = 1
+    nb, blab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
+    b = blab[fr - r0, fc - c0]
+    size = np.bincount(b, minlength=nb)
     # a skeleton stops about its line's half width short of where the line leaves the crop
     edge = np.minimum(np.minimum(fr, h - 1 - fr), np.minimum(fc, w - 1 - fc)) <= inside[fr, fc] + BORDER_PX
     tendril = (np.bincount(b, weights=edge, minlength=nb) == 0) & (size >= MIN_BRANCH_PX)

@@ -73,3 +73,41 @@ def test_bad_arguments():
         view_evidence(img, roi=[0, 0, 80, 60], keep_out=None, base_point_xy=[0, 0], min_component_px=-1)
     with pytest.raises(ValueError, match="roi"):
         view_evidence(img, roi=[0, 0, 0, 60], keep_out=None, base_point_xy=[0, 0])
+
+
+def _strokes_image(seed: int, h=160, w=220) -> np.ndarray:
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    img = np.full((h, w, 3), 245, np.uint8)
+    for _ in range(rng.integers(1, 5)):
+        pts = rng.integers(0, [w, h], size=(rng.integers(2, 5), 2)).astype(np.int32)
+        cv2.polylines(img, [pts], False, (25, 25, 25), int(rng.integers(1, 9)))
+    return img
+
+
+@pytest.mark.parametrize("run", [256, 7])
+@pytest.mark.parametrize("seed", range(12))
+def test_sample_distance_from_the_box_is_the_whole_transform(seed, run, monkeypatch):
+    """Before distance_px is read, sample_distance transforms only the boxes of its points: the same values."""
+    import cv2
+
+    import tendrilkit.evidence as evidence
+
+    monkeypatch.setattr(evidence, "LOCAL_RUN", run)  # one box, or a box per 7 positions
+
+    img = _strokes_image(seed)
+    rng = np.random.default_rng(seed)
+    kw = dict(roi=[7, 5, 200, 150], keep_out=[60, 40, 12, 12], base_point_xy=[10, 10], opening_radius_px=0)
+    on = np.argwhere(view_evidence(img, **kw).foreground)[:, ::-1] + [7, 5]
+    near = on[rng.integers(0, len(on), 40)] + rng.normal(0, 4, (40, 2))       # along the strokes (the box path)
+    anywhere = rng.uniform([-20, -20], [240, 180], (10, 2))                   # also off the ROI (the whole one)
+    for xy in (near, near[:3], np.vstack([near, [[np.nan, 5.0]]]), anywhere, np.vstack([near, anywhere])):
+        lazy = view_evidence(img, **kw)
+        whole = view_evidence(img, **kw)
+        assert whole.distance_px.shape == (150, 200)  # read first: sample_distance then reads the whole transform
+        assert np.array_equal(sample_distance(lazy, xy), sample_distance(whole, xy), equal_nan=True)
+    ev = view_evidence(img, **kw)
+    ref = cv2.distanceTransform(np.where(ev.foreground, np.uint8(0), np.uint8(255)), cv2.DIST_L2, 5)
+    assert np.array_equal(ev.distance_px, ref)
+    assert np.array_equal(ev.inside_px, cv2.distanceTransform(ev.foreground.view(np.uint8), cv2.DIST_L2, 5))

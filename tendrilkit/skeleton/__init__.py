@@ -5,8 +5,9 @@
 centreline, base to tip:
 
 1. **Skeleton.** The mask is cropped to its bounding box and thinned
-   (:func:`skimage.morphology.skeletonize`, strip by strip with overlapping
-   margins: the same skeleton at 40 % of the cost for a diagonal tendril);
+   (:func:`skimage.morphology.skeletonize`'s thinning, pixel for pixel, by
+   :func:`thinning.thin`, which visits only the pixels that can change;
+   strip by strip with overlapping margins, :func:`thinning.thin_strips`);
    the tube width ``w`` is the mask's area over the skeleton's length.
 2. **Graph.** The skeleton's pixel graph splits it into *branches* (pixel
    paths between endpoints and junction pixels; :func:`graph.skeleton_graph`:

@@ -41,18 +41,12 @@ def _bridge(pieces: list, nodes_seq: list, node_xy: np.ndarray, radius: np.ndarr
         return pts  # nothing outside the zones: keep the skeleton as it is
     out = []
     n = len(pts)
-    i = 0
-    while i < n:
+    # the runs [i, j) of kept and of dropped points, in order
+    edges = (np.flatnonzero(keep[1:] != keep[:-1]) + 1).tolist()
+    for i, j in zip([0] + edges, edges + [n]):
         if keep[i]:
-            j = i
-            while j < n and keep[j]:
-                j += 1
             out.append(pts[i:j])
-            i = j
             continue
-        j = i
-        while j < n and not keep[j]:
-            j += 1
         # gap [i, j): bridge from pts[i-1] to pts[j]
         if j == n:
             # the walk ends in a crossing (a tip stub shorter than prune_px
@@ -61,7 +55,6 @@ def _bridge(pieces: list, nodes_seq: list, node_xy: np.ndarray, radius: np.ndarr
             break
         if i == 0:
             out.append(pts[i:j])
-            i = j
             continue
         p0, p1 = pts[i - 1], pts[j]
         tl = _run_tangent(pts, keep, i - 1, -1, window)
@@ -75,7 +68,6 @@ def _bridge(pieces: list, nodes_seq: list, node_xy: np.ndarray, radius: np.ndarr
         h11 = t**3 - t**2
         bridge = h00 * p0 + h10 * d * tl + h01 * p1 + h11 * d * tr
         out.append(bridge)
-        i = j
     return np.vstack(out)
 
 

@@ -1,6 +1,6 @@
-"""Thinning and the skeleton graph: nodes, branches and their surgery.
+"""The skeleton graph: nodes, branches and their surgery.
 
-The mask is thinned (:func:`skeletonize_strips`), the skeleton is split into
+The thinned mask (:func:`tendrilkit.skeleton.thinning.thin_strips`) is split into
 branches (:func:`_build_graph`: the pixel graph of :func:`skeleton_graph`,
 skan's graph, computed without importing skan or compiling its uncached
 kernels in every process); spurs are pruned
@@ -19,48 +19,12 @@ import numpy as np
 from numba import njit
 from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
-from skimage.morphology import skeletonize
 
 from tendrilkit.skeleton.tangents import _end_tangent, _signed_angle_deg
 
-__all__ = ["skeletonize_strips", "skeleton_graph"]
+__all__ = ["skeleton_graph"]
 
 _SHALLOW_X_WIDTHS = 15.0  # longest middle of a shallow X crossing, in tube widths (about 8 deg)
-
-
-def skeletonize_strips(mask_u8: np.ndarray, strip: int = 96) -> np.ndarray:
-    """:func:`skimage.morphology.skeletonize` of a mask, strip by strip.
-
-    Zhang-Suen thinning costs in proportion to the array's area, and a
-    diagonal tendril fills a small part of its bounding box (9 ms for a
-    400 x 800 px box on a 1080p phantom view). Each horizontal strip of
-    ``strip`` rows is thinned with ``margin`` extra rows above and below,
-    cropped to the columns its rows use; a pixel depends only on pixels within
-    one pixel per sub-iteration, and the sub-iterations are about the mask's
-    thickness, so a margin of three thicknesses (at least 24 px) gives the
-    same skeleton as the whole box (no pixel differs on 96 phantom frames of
-    the four sites) at about 40 % of the cost.
-    """
-    H, W = mask_u8.shape
-    if H <= 2 * strip:
-        return skeletonize(mask_u8.astype(bool))
-    contours, _ = cv2.findContours(mask_u8, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
-    perimeter = sum(cv2.arcLength(c, True) for c in contours)
-    thickness = 2.0 * float(np.count_nonzero(mask_u8)) / max(perimeter, 1.0)
-    margin = max(24, int(np.ceil(3 * thickness)) + 4)
-    rows_any = mask_u8.any(axis=1)
-    out = np.zeros((H, W), bool)
-    for r0 in range(0, H, strip):
-        r1 = min(r0 + strip, H)
-        if not rows_any[r0:r1].any():
-            continue
-        a0, a1 = max(r0 - margin, 0), min(r1 + margin, H)
-        band = mask_u8[a0:a1]
-        cols = np.flatnonzero(band.any(axis=0))
-        c0, c1 = max(cols[0] - 1, 0), min(cols[-1] + 2, W)
-        out[r0:r1, c0:c1] = skeletonize(band[:, c0:c1].astype(bool))[r0 - a0 : r1 - a0]
-    return out
-
 
 
 class _Graph:

@@ -21,10 +21,10 @@ from tendrilkit.skeleton.graph import (
     _merge_degree_two,
     _prune,
     _widen_zones,
-    skeletonize_strips,
 )
 from tendrilkit.skeleton.results import Decision, OrderedCenterline
 from tendrilkit.skeleton.tangents import _arc, _direction, _end_tangent, _signed_angle_deg
+from tendrilkit.skeleton.thinning import thin_strips
 
 __all__ = ["order_skeleton"]
 
@@ -135,7 +135,7 @@ def order_skeleton(
     base = np.asarray(base_point_xy, dtype=float).reshape(2) - off
     overrides_here = _parse_overrides(overrides, int(frame), int(view))
 
-    skel = skeletonize_strips(crop)
+    skel = thin_strips(crop)
     n_skel = int(np.count_nonzero(skel))
     if n_skel < 3:
         raise EmptySkeletonError(f"the mask thins to {n_skel} skeleton pixel(s)")
