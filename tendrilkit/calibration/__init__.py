@@ -56,7 +56,7 @@ checks), ``ijcv25`` (the authors' stored poses and the paper's rig) and
 from tendrilkit.calibration.bundle import BundleReport, bundle_adjust
 from tendrilkit.calibration.experiment import calibrate_views, experiment_intrinsics, marks_volume
 from tendrilkit.calibration.ijcv25 import RIG_DIR, calibration_from_ijcv25, cameras_from_ijcv25, ijcv25_rig
-from tendrilkit.calibration.markers import REFINE_METHODS, detect_markers
+from tendrilkit.calibration.markers import REFINE_METHODS, average_detections, detect_markers
 from tendrilkit.calibration.poses import marker_pose
 from tendrilkit.calibration.rig import (
     MIN_BASELINE_FRACTION,
@@ -77,6 +77,7 @@ __all__ = [
     "RIG_LIMIT_PX",
     "RIG_LIMIT_SIGMAS",
     "assess_rig",
+    "average_detections",
     "marks_volume",
     "rig_uncertainty_px",
     "REFINE_METHODS",
