@@ -10,14 +10,14 @@
 generated and calibrated, no reconstruction: per view the rig's max px over
 the tendril's points against the true cameras, its spread on the marks'
 volume and the flags (:func:`tendrilkit.calibration.assess_rig`).
-Measured 2026-11-30 (frames 6, the shared machine), rig max px per view,
-median / 90 % / max, scenes over 0.5 px. Tuning seeds 0:70: before
-(``edges``, unweighted adjustment; seeds 0:57 only) 0.109 / 0.248 / 0.666,
-4 scenes; ``edges`` with the weighted adjustment 0.108 / 0.265 / 0.679, 5;
-after (``grid``, weighted) 0.100 / 0.220 / 0.451, none (15 of 70 flagged).
-Untouched seeds 6000:6030 (29 calibrated: seed 6013's world marker is not
-detected in view 1 by OpenCV): before 0.134 / 0.297 / 0.544, 1 scene;
-after 0.096 / 0.236 / 0.562, 1 scene (6019, flagged; 9 of 29 flagged).
+Measured 2026-11-30 (scenes of 6 frames, the shared machine), the worst
+view's rig px per scene. Tuning seeds 0:70, frame 0 alone: ``edges`` median
+0.130, max 0.679, 5 scenes over 0.5 px (1 not flagged), 20 flagged (16 of
+them within 0.5 px); ``grid`` 0.130 / 0.451, none over, 15 flagged (all
+within 0.5 px). The default, ``grid`` on 5 frames (``--configs grid:5``):
+0.088 / 0.387, none over, 7 flagged (all within 0.5 px); calibration CPU
+2.2 s per scene (median; ``grid`` on one frame about 0.8 s). Untouched
+dev ranges: see the report of issue 11 (6000:6030, 8000:8030).
 
 ``synthetic``: exact corners plus noise; camera rotation error and agreement
 of the single-marker poses and of the bundle adjustment.
