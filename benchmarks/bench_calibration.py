@@ -4,7 +4,7 @@
     .venv/bin/python benchmarks/bench_calibration.py synthetic  # single marker vs bundle adjustment
     .venv/bin/python benchmarks/bench_calibration.py speed      # time of one bundle adjustment
     .venv/bin/python benchmarks/bench_calibration.py phantom [SITES] [--seeds 0,1]
-    .venv/bin/python benchmarks/bench_calibration.py scenes --seeds 0:200 [--refine grid,edges] [--cache DIR]
+    .venv/bin/python benchmarks/bench_calibration.py scenes --seeds 0:200 [--configs edges:1,grid:5] [--cache DIR]
 
 ``scenes``: random scenes (:mod:`tendrilkit.phantom.scenes`, dev seeds only)
 generated and calibrated, no reconstruction: per view the rig's max px over
