@@ -27,8 +27,10 @@ def calibrate_experiment(exp: "Experiment") -> CalibrationResult:
     With ``extrinsics: {format: ijcv25}`` the stored poses of the row whose frame
     is ``frames.start`` (else the first row) are used, and the table holds the
     stored corners' reprojection errors. Otherwise the first processed frame of
-    every view is read and :func:`tendrilkit.calibration.calibrate` runs with
-    the experiment's ``marker`` and ``calibration.bundle_adjust``.
+    every view and the ``calibration.average_frames - 1`` video frames after it
+    (as many as the video has) are read and :func:`tendrilkit.calibration.calibrate`
+    runs with the experiment's ``marker`` and ``calibration`` options, the
+    corners averaged over the frames.
 
     The result is then checked (:func:`tendrilkit.calibration.check_calibration`):
     every view's marker corners must reproject within
@@ -53,9 +55,17 @@ def calibrate_experiment(exp: "Experiment") -> CalibrationResult:
     for v, video in enumerate(exp.videos):
         with FrameSource(video) as src:
             try:
-                images.append(src.read(start))
+                frames = [src.read(start)]
             except FrameReadError as e:
                 raise ExperimentError(f"view {v + 1}: cannot read the first processed frame {start} for calibration ({e})") from None
+            for f in range(start + 1, start + exp.calibration.average_frames):
+                if src.frame_count and f >= src.frame_count:
+                    break
+                try:
+                    frames.append(src.read(f))
+                except FrameReadError:  # the video ends (or a frame is damaged): average the frames read
+                    break
+        images.append(frames)
     return calibrate_views(exp, image_sizes=sizes, images=images)
 
 

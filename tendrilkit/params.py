@@ -371,12 +371,17 @@ class Calibration(_Strict):
     naming the view and the figure (wrong intrinsics, a video of another
     size...); ``null`` accepts any calibration (the command line's
     ``--accept-calibration``); ``corner_refine``: how each marker's corners
-    are measured: ``edges`` (default: a straight line fitted to each side's
-    sub-pixel edge points) or ``grid`` (then one homography fitted to every
-    black-white edge of the marker's cells: a tighter rig, see the README)."""
+    are measured: ``grid`` (default: one homography fitted to every
+    black-white edge of the marker's cells, after ``edges``; a tighter rig,
+    see the README) or ``edges`` (a straight line fitted to each side's
+    sub-pixel edge points); ``average_frames``: the markers are static, so
+    their corners are averaged over this many consecutive video frames from
+    ``frames.start`` (fewer when the video ends), which averages out sensor
+    noise, flicker and compression (1: the first frame alone)."""
 
     bundle_adjust: bool = True
-    corner_refine: Literal["edges", "grid"] = "edges"
+    corner_refine: Literal["edges", "grid"] = "grid"
+    average_frames: int = Field(5, ge=1, le=100)
     max_corner_rms_px: Annotated[float, Field(gt=0, le=L.MAX_OPTION_PX)] | None = 1.5
 
 

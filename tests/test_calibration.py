@@ -496,3 +496,73 @@ def test_marks_volume_is_the_rois_hull_around_the_base():
     assert np.linalg.norm(vol.mean(axis=0) - base) < 60
     none = marks_volume(cams, [None] * 3, [None] * 3)  # no marks: a 100 mm cube about the world marker
     assert np.allclose(none.mean(axis=0)[:2], 0.0) and none[:, 2].max() == 100.0
+
+
+# ------------------------------------------------------- corners averaged over several frames
+def test_average_detections_beats_one_frame():
+    """The rig is static: corners averaged over frames with independent noise are nearer the truth than one
+    frame's (about 1 / sqrt(frames) of the noise part)."""
+    from tendrilkit.calibration import average_detections
+
+    tex, corners = board_scene()
+    cam = distorted_rig()[0]
+    rng = np.random.default_rng(21)
+    dets = [detect_markers(render_board(cam, tex, rng=rng, noise=8.0, corners=corners), DICT, camera=cam)
+            for _ in range(6)]
+
+    def rms(det):
+        return float(np.sqrt(np.mean([np.sum((c - cam.project(corners[m])) ** 2, axis=1) for m, c in det.items()])))
+
+    avg = average_detections(dets)
+    assert set(avg) == set().union(*map(set, dets))
+    single = [rms(d) for d in dets]
+    assert rms(avg) < 0.75 * np.mean(single), (rms(avg), single)
+
+
+def test_average_detections_leaves_out_a_frame_that_disagrees():
+    """A frame whose corners of a marker are 2 px off (something over it) does not move the mean; a marker
+    one frame shows is kept; no frame at all is a clear error."""
+    from tendrilkit.calibration import average_detections
+
+    c = cam_corners = np.array([[10.0, 10.0], [60.0, 11.0], [61.0, 60.0], [9.0, 59.0]])
+    rng = np.random.default_rng(2)
+    frames = [{5: c + rng.normal(0, 0.05, c.shape)} for _ in range(5)] + [{5: c + 2.0, 9: cam_corners + 1.0}]
+    out = average_detections(frames)
+    assert sorted(out) == [5, 9]
+    assert np.abs(out[5] - c).max() < 0.1
+    np.testing.assert_allclose(out[9], cam_corners + 1.0)
+    with pytest.raises(ValueError, match="detections"):
+        average_detections([])
+
+
+def test_calibrate_from_several_frames(rendered):
+    """Frames per view (a list each) calibrate like one frame, and a view whose frames all miss the world
+    marker names how many were searched."""
+    cams, images, _ = rendered
+    tex, corners = board_scene()
+    rng = np.random.default_rng(8)
+    more = [[img] + [render_board(c, tex, rng=rng, corners=corners) for _ in range(2)] for c, img in zip(cams, images)]
+    res = calibrate(more, cams, dictionary=DICT, world_id=WORLD_ID, length_mm=L)
+    mx, _ = rig_agreement_px(res.cameras, cams, working_volume())
+    assert mx.max() < 0.5, mx
+    blank = np.full_like(images[1], 220)
+    with pytest.raises(ExperimentError) as e:
+        calibrate([more[0], [blank, blank], more[2]], cams, dictionary=DICT, world_id=WORLD_ID, length_mm=L, frame=3)
+    assert str(e.value) == "view 2: world marker 815 (DICT_ARUCO_ORIGINAL) not found in any of 2 frames from frame 3"
+
+
+def test_calibration_options_in_the_experiment_file(tmp_path):
+    """``calibration.corner_refine`` defaults to ``grid`` and ``average_frames`` to 5; a wrong value is one line."""
+    import yaml
+
+    from tendrilkit.params import load_experiment
+    from tests.test_params import GOOD
+
+    p = tmp_path / "experiment.yaml"
+    p.write_text(yaml.safe_dump(GOOD))
+    cal = load_experiment(p, check_files=False).calibration
+    assert (cal.corner_refine, cal.average_frames) == ("grid", 5)
+    p.write_text(yaml.safe_dump({**GOOD, "calibration": {"average_frames": 0}}))
+    with pytest.raises(ExperimentError) as e:
+        load_experiment(p, check_files=False)
+    assert "\n" not in str(e.value) and "calibration.average_frames" in str(e.value)

@@ -10,11 +10,13 @@ The method in four steps:
    side, undistorted, one straight line per side, corners where the lines
    meet; the black border's measured width removes the bias that a non-linear
    camera response puts on every edge (it would scale the whole rig); then
-   (``refine="grid"``, the experiment file's ``calibration.corner_refine:
-   grid``) one homography fitted to sub-pixel points
+   (``refine="grid"``, the default, the experiment file's
+   ``calibration.corner_refine``) one homography fitted to sub-pixel points
    on every black-white edge of the marker's cells, whose geometry the
    dictionary gives: a 7 x 7-cell marker has several times more edge than
-   its four sides, and the corners it gives are the homography's.
+   its four sides, and the corners it gives are the homography's. The rig is
+   static, so with several frames per view (``calibration.average_frames``)
+   each marker's corners are averaged over them (:func:`average_detections`).
 2. :func:`marker_pose`: the world marker's pose in each view,
    ``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)`` with the lens distortion. This
    single-marker pose is what the paper uses as the camera pose.
@@ -26,7 +28,7 @@ The method in four steps:
    plane, which pins the world frame's tilt over the board's whole extent.
 4. :func:`calibrate` (images) and :func:`calibrate_from_observations`
    (corners) compose them; :func:`calibrate_views` runs them on an
-   experiment's first processed frame (read by the caller,
+   experiment's first processed frames (read by the caller,
    :func:`tendrilkit.extrinsics.calibrate_experiment`), or takes the authors'
    stored poses (``extrinsics: ijcv25``, :mod:`.ijcv25`).
 
@@ -56,7 +58,7 @@ checks), ``ijcv25`` (the authors' stored poses and the paper's rig) and
 from tendrilkit.calibration.bundle import BundleReport, bundle_adjust
 from tendrilkit.calibration.experiment import calibrate_views, experiment_intrinsics, marks_volume
 from tendrilkit.calibration.ijcv25 import RIG_DIR, calibration_from_ijcv25, cameras_from_ijcv25, ijcv25_rig
-from tendrilkit.calibration.markers import REFINE_METHODS, detect_markers
+from tendrilkit.calibration.markers import REFINE_METHODS, average_detections, detect_markers
 from tendrilkit.calibration.poses import marker_pose
 from tendrilkit.calibration.rig import (
     MIN_BASELINE_FRACTION,
@@ -77,6 +79,7 @@ __all__ = [
     "RIG_LIMIT_PX",
     "RIG_LIMIT_SIGMAS",
     "assess_rig",
+    "average_detections",
     "marks_volume",
     "rig_uncertainty_px",
     "REFINE_METHODS",

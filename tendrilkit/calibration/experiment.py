@@ -32,7 +32,7 @@ def experiment_intrinsics(exp: "Experiment", image_sizes: list[tuple[int, int]])
     return cams
 
 
-def calibrate_views(exp: "Experiment", *, image_sizes: list[tuple[int, int]], images: list[np.ndarray] | None = None,
+def calibrate_views(exp: "Experiment", *, image_sizes: list[tuple[int, int]], images: list | None = None,
                     extrinsics: list[dict[str, np.ndarray]] | None = None) -> CalibrationResult:
     """The rig of an experiment: from its stored poses, else from the markers of its first processed frame.
 
@@ -40,10 +40,10 @@ def calibrate_views(exp: "Experiment", *, image_sizes: list[tuple[int, int]], im
     :func:`tendrilkit.io.read_ijcv25_extrinsics`) the stored poses of the row
     whose frame is ``frames.start`` (else the first row) are used
     (:func:`~tendrilkit.calibration.ijcv25.calibration_from_ijcv25`).
-    Otherwise ``images`` (frame ``frames.start`` of every view, BGR) go
-    through :func:`~tendrilkit.calibration.rig.calibrate` with the
-    experiment's ``marker``, ``calibration.bundle_adjust`` and
-    ``calibration.corner_refine``.
+    Otherwise ``images`` (per view, frame ``frames.start``, BGR, or a list of
+    it and the frames after it: ``calibration.average_frames``) go through
+    :func:`~tendrilkit.calibration.rig.calibrate` with the experiment's
+    ``marker``, ``calibration.bundle_adjust`` and ``calibration.corner_refine``.
 
     The result is then checked (:func:`check_calibration`): every view's
     marker corners must reproject within ``calibration.max_corner_rms_px``
@@ -66,7 +66,7 @@ def calibrate_views(exp: "Experiment", *, image_sizes: list[tuple[int, int]], im
         result = calibration_from_ijcv25(extrinsics, intr, frame=start, length_mm=exp.marker.length_mm)
     else:
         if images is None:
-            raise ValueError("images: expected frame frames.start of every view to calibrate from the markers")
+            raise ValueError("images: expected frame frames.start (or a list of frames) of every view to calibrate from the markers")
         result = calibrate(images, intr, dictionary=exp.marker.dictionary, world_id=exp.marker.id,
                            length_mm=exp.marker.length_mm, bundle_adjust=exp.calibration.bundle_adjust, frame=start,
                            refine=exp.calibration.corner_refine)

@@ -10,7 +10,7 @@ import numpy as np
 from tendrilkit.camera import Camera
 from tendrilkit.geometry import marker_corners
 
-__all__ = ["REFINE_METHODS", "detect_markers"]
+__all__ = ["REFINE_METHODS", "average_detections", "detect_markers"]
 
 #: Corner refinement methods of :func:`detect_markers`.
 REFINE_METHODS = ("grid", "edges", "subpix", "contour", "apriltag", "none")
@@ -313,7 +313,7 @@ def _line_residuals(H: np.ndarray, pts: np.ndarray, lines: np.ndarray) -> tuple[
     return r, J
 
 
-def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "edges",
+def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "grid",
                    camera: Camera | None = None) -> dict[int, np.ndarray]:
     """ArUco markers of one image: ``{marker_id: corners (4, 2) px}``.
 
@@ -326,7 +326,7 @@ def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "edg
     refine : {"grid", "edges", "subpix", "contour", "apriltag", "none"}, keyword-only
         Corner refinement. ``edges``: OpenCV's ``CORNER_REFINE_SUBPIX``
         corners, then straight lines fitted to sub-pixel edge points of each side
-        (see Notes; the default); ``grid``: then one homography fitted to edge
+        (see Notes); ``grid`` (the default): then one homography fitted to edge
         points on every black-white edge of the cells (``_refine_corners_grid``;
         a marker whose cells are under 4 px keeps its ``edges`` corners); the
         others are OpenCV's ``CORNER_REFINE_*`` methods alone.
@@ -396,3 +396,48 @@ def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "edg
                 out[m] = g
     return dict(sorted(out.items()))
 
+
+
+def average_detections(detections: list[dict[int, np.ndarray]], *, tol_px: float = 0.5) -> dict[int, np.ndarray]:
+    """One view's markers over several frames of a static rig: ``{marker_id: corners (4, 2) px}``.
+
+    The markers and cameras do not move between the frames, while sensor
+    noise, flicker, motion blur and compression differ from frame to frame:
+    the mean of a marker's corners over the frames that show it averages
+    them out (their error falls about as one over the square root of the
+    frames). A frame whose corners of that marker lie further than
+    ``max(tol_px, 3 sigma)`` from the median corners (``sigma`` from the
+    frames' median deviation) is left out of the mean (something passing over
+    the marker, a frame of another scene); a marker seen in one frame only
+    keeps that frame's corners.
+
+    Parameters
+    ----------
+    detections : list of dict
+        :func:`detect_markers` of each frame, ``{marker_id: corners (4, 2) px}``.
+    tol_px : float, keyword-only
+        Smallest deviation from the median corners (px, largest over the four
+        corners) that leaves a frame out.
+
+    Returns
+    -------
+    dict
+        Every marker seen in at least one frame, sorted by id.
+
+    Examples
+    --------
+    >>> c = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]])
+    >>> out = average_detections([{7: c + 0.1}, {7: c - 0.1}, {7: c + 5.0}, {}])
+    >>> np.round(out[7][0], 3).tolist()
+    [0.0, 0.0]
+    """
+    if not detections:
+        raise ValueError("detections: expected the markers of at least one frame")
+    out: dict[int, np.ndarray] = {}
+    for m in sorted(set().union(*[set(d) for d in detections])):
+        C = np.array([d[m] for d in detections if m in d], dtype=float)  # (k, 4, 2)
+        med = np.median(C, axis=0)
+        dev = np.linalg.norm(C - med[None], axis=2).max(axis=1)
+        keep = dev <= max(tol_px, 3.0 * 1.4826 * float(np.median(dev)))
+        out[m] = C[keep].mean(axis=0)
+    return out

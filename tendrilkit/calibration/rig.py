@@ -11,7 +11,7 @@ import pandas as pd
 
 from tendrilkit.calibration import bundle
 from tendrilkit.calibration.bundle import BundleReport, _reprojection_rows
-from tendrilkit.calibration.markers import detect_markers
+from tendrilkit.calibration.markers import average_detections, detect_markers
 from tendrilkit.calibration.poses import _choose_world_poses
 from tendrilkit.camera import Camera, rotation_from_rvec
 from tendrilkit.exceptions import ExperimentError
@@ -132,19 +132,23 @@ def _marker_table(rows: pd.DataFrame, markers_world: dict[int, np.ndarray],
     return t.reset_index(drop=True)
 
 
-def calibrate(images: list[np.ndarray], intrinsics: list[Camera], *, dictionary: str, world_id: int,
+def calibrate(images: list, intrinsics: list[Camera], *, dictionary: str, world_id: int,
               length_mm: float, bundle_adjust: bool = True, frame: int = 0,
-              refine: str = "edges") -> CalibrationResult:
-    """Camera poses from the markers in one frame of every view.
+              refine: str = "grid") -> CalibrationResult:
+    """Camera poses from the markers in one or several frames of every view.
 
     The world marker's single-marker pose (:func:`marker_pose`) is each camera's
     initial pose, as in the paper; with ``bundle_adjust`` the rig is then
     refined with every marker two or more views see (:func:`bundle_adjust`).
+    With several frames per view (the rig is static), each view's corners are
+    the mean over the frames (:func:`~tendrilkit.calibration.markers.average_detections`),
+    and a marker any frame shows is used.
 
     Parameters
     ----------
-    images : list of (height, width, 3) uint8 arrays
-        One BGR frame per view, view order.
+    images : list
+        Per view, in view order: one BGR frame, a (height, width, 3) uint8
+        array, or a list of such frames of the static rig.
     intrinsics : list of Camera
         One per view (K, dist, image size; poses ignored).
     dictionary, world_id, length_mm
@@ -152,13 +156,16 @@ def calibrate(images: list[np.ndarray], intrinsics: list[Camera], *, dictionary:
     bundle_adjust : bool, keyword-only
         Refine with the other markers (default True).
     frame : int, keyword-only
-        The frames' index in the videos, for messages only.
+        The (first) frame's index in the videos, for messages only.
+    refine : str, keyword-only
+        Corner refinement of :func:`~tendrilkit.calibration.markers.detect_markers` (default ``grid``).
 
     Raises
     ------
     ExperimentError
         When a view does not show the world marker:
-        ``view 2: world marker 815 (DICT_ARUCO_ORIGINAL) not found in frame 0``.
+        ``view 2: world marker 815 (DICT_ARUCO_ORIGINAL) not found in frame 0``
+        (``in any of 5 frames from frame 0`` for several).
     """
     if len(images) != len(intrinsics):
         raise ValueError(f"images: expected one per camera ({len(intrinsics)}), got {len(images)}")
@@ -166,12 +173,16 @@ def calibrate(images: list[np.ndarray], intrinsics: list[Camera], *, dictionary:
         raise ValueError("images: expected at least one view")
     observations: dict[int, dict[int, np.ndarray]] = {}
     for v, (img, cam) in enumerate(zip(images, intrinsics)):
-        observations[v] = detect_markers(img, dictionary, refine=refine, camera=cam)
+        frames = list(img) if isinstance(img, (list, tuple)) else [img]
+        if not frames:
+            raise ValueError(f"images: expected at least one frame of view {v + 1}")
+        observations[v] = average_detections([detect_markers(f, dictionary, refine=refine, camera=cam)
+                                              for f in frames])
         if world_id not in observations[v]:
-            raise ExperimentError(f"view {v + 1}: world marker {world_id} ({dictionary}) not found in frame {frame}")
+            where = f"frame {frame}" if len(frames) == 1 else f"any of {len(frames)} frames from frame {frame}"
+            raise ExperimentError(f"view {v + 1}: world marker {world_id} ({dictionary}) not found in {where}")
     return calibrate_from_observations(observations, intrinsics, world_id=world_id, length_mm=length_mm,
                                        bundle_adjust=bundle_adjust, frame=frame)
-
 
 
 def calibrate_from_observations(observations: dict[int, dict[int, np.ndarray]], intrinsics: list[Camera], *,
