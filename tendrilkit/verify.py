@@ -99,7 +99,7 @@ import numpy as np
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
 from tendrilkit.verify_base import WIDE_RATIO, base_on_tendril, near_base
 from tendrilkit.verify_beyond import beyond_tip_px
-from tendrilkit.verify_crossing import crossing_branches
+from tendrilkit.verify_crossing import border_segments, crossing_branches
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
 from tendrilkit.verify_tip import TIP_PX, on_wide, tip_continuation, tip_wide_fraction, wide_run_px
 
@@ -414,9 +414,11 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     * pixels wider than the tendril (inside distance above :data:`WIDE_RATIO`
       times the tendril's, :func:`_tendril_radius_px`): a leaf's blob, the
       stem, a thicker shoot, not the tendril's thin line;
-    * branches (8-connected runs of the remaining pixels) reaching the ROI's
-      border: the stem, a shoot or a leaf's stalk come from outside the
-      region the tendril moves in, the tendril does not;
+    * segments between junctions of the remaining pixels that reach the
+      ROI's border (:func:`tendrilkit.verify_crossing.border_segments`): the
+      stem, a shoot or a second tendril come from outside the region the
+      tendril moves in, the tendril does not (a missed part of it crossing
+      such a line keeps its own segments);
     * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs;
     * branches that run straight on across the curve into another
       unexplained branch (:func:`tendrilkit.verify_crossing.crossing_branches`):
@@ -473,12 +475,15 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     r0, c0 = int(fr.min()) & ~1, int(fc.min()) & ~1
     img = np.zeros((int(fr.max()) + 1 - r0, int(fc.max()) + 1 - c0), np.uint8)
     img[fr - r0, fc - c0] = 1
+    # a skeleton stops about its line's half width short of where the line leaves the crop
+    edge = np.zeros(img.shape, bool)
+    edge[fr - r0, fc - c0] = np.minimum(np.minimum(fr, h - 1 - fr), np.minimum(fc, w - 1 - fc)) <= \
+        inside[fr, fc] + BORDER_PX
+    img[border_segments(img, edge)] = 0  # only the segments running out of the ROI, not all joined to them
     nb, blab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
     b = blab[fr - r0, fc - c0]
     size = np.bincount(b, minlength=nb)
-    # a skeleton stops about its line's half width short of where the line leaves the crop
-    edge = np.minimum(np.minimum(fr, h - 1 - fr), np.minimum(fc, w - 1 - fc)) <= inside[fr, fc] + BORDER_PX
-    tendril = (np.bincount(b, weights=edge, minlength=nb) == 0) & (size >= MIN_BRANCH_PX)
+    tendril = size >= MIN_BRANCH_PX
     tendril[0] = False
     cand = np.nonzero(tendril)[0]
     if cand.size:  # a thin line crossing the tendril: its arms continue each other across the curve

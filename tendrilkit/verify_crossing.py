@@ -19,7 +19,65 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["crossing_branches"]
+__all__ = ["crossing_branches", "border_segments"]
+
+
+def border_segments(img: np.ndarray, edge: np.ndarray) -> np.ndarray:
+    """The pixels of a skeleton's segments (between junctions) that themselves reach the region's border.
+
+    A line running out of the ROI (the stem, a shoot, a second tendril's
+    arm) comes from outside the region the tendril moves in. Only the
+    segments of it that reach the border are clutter: a part of the tendril
+    the curve missed that crosses or touches such a line keeps its own
+    segments. A junction is a pixel with three or more runs of neighbours
+    around it (the crossing number, which a staircase step of a thin line
+    does not reach); its 3 x 3 neighbourhood separates the segments meeting
+    there and stays with the pixels that are not dropped.
+
+    Parameters
+    ----------
+    img : (h, w) uint8 array
+        The skeleton pixels (1), 0 elsewhere.
+    edge : (h, w) bool array
+        Pixels at the border (only read where ``img`` is 1).
+
+    Returns
+    -------
+    (h, w) bool array
+        True on the pixels of segments with a pixel on ``edge``.
+
+    Examples
+    --------
+    A vertical line from the border (row 0) down to a horizontal one that stays inside: only the vertical segment
+    is dropped (rows 0-4; the junction at row 6 and its neighbour above stay).
+
+    >>> img = np.zeros((12, 20), np.uint8); img[0:6, 10] = 1; img[6, 2:18] = 1
+    >>> edge = np.zeros(img.shape, bool); edge[0] = True
+    >>> drop = border_segments(img, edge)
+    >>> int(drop[:, 10].sum()), int(drop[6].sum())
+    (5, 0)
+    """
+    import cv2
+
+    on = img > 0
+    p = np.pad(on, 1)
+    h, w = on.shape
+    # the eight neighbours in order around the pixel; a run starts where a 0 is followed by a 1
+    ring = [p[r:r + h, c:c + w] for r, c in ((0, 1), (0, 2), (1, 2), (2, 2), (2, 1), (2, 0), (1, 0), (0, 0))]
+    runs = sum((~ring[k] & ring[(k + 1) % 8]).astype(np.uint8) for k in range(8))
+    junction = on & (runs >= 3)
+    zone = cv2.dilate(junction.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & on
+    n, seg = cv2.connectedComponents((on & ~zone).astype(np.uint8), connectivity=8, ltype=cv2.CV_32S)
+    at_edge = np.bincount(seg[on & edge & ~zone], minlength=n) > 0
+    at_edge[0] = False
+    drop = at_edge[seg] & on
+    if (zone & edge).any():  # a junction on the border itself: the segments meeting there reach it too
+        zl = cv2.connectedComponents(zone.astype(np.uint8), connectivity=8, ltype=cv2.CV_32S)[1]
+        hit = np.unique(zl[zone & edge])
+        near = cv2.dilate(np.isin(zl, hit).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+        drop |= np.isin(seg, np.unique(seg[near & (seg > 0)])) & (seg > 0)
+        drop |= np.isin(zl, hit) & zone
+    return drop
 
 
 def crossing_branches(dense_xy: np.ndarray, free_xy: np.ndarray, free_branch: np.ndarray, branches: np.ndarray, *,
