@@ -29,8 +29,9 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         ``coverage_tolerance_px`` of it (:func:`_coverage`): how much of the
         tendril's pixels, from the base outward, the curve explains. Clutter
         joined to the tendril's pixels is left out (pixels wider than the
-        tendril, branches running out of the ROI, spurs, thin lines crossing
-        the curve: :mod:`tendrilkit.verify_crossing`). A shrunk curve (the
+        tendril, skeleton segments running out of the ROI, spurs, thin lines
+        crossing the curve), pieces of the tendril beyond a break in its dark
+        pixels count (:mod:`tendrilkit.verify_crossing`). A shrunk curve (the
         tip missing), one that jumps to another component or one that runs
         along the stem instead of the tendril scores low.
     ``tip_continuation_px_v<i>``
@@ -99,7 +100,7 @@ import numpy as np
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
 from tendrilkit.verify_base import WIDE_RATIO, base_on_tendril, near_base
 from tendrilkit.verify_beyond import beyond_tip_px
-from tendrilkit.verify_crossing import border_segments, crossing_branches
+from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
 from tendrilkit.verify_tip import TIP_PX, on_wide, tip_continuation, tip_wide_fraction, wide_run_px
 
@@ -114,9 +115,6 @@ BORDER_PX = 2
 #: Branches of unexplained thin skeleton shorter than this (px) are the skeleton's spurs (at a leaf's rim,
 #: at a crossing), not a part of the tendril the curve missed.
 MIN_BRANCH_PX = 8
-
-#: Largest break in the dark pixels, px, bridged between the tendril's pieces (:func:`_across_gaps`).
-GAP_PX = 10.0
 
 #: Frame-level verification columns of ``frames.csv`` (after the per-view ones of :func:`view_columns`).
 VERIFY_COLUMNS_FRAME = ("views_checked", "length_change_pct", "shape_change_mm", "dt_prev_s")
@@ -409,9 +407,10 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
               inside: np.ndarray, radius_px: float) -> float:
     """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
 
-    Counted are the skeleton pixels of the components the curve runs along
-    and of those at the base mark. Those the curve explains (within
-    ``cov_tol``) count for it; of the others only the tendril's count
+    Counted are the skeleton pixels of the components the curve runs along,
+    of those at the base mark and of those whose thin skeleton ends within a
+    break of theirs (:func:`tendrilkit.verify_crossing.across_gaps`). Those
+    the curve explains (within ``cov_tol``) count for it; of the others only the tendril's count
     against it, i.e. not clutter that joined the tendril's pixels:
 
     * pixels wider than the tendril (inside distance above :data:`WIDE_RATIO`
@@ -457,7 +456,8 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     sk = ev.skeleton_xy
     sr = (sk[:, 1] - off[1]).astype(int)
     sc = (sk[:, 0] - off[0]).astype(int)
-    touched = _across_gaps(ev, sk, sr, sc, touched, dense, inside, radius_px, tree_cls)
+    thin_px = WIDE_RATIO * radius_px if np.isfinite(radius_px) and radius_px > 0 else np.inf
+    touched = across_gaps(ev.labels, sk, sr, sc, inside[sr, sc] <= thin_px, touched, dense)
     mine = np.isin(ev.labels[sr, sc], touched)
     sk, sr, sc = sk[mine], sr[mine], sc[mine]
     if len(sk) == 0:
@@ -498,43 +498,6 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
                                                 nearest=(dist[~near], nearest[~near]))]] = False
     n_free = int(size[tendril].sum())
     return float(n_near / max(n_near + n_free, 1))
-
-
-def _across_gaps(ev: ViewEvidence, sk: np.ndarray, sr: np.ndarray, sc: np.ndarray, touched: np.ndarray,
-                 dense: np.ndarray, inside: np.ndarray, radius_px: float, tree_cls) -> np.ndarray:
-    """``touched`` and the components whose thin skeleton ends within :data:`GAP_PX` of the curve or of theirs.
-
-    Where lines cross, the dark pixels break (6-10 px gaps): the rest of the
-    tendril beyond the point where the curve left it (onto a petiole, a
-    second tendril) falls into components the curve does not run on, yet it
-    is tendril the curve leaves unexplained (random seed 25, multi-view: four
-    frames 11 mm off reported ``ok``). A line crossing the tendril, broken on
-    both sides, is then left out as a crossing.
-    """
-    import cv2
-
-    lab = ev.labels[sr, sc]
-    thin = np.ones(len(sk), bool) if not (np.isfinite(radius_px) and radius_px > 0) else \
-        inside[sr, sc] <= WIDE_RATIO * radius_px
-    img = np.zeros(ev.shape, np.uint8)
-    img[sr, sc] = 1
-    n_nb = cv2.filter2D(img, -1, np.ones((3, 3), np.float32), borderType=cv2.BORDER_CONSTANT)[sr, sc] - 1
-    end = np.nonzero((n_nb == 1) & thin & (lab > 0))[0]
-    done = set(int(k) for k in touched)
-    ref = [dense] + [sk[np.isin(lab, touched) & thin]]
-    for _ in range(20):
-        pts = np.vstack([r for r in ref if len(r)])
-        todo = end[~np.isin(lab[end], list(done))]
-        if len(todo) == 0 or len(pts) == 0:
-            break
-        hit = tree_cls(pts).query(sk[todo], distance_upper_bound=GAP_PX + 1e-9)[0] <= GAP_PX
-        new = set(int(k) for k in lab[todo[hit]]) - done
-        if not new:
-            break
-        done |= new
-        ref = [sk[np.isin(lab, list(new)) & thin]]
-        ref = [np.vstack([pts, ref[0]])]
-    return np.array(sorted(done), int)
 
 
 def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
