@@ -29,8 +29,9 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         ``coverage_tolerance_px`` of it (:func:`_coverage`): how much of the
         tendril's pixels, from the base outward, the curve explains. Clutter
         joined to the tendril's pixels is left out (pixels wider than the
-        tendril, branches running out of the ROI, spurs, thin lines crossing
-        the curve: :mod:`tendrilkit.verify_crossing`). A shrunk curve (the
+        tendril, skeleton segments running out of the ROI, spurs, thin lines
+        crossing the curve), pieces of the tendril beyond a break in its dark
+        pixels count (:mod:`tendrilkit.verify_crossing`). A shrunk curve (the
         tip missing), one that jumps to another component or one that runs
         along the stem instead of the tendril scores low.
     ``tip_continuation_px_v<i>``
@@ -99,7 +100,7 @@ import numpy as np
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
 from tendrilkit.verify_base import WIDE_RATIO, base_on_tendril, near_base
 from tendrilkit.verify_beyond import beyond_tip_px
-from tendrilkit.verify_crossing import crossing_branches
+from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
 from tendrilkit.verify_tip import TIP_PX, on_wide, tip_continuation, tip_wide_fraction, wide_run_px
 
@@ -406,17 +407,20 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
               inside: np.ndarray, radius_px: float) -> float:
     """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
 
-    Counted are the skeleton pixels of the components the curve runs along
-    and of those at the base mark. Those the curve explains (within
-    ``cov_tol``) count for it; of the others only the tendril's count
+    Counted are the skeleton pixels of the components the curve runs along,
+    of those at the base mark and of those whose thin skeleton ends within a
+    break of theirs (:func:`tendrilkit.verify_crossing.across_gaps`). Those
+    the curve explains (within ``cov_tol``) count for it; of the others only the tendril's count
     against it, i.e. not clutter that joined the tendril's pixels:
 
     * pixels wider than the tendril (inside distance above :data:`WIDE_RATIO`
       times the tendril's, :func:`_tendril_radius_px`): a leaf's blob, the
       stem, a thicker shoot, not the tendril's thin line;
-    * branches (8-connected runs of the remaining pixels) reaching the ROI's
-      border: the stem, a shoot or a leaf's stalk come from outside the
-      region the tendril moves in, the tendril does not;
+    * segments between junctions of the remaining pixels that reach the
+      ROI's border (:func:`tendrilkit.verify_crossing.border_segments`): the
+      stem, a shoot or a second tendril come from outside the region the
+      tendril moves in, the tendril does not (a missed part of it crossing
+      such a line keeps its own segments);
     * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs;
     * branches that run straight on across the curve into another
       unexplained branch (:func:`tendrilkit.verify_crossing.crossing_branches`):
@@ -452,6 +456,8 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     sk = ev.skeleton_xy
     sr = (sk[:, 1] - off[1]).astype(int)
     sc = (sk[:, 0] - off[0]).astype(int)
+    thin_px = WIDE_RATIO * radius_px if np.isfinite(radius_px) and radius_px > 0 else np.inf
+    touched = across_gaps(ev.labels, sk, sr, sc, inside[sr, sc] <= thin_px, touched, dense)
     mine = np.isin(ev.labels[sr, sc], touched)
     sk, sr, sc = sk[mine], sr[mine], sc[mine]
     if len(sk) == 0:
@@ -473,12 +479,15 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     r0, c0 = int(fr.min()) & ~1, int(fc.min()) & ~1
     img = np.zeros((int(fr.max()) + 1 - r0, int(fc.max()) + 1 - c0), np.uint8)
     img[fr - r0, fc - c0] = 1
+    # a skeleton stops about its line's half width short of where the line leaves the crop
+    edge = np.zeros(img.shape, bool)
+    edge[fr - r0, fc - c0] = np.minimum(np.minimum(fr, h - 1 - fr), np.minimum(fc, w - 1 - fc)) <= \
+        inside[fr, fc] + BORDER_PX
+    img[border_segments(img, edge)] = 0  # only the segments running out of the ROI, not all joined to them
     nb, blab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
     b = blab[fr - r0, fc - c0]
     size = np.bincount(b, minlength=nb)
-    # a skeleton stops about its line's half width short of where the line leaves the crop
-    edge = np.minimum(np.minimum(fr, h - 1 - fr), np.minimum(fc, w - 1 - fc)) <= inside[fr, fc] + BORDER_PX
-    tendril = (np.bincount(b, weights=edge, minlength=nb) == 0) & (size >= MIN_BRANCH_PX)
+    tendril = size >= MIN_BRANCH_PX
     tendril[0] = False
     cand = np.nonzero(tendril)[0]
     if cand.size:  # a thin line crossing the tendril: its arms continue each other across the curve

@@ -386,3 +386,32 @@ def test_curve_stopping_at_an_object_the_tendril_passes_behind_is_caught():
     full = verify_curve(T, cams, ev)
     assert full["beyond_tip_px_v1"] == 0.0 and full["beyond_tip_px_v2"] == 0.0
     assert not any(m.startswith(("tip:", "beyond:")) for m in image_check_messages(full, 2, Thresholds()))
+
+
+def _break(at_frac, gap_px=6):
+    """A break of ``gap_px`` in the tendril's dark pixels at ``at_frac`` of its length (where lines cross, the
+    dark pixels of one often break)."""
+    def draw(img, cam):
+        T = _tendril_mm()
+        i = int(at_frac * 199)
+        c = cam.project(T[i][None])[0]
+        t = cam.project(T[i + 1][None])[0] - c
+        n = np.array([-t[1], t[0]]) / np.hypot(*t)
+        a, b = c - 8 * n, c + 8 * n
+        cv2.line(img, tuple(np.round(a).astype(int)), tuple(np.round(b).astype(int)), (240, 240, 240), gap_px)
+    return draw
+
+
+def test_tendril_beyond_a_break_in_its_pixels_is_still_unexplained():
+    """The rest of the tendril beyond a break in its dark pixels is a component the short curve does not run on;
+    it is still the tendril's (random seed 25: a curve turning off the tendril onto a petiole at a crossing, the
+    rest of the tendril beyond the crossing's break, reported ``ok`` 11 mm off)."""
+    cams, ev = _scene(_break(0.5))
+    assert ev[0].labels.max() >= 3  # the break splits the tendril into two components (and the stem)
+    q = verify_curve(_tendril_mm(), cams, ev)
+    for v in (1, 2):
+        assert q[f"coverage_frac_v{v}"] >= 0.9
+    assert image_check_messages(q, 2, Thresholds()) == []
+    short = verify_curve(_tendril_mm(frac=0.45), cams, ev)
+    assert short["coverage_frac_v1"] < 0.75 and short["coverage_frac_v2"] < 0.75
+    assert any(m.startswith("coverage: view 1") for m in image_check_messages(short, 2, Thresholds()))
