@@ -7,9 +7,10 @@
 ``masks``: the segmentation's mask against the truth's projected tube, per
 view, on random phantom scenes (:mod:`tendrilkit.phantom.scenes`; seeds
 0-9999 only: 10000 and above are the held-out benchmark's), with the faint
-pixels (:func:`tendrilkit.segmentation.faint_pixels`, the default) and
-without them (``local_contrast=0``: the global threshold alone), both in the
-same run, interleaved. Prints, per look (default, pale, brown) and overall,
+pixels (:func:`tendrilkit.segmentation.faint_pixels`, the default),
+without them (``local_contrast=0``: the global threshold alone) and with them
+measured against the board beside darker objects (``local_exclude_dark``),
+all in the same run, interleaved. Prints, per look (default, pale, brown) and overall,
 the mean over views and frames of: centre recall (the share of the true
 centreline's projected points, inside the ROI and outside the keep-out box,
 within 1.5 px of the chosen component), tip recall (the same on the distal
@@ -136,7 +137,8 @@ def bench_masks(argv: list[str]) -> None:
     if stop > 10000:
         p.error("--seeds: 10000 and above are the held-out benchmark's")
     out = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="bench_masks_"))
-    variants = {"threshold only": {"local_contrast": 0.0}, "with faint pixels": {}}
+    variants = {"threshold only": {"local_contrast": 0.0}, "with faint pixels": {},
+                "faint, beside dark (local_exclude_dark)": {"local_exclude_dark": True}}
     rows = []
     for seed in range(start, stop):
         folder = out / f"{a.scene}-{seed}" / "scene"

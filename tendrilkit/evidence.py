@@ -154,6 +154,7 @@ def view_evidence(
     background_px: int = 36,
     local_window_px: int = 9,
     local_margin_px: int = 2,
+    local_exclude_dark: bool = False,
     min_component_px: int = 50,
     skeleton: bool = True,
     probability: bool = False,
@@ -171,7 +172,7 @@ def view_evidence(
     base_point_xy : (2,) sequence of float
         The base mark, full-image pixels (kept for the checks).
     channel, threshold, opening_radius_px, local_contrast, local_noise_k, background_px, local_window_px,
-    local_margin_px, min_component_px
+    local_margin_px, local_exclude_dark, min_component_px
         As in :func:`tendrilkit.segmentation.segment_view` (the experiment's
         ``segmentation:`` section).
     skeleton : bool
@@ -204,7 +205,7 @@ def view_evidence(
         raise ValueError(f"probability_scale must be > 0, got {probability_scale}")
     local = {"local_contrast": float(local_contrast), "local_noise_k": float(local_noise_k),
              "background_px": int(background_px), "local_window_px": int(local_window_px),
-             "local_margin_px": int(local_margin_px)}
+             "local_margin_px": int(local_margin_px), "local_exclude_dark": bool(local_exclude_dark)}
     if foreground is None:
         foreground = label_foreground(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
                                       opening_radius_px=opening_radius_px, **local)

@@ -184,7 +184,9 @@ class Segmentation(_Strict):
     off), ``local_noise_k`` times the ROI's relative noise and half the
     deepest such darkness within ``local_window_px``, farther than
     ``local_margin_px`` from the thresholded pixels (see
-    :func:`tendrilkit.segmentation.faint_pixels`).
+    :func:`tendrilkit.segmentation.faint_pixels`); ``local_exclude_dark``:
+    that deepest darkness is taken beside the thresholded pixels (a leaf, the
+    stem), not over them, so a pale tendril running beside them is kept.
     The first frame takes the component at or nearest the base point, later
     frames the component nearest the previous centroid.
     """
@@ -199,6 +201,7 @@ class Segmentation(_Strict):
     background_px: int = Field(default_factory=lambda: stage_default("segmentation", "background_px"), ge=4, le=10**4)
     local_window_px: int = Field(default_factory=lambda: stage_default("segmentation", "local_window_px"), ge=1, le=1000)
     local_margin_px: int = Field(default_factory=lambda: stage_default("segmentation", "local_margin_px"), ge=0, le=1000)
+    local_exclude_dark: bool = Field(default_factory=lambda: stage_default("segmentation", "local_exclude_dark"))
 
 
 class Skeleton(_Strict):

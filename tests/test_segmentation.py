@@ -211,3 +211,84 @@ def test_faint_pixels_equal_their_definition_on_every_pixel(opts):
         got, want = faint_pixels(grey, **opts), _faint_pixels_every_pixel(grey, **opts)
         assert got.dtype == np.uint8 and np.array_equal(got, want)
     assert faint_pixels(pale, **opts).any()
+
+
+def pale_beside_leaf_scene(*, seed=1):
+    """A pale tendril (blue 0.8 of the board) running along a dark leaf's edge, 3-5 px from it, then away."""
+    h, w = 300, 400
+    img = np.full((h, w, 3), (215.0, 225.0, 230.0), np.float32)
+    cv2.ellipse(img, (200, 170), (90, 40), 0, 0, 360, (40, 120, 60), -1)  # the leaf: its top edge at y = 130
+    tube = np.zeros((h, w), np.uint8)
+    cv2.line(tube, (60, 125), (340, 125), 255, 4)  # 3-5 px above the leaf's top from x = 180 to 220
+    a = cv2.GaussianBlur(tube.astype(np.float32) / 255.0, (0, 0), 0.7)[..., None]
+    img = img * (1 - a) + np.array((172.0, 200.0, 190.0), np.float32) * a
+    img += np.random.default_rng(seed).normal(0.0, 2.0, img.shape).astype(np.float32)
+    return np.clip(img, 0, 255).astype(np.uint8), tube > 0
+
+
+def test_local_exclude_dark_keeps_a_pale_tendril_where_it_passes_a_leaf():
+    img, truth = pale_beside_leaf_scene()
+    marks = dict(roi=(0, 0, 400, 300), keep_out=None, base_point_xy=(60, 125))
+    along = np.zeros_like(truth)
+    along[:, 180:221] = True  # where the tendril runs beside the leaf's top
+    along &= truth
+    away = truth.copy()
+    away[:, 100:301] = False  # far from the leaf
+    before = segment_view(img, **marks).foreground.foreground > 0
+    after = segment_view(img, local_exclude_dark=True, **marks).foreground.foreground > 0
+    assert before[away].mean() > 0.5 and after[away].mean() > 0.5  # the pale line is found away from the leaf
+    assert before[along].mean() < 0.2  # the leaf's depth and its pull on the background drop it there
+    assert after[along].mean() > 0.5  # measured against the board beside it: kept
+    # the line's pixels join up across the leaf's stretch: one component from x = 70 to 330
+    m = segment_view(img, local_exclude_dark=True, **marks)
+    xs = np.nonzero(m.mask_roi[115:135])[1]
+    assert xs.min() <= 70 and xs.max() >= 330
+    # no board pixel taken: everything added lies on the tendril, the leaf or within 2 px of them
+    leaf = cv2.inRange(img, (0, 0, 0), (120, 255, 255)) > 0
+    near = cv2.dilate((truth | leaf).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    assert not (after & ~near).any()
+
+
+def test_local_exclude_dark_leaves_a_dark_tendril_as_the_threshold_finds_it():
+    img = scene()
+    for kw in ({}, {"channel": "hsv"}, {"threshold": 120}):
+        a = segment_view(img, roi=ROI, keep_out=(110, 185, 25, 30), base_point_xy=(130, 200), local_exclude_dark=True,
+                         **kw)
+        b = segment_view(img, roi=ROI, keep_out=(110, 185, 25, 30), base_point_xy=(130, 200), local_contrast=0, **kw)
+        assert np.array_equal(a.mask_roi, b.mask_roi)
+
+
+def test_faint_pixels_with_exclude_equal_their_definition_on_every_pixel():
+    # the bands skipped by faint_pixels must not change the mask when the excluded pixels' depth is zeroed
+    from tendrilkit.segmentation import faint_pixels
+    rng = np.random.default_rng(4)
+    yy, xx = np.mgrid[0:300, 0:260]
+    board = 150 + 60 * xx / 260 + rng.normal(0, 3, (300, 260))
+    board[np.abs(yy - 0.004 * (xx - 130) ** 2 - 60) < 2.5] *= 0.8
+    board[200:215, 20:90] *= 0.3
+    grey = np.clip(board, 0, 255).astype(np.uint8)
+    exclude = np.zeros_like(grey)
+    exclude[198:217, 18:92] = 255
+    from tendrilkit.segmentation import _fill_from_board
+    # every pixel: the board's background (masked 4x reduction, filled holes), the depth and its dilation
+    h, w = grey.shape
+    valid = (exclude == 0).astype(np.float32)
+    share = cv2.resize(valid, (w // 4, h // 4), interpolation=cv2.INTER_AREA)
+    total = cv2.resize(grey.astype(np.float32) * valid, (w // 4, h // 4), interpolation=cv2.INTER_AREA)
+    small = np.clip(np.round(total / np.maximum(share, np.float32(0.5))), 0, 255).astype(np.uint8)
+    small = _fill_from_board(small, (share < 0.5).astype(np.uint8))
+    assert small.min() > 100  # the leaf's hole is filled with the board's level
+    bg = np.maximum(cv2.resize(cv2.medianBlur(small, 9), (w, h), interpolation=cv2.INTER_LINEAR), 1).astype(np.float32)
+    ratio = grey.astype(np.float32) / bg
+    sample = ratio[::3, ::3]
+    c = max(0.1, 5.0 * 1.4826 * float(np.median(np.abs(sample - np.median(sample)))))
+    depth = np.float32(1.0) - ratio
+    own = depth.copy()
+    own[exclude > 0] = 0
+    half = np.float32(0.5) * cv2.dilate(own, cv2.getStructuringElement(cv2.MORPH_RECT, (9, 9)))
+    want = cv2.bitwise_and(cv2.compare(depth, c, cv2.CMP_GT), cv2.compare(depth, half, cv2.CMP_GT))
+    got = faint_pixels(grey, exclude=exclude)
+    assert np.array_equal(got, want)
+    assert got[55:66].any()  # the pale arc
+    with pytest.raises(ValueError, match="exclude"):
+        faint_pixels(grey, exclude=exclude[:10])
