@@ -500,6 +500,12 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     return float(n_near / max(n_near + n_free, 1))
 
 
+def _in_views(q: dict, column: str, n_views: int, fails) -> list[tuple[int, float]]:
+    """``(view, figure)`` of the views (1-based) whose ``<column>_v<view>`` figure is known and ``fails(figure)``."""
+    values = [(v, q.get(f"{column}_v{v}")) for v in range(1, n_views + 1)]
+    return [(v, x) for v, x in values if x is not None and fails(x)]
+
+
 def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
     """The image checks a frame fails, one message each (empty: all pass).
 
@@ -541,25 +547,21 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
         b = q.get(f"base_px_v{v}")
         if b is not None and b > th.max_base_px:
             msgs.append(f"base: view {v} base {b:.1f} px from its mark (limit {th.max_base_px:g} px)")
-    edges = [(v, q.get(f"tip_border_px_v{v}")) for v in range(1, n_views + 1)]
-    at_edge = [(v, e) for v, e in edges if e is not None and e <= th.min_tip_border_px]
+    at_edge = _in_views(q, "tip_border_px", n_views, lambda e: e <= th.min_tip_border_px)
     if len(at_edge) >= 2:  # the stem runs out of the ROI, the tendril does not (in one view it may leave the image)
         msgs.append("tip: the curve ends at the ROI's border in " + ", ".join(
             f"view {v} ({e:.1f} px from it)" for v, e in at_edge) + f" (limit {th.min_tip_border_px:g} px)")
-    tips = [(v, q.get(f"tip_continuation_px_v{v}")) for v in range(1, n_views + 1)]
-    long_tips = [(v, t) for v, t in tips if t is not None and t > th.max_tip_continuation_px]
+    long_tips = _in_views(q, "tip_continuation_px", n_views, lambda t: t > th.max_tip_continuation_px)
     if len(long_tips) >= 2:  # in two views at least: a piece of clutter at the tip in one view is not a tendril
         msgs.append("tip: the tendril goes on beyond the curve's tip in " + ", ".join(
             f"view {v} ({t:.0f} px)" for v, t in long_tips) + f" (limit {th.max_tip_continuation_px:g} px)")
-    wide = [(v, q.get(f"tip_wide_frac_v{v}")) for v in range(1, n_views + 1)]
-    wide = [(v, f) for v, f in wide if f is not None and f > th.max_tip_wide_frac]
+    wide = _in_views(q, "tip_wide_frac", n_views, lambda f: f > th.max_tip_wide_frac)
     if len(wide) >= 2:  # in two views at least: one view may see the tip in front of a leaf or the stem
         msgs.append("tip: the curve ends on pixels wider than the tendril (a leaf, the stem: where the tendril ends "
                     "cannot be seen) in " + ", ".join(f"view {v} ({100 * f:.0f} % of its last {TIP_PX} px)"
                                                      for v, f in wide)
                     + f" (limit {100 * th.max_tip_wide_frac:.0f} %)")
-    runs = [(v, q.get(f"wide_run_px_v{v}")) for v in range(1, n_views + 1)]
-    runs = [(v, r) for v, r in runs if r is not None and r > th.max_wide_run_px]
+    runs = _in_views(q, "wide_run_px", n_views, lambda r: r > th.max_wide_run_px)
     if len(runs) >= 2:  # in two views at least: in one view the tendril may pass in front of a leaf
         msgs.append("merged: the curve runs on pixels wider than the tendril (clutter merged with it: where its line "
                     "is cannot be seen) in " + ", ".join(f"view {v} ({r:.0f} px in a row)" for v, r in runs)
@@ -568,8 +570,7 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
     if lw is not None and lw > th.max_line_width_mm:
         msgs.append(f"width: the curve runs on a line {lw:.1f} mm wide (median over the views, limit "
                     f"{th.max_line_width_mm:g} mm): a stem, not a tendril")
-    beyond = [(v, q.get(f"beyond_tip_px_v{v}")) for v in range(1, n_views + 1)]
-    beyond = [(v, b) for v, b in beyond if b is not None and b > th.max_beyond_tip_px]
+    beyond = _in_views(q, "beyond_tip_px", n_views, lambda b: b > th.max_beyond_tip_px)
     if len(beyond) >= 2:  # in two views at least: a second tendril or a stalk crosses the tendril in one view
         msgs.append("beyond: the tendril goes on across an object ahead of the curve's tip (a leaf, a shoot it passes "
                     "behind) in " + ", ".join(f"view {v} ({b:.0f} px)" for v, b in beyond)
