@@ -47,7 +47,7 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from tendrilkit.segmentation import LabelledForeground, _box, grey_image, label_foreground
+from tendrilkit.segmentation import LabelledForeground, _box, faint_options, grey_image, label_foreground
 from tendrilkit.skeleton.thinning import thin_strips
 
 __all__ = ["ViewEvidence", "view_evidence", "sample_distance", "roi_contains"]
@@ -203,9 +203,8 @@ def view_evidence(
         raise ValueError(f"min_component_px must be >= 0, got {min_component_px}")
     if not probability_scale > 0:
         raise ValueError(f"probability_scale must be > 0, got {probability_scale}")
-    local = {"local_contrast": float(local_contrast), "local_noise_k": float(local_noise_k),
-             "background_px": int(background_px), "local_window_px": int(local_window_px),
-             "local_margin_px": int(local_margin_px), "local_exclude_dark": bool(local_exclude_dark)}
+    local = faint_options(local_contrast, local_noise_k, background_px, local_window_px, local_margin_px,
+                         local_exclude_dark)
     if foreground is None:
         foreground = label_foreground(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
                                       opening_radius_px=opening_radius_px, **local)

@@ -43,7 +43,7 @@ import numpy as np
 from tendrilkit.exceptions import TendrilLostError
 
 __all__ = ["TendrilMask", "LabelledForeground", "segment_view", "label_foreground", "grey_image", "foreground_roi",
-           "faint_pixels"]
+           "faint_pixels", "faint_options"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -478,6 +478,15 @@ def foreground_roi(
     return fg, np.array([x0, y0])
 
 
+def faint_options(local_contrast: float, local_noise_k: float, background_px: int, local_window_px: int,
+                  local_margin_px: int, local_exclude_dark: bool) -> dict:
+    """The faint-pixel options (:func:`faint_pixels`) as keywords, typed, in the order of
+    :attr:`LabelledForeground.local_options`."""
+    return {"local_contrast": float(local_contrast), "local_noise_k": float(local_noise_k),
+            "background_px": int(background_px), "local_window_px": int(local_window_px),
+            "local_margin_px": int(local_margin_px), "local_exclude_dark": bool(local_exclude_dark)}
+
+
 def label_foreground(
     image_bgr: np.ndarray,
     *,
@@ -507,9 +516,8 @@ def label_foreground(
     LabelledForeground
         Nothing dropped: components of every size.
     """
-    local = {"local_contrast": float(local_contrast), "local_noise_k": float(local_noise_k),
-             "background_px": int(background_px), "local_window_px": int(local_window_px),
-             "local_margin_px": int(local_margin_px), "local_exclude_dark": bool(local_exclude_dark)}
+    local = faint_options(local_contrast, local_noise_k, background_px, local_window_px, local_margin_px,
+                         local_exclude_dark)
     fg, offset = foreground_roi(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
                                 opening_radius_px=opening_radius_px, **local)
     n, labels = cv2.connectedComponents(fg, connectivity=8, ltype=cv2.CV_32S)
