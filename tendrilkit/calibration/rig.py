@@ -404,9 +404,17 @@ def check_calibration(result: CalibrationResult, *, max_corner_rms_px: float | N
     bad = {v: r for v, r in rms.items() if max_corner_rms_px is not None and not r <= max_corner_rms_px}
     if bad:
         v, r = max(bad.items(), key=lambda kv: kv[1])
+        why = ""
+        # a view whose intrinsics are wrong spreads its error over the others through the shared markers; the
+        # adjustment tells which view disagrees: the one whose markers it dropped (when they are all one view's)
+        dropped = {w for w, _ in result.bundle.dropped} if result.bundle is not None else set()
+        if len(dropped) == 1 and next(iter(dropped)) in bad:
+            v = next(iter(dropped))
+            r = bad[v]
+            why = "; the bundle adjustment dropped its markers as disagreeing with the other views"
         others = ", ".join(f"view {w}: {x:.2f} px" for w, x in sorted(bad.items()) if w != v)
         raise ExperimentError(
-            f"calibration failed: view {v}: marker corners reproject {r:.2f} px off (rms over markers; limit "
+            f"calibration failed: view {v}: marker corners reproject {r:.2f} px off{why} (rms over markers; limit "
             f"calibration.max_corner_rms_px = {max_corner_rms_px:g} px{'; also ' + others if others else ''}); "
             f"check view {v}'s intrinsics (fx, fy, cx, cy, dist) and image size, or pass --accept-calibration")
     if max_corner_rms_px is None and rms:
