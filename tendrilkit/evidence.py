@@ -47,7 +47,8 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from tendrilkit.segmentation import LabelledForeground, _box, faint_options, grey_image, label_foreground
+from tendrilkit.segmentation import LabelledForeground, faint_options, grey_image, label_foreground
+from tendrilkit.segmentation.foreground import _box
 from tendrilkit.skeleton.thinning import thin_strips
 
 __all__ = ["ViewEvidence", "view_evidence", "sample_distance", "roi_contains"]

@@ -269,7 +269,7 @@ def test_faint_pixels_with_exclude_equal_their_definition_on_every_pixel():
     grey = np.clip(board, 0, 255).astype(np.uint8)
     exclude = np.zeros_like(grey)
     exclude[198:217, 18:92] = 255
-    from tendrilkit.segmentation import _fill_from_board
+    from tendrilkit.segmentation.faint import _fill_from_board
     # every pixel: the board's background (masked 4x reduction, filled holes), the depth and its dilation
     h, w = grey.shape
     valid = (exclude == 0).astype(np.float32)
