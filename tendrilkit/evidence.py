@@ -156,6 +156,8 @@ def view_evidence(
     local_window_px: int = 9,
     local_margin_px: int = 2,
     local_exclude_dark: bool = False,
+    line_width_px: int = 0,
+    bridge_gap_px: int = 0,
     min_component_px: int = 50,
     skeleton: bool = True,
     probability: bool = False,
@@ -173,7 +175,7 @@ def view_evidence(
     base_point_xy : (2,) sequence of float
         The base mark, full-image pixels (kept for the checks).
     channel, threshold, opening_radius_px, local_contrast, local_noise_k, background_px, local_window_px,
-    local_margin_px, local_exclude_dark, min_component_px
+    local_margin_px, local_exclude_dark, line_width_px, bridge_gap_px, min_component_px
         As in :func:`tendrilkit.segmentation.segment_view` (the experiment's
         ``segmentation:`` section).
     skeleton : bool
@@ -208,11 +210,13 @@ def view_evidence(
                          local_exclude_dark)
     if foreground is None:
         foreground = label_foreground(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
-                                      opening_radius_px=opening_radius_px, **local)
-    elif ((foreground.channel, foreground.threshold, foreground.opening_radius_px, tuple(foreground.local_options))
-          != (channel, threshold, opening_radius_px, tuple(local.values()))):
+                                      opening_radius_px=opening_radius_px, **local, line_width_px=line_width_px,
+                                      bridge_gap_px=bridge_gap_px)
+    elif ((foreground.channel, foreground.threshold, foreground.opening_radius_px, tuple(foreground.local_options),
+           tuple(foreground.line_options))
+          != (channel, threshold, opening_radius_px, tuple(local.values()), (int(line_width_px), int(bridge_gap_px)))):
         raise ValueError("foreground was made with other segmentation options than channel, threshold, "
-                         "opening_radius_px and the local_* and background_px options")
+                         "opening_radius_px, the local_* and background_px, line_width_px and bridge_gap_px options")
     fg, offset, n, labels = foreground.foreground, foreground.roi_offset_xy, foreground.n_labels, foreground.labels
     mask = None
     if n > 1 and min_component_px > 1:

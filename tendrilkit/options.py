@@ -29,7 +29,7 @@ __all__ = ["STAGE_FUNCTIONS", "STAGE_SECTIONS", "SWITCHES", "stage_default", "st
 
 #: The function each stage's options are keywords of (``module:function``).
 STAGE_FUNCTIONS = {
-    "segmentation": "tendrilkit.segmentation:segment_view",
+    "segmentation": "tendrilkit.segmentation.component:segment_view",
     "ordering": "tendrilkit.skeleton.walk:order_skeleton",
     "correspondence": "tendrilkit.correspondence:match_epipolar",
     "triangulation": "tendrilkit.triangulation:triangulate",

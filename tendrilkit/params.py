@@ -187,6 +187,11 @@ class Segmentation(_Strict):
     :func:`tendrilkit.segmentation.faint_pixels`); ``local_exclude_dark``:
     that deepest darkness is taken beside the thresholded pixels (a leaf, the
     stem), not over them, so a pale tendril running beside them is kept.
+    ``line_width_px`` (0: off): light lines up to this wide, lighter than the
+    dark pixels on both sides and darker than the board, are added (a pale
+    tendril in front of a leaf; :func:`tendrilkit.segmentation.light_line_pixels`);
+    ``bridge_gap_px`` (0: off): line ends up to this far apart facing each
+    other across a crossing are joined (:func:`tendrilkit.segmentation.bridge_line_gaps`).
     The first frame takes the component at or nearest the base point, later
     frames the component nearest the previous centroid.
     """
@@ -202,6 +207,15 @@ class Segmentation(_Strict):
     local_window_px: int = Field(default_factory=lambda: stage_default("segmentation", "local_window_px"), ge=1, le=1000)
     local_margin_px: int = Field(default_factory=lambda: stage_default("segmentation", "local_margin_px"), ge=0, le=1000)
     local_exclude_dark: bool = Field(default_factory=lambda: stage_default("segmentation", "local_exclude_dark"))
+    line_width_px: int = Field(default_factory=lambda: stage_default("segmentation", "line_width_px"), ge=0, le=99)
+    bridge_gap_px: int = Field(default_factory=lambda: stage_default("segmentation", "bridge_gap_px"), ge=0, le=99)
+
+    @field_validator("line_width_px")
+    @classmethod
+    def _line_width(cls, v: int) -> int:
+        if 0 < v < 3:
+            raise ValueError(f"expected 0 (off) or 3-99 px, got {v}")
+        return v
 
 
 class Skeleton(_Strict):

@@ -19,7 +19,8 @@ from tendrilkit.params import example_experiment_data, parse_experiment
 #: Written out by hand: a key dropped or renamed anywhere fails here.
 EXPECTED = {
     "segmentation": {"channel", "threshold", "opening_radius_px", "min_component_px", "local_contrast", "local_noise_k",
-                     "background_px", "local_window_px", "local_margin_px", "local_exclude_dark"},
+                     "background_px", "local_window_px", "local_margin_px", "local_exclude_dark", "line_width_px",
+                     "bridge_gap_px"},
     "ordering": {"prune_px", "merge_width", "smooth_px", "tip_inset", "method", "tangent_window_px", "zone_width",
                  "max_unused_fraction", "overrides"},
     "correspondence": {"max_distance_px", "depth_smoothing"},
@@ -33,7 +34,8 @@ EXPECTED = {
 NON_DEFAULT = {
     "segmentation": {"channel": "hsv", "threshold": 90, "opening_radius_px": 2, "min_component_px": 7,
                      "local_contrast": 0.2, "local_noise_k": 3.0, "background_px": 48, "local_window_px": 5,
-                     "local_margin_px": 3, "local_exclude_dark": True},
+                     "local_margin_px": 3, "local_exclude_dark": True, "line_width_px": 9,
+                     "bridge_gap_px": 12},
     "skeleton": {"prune_px": 5.0, "merge_width": 2.5, "smooth_px": 0.5, "tip_inset": 0.5},
     "ordering": {"method": "paper", "tangent_window_px": 9.0, "zone_width": 1.5, "max_unused_fraction": 0.3,
                  "overrides": [{"frame": 0, "view": 1, "junction": 0, "branch": 1}]},

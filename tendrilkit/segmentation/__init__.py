@@ -20,6 +20,14 @@
    ``local_exclude_dark``, a faint pixel's structure depth is taken beside
    the thresholded pixels, not over them (a pale tendril passing a leaf or
    the stem is kept there);
+4c. with ``line_width_px`` (off by default), light lines added
+   (:func:`tendrilkit.segmentation.lines.light_line_pixels`): a thin line
+   lighter than the dark pixels on both sides of it and darker than the
+   board, a pale tendril in front of a leaf or a shoot;
+4d. with ``bridge_gap_px`` (off by default), line ends that face each other
+   across a short gap joined (:func:`tendrilkit.segmentation.lines.bridge_line_gaps`):
+   a line broken where it crosses another goes on straight through; the
+   keep-out box painted background again;
 5. connected components (8-connected); components under ``min_component_px``
    are dropped;
 6. the tendril's component: on the first frame the component at, or nearest
@@ -38,6 +46,7 @@ from tendrilkit.segmentation.component import TendrilMask, segment_view
 from tendrilkit.segmentation.faint import faint_pixels
 from tendrilkit.segmentation.foreground import (LabelledForeground, faint_options, foreground_roi, grey_image,
                                                label_foreground)
+from tendrilkit.segmentation.lines import bridge_line_gaps, light_line_pixels
 
 __all__ = ["TendrilMask", "LabelledForeground", "segment_view", "label_foreground", "grey_image", "foreground_roi",
-           "faint_pixels", "faint_options"]
+           "faint_pixels", "faint_options", "light_line_pixels", "bridge_line_gaps"]

@@ -60,6 +60,8 @@ def segment_view(
     local_window_px: int = 9,
     local_margin_px: int = 2,
     local_exclude_dark: bool = False,
+    line_width_px: int = 0,
+    bridge_gap_px: int = 0,
     min_component_px: int = 50,
 ) -> TendrilMask:
     """Segment the tendril in one view of one frame.
@@ -94,6 +96,17 @@ def segment_view(
         outside the thresholded ones grown by ``local_margin_px`` (the
         ``exclude`` of :func:`faint_pixels`), not over all: a pale tendril
         beside a darker leaf or stem is measured against its own depth.
+    line_width_px : int
+        Step 4c, light lines (:func:`tendrilkit.segmentation.lines.light_line_pixels`):
+        pixels of a line up to this wide, lighter than the dark pixels on both
+        sides of it and darker than the board by ``local_contrast`` (at least
+        0.05) are added (a pale tendril in front of a leaf or a shoot); 0: none.
+    bridge_gap_px : int
+        Step 4d (:func:`tendrilkit.segmentation.lines.bridge_line_gaps`):
+        skeleton ends up to this far apart that face each other (the line
+        goes on straight across another it crosses) are joined at the line's
+        width; 0: none. The keep-out box is painted background again after
+        steps 4c-4d.
     min_component_px : int
         Components with fewer pixels are dropped.
 
@@ -112,7 +125,8 @@ def segment_view(
                                 opening_radius_px=opening_radius_px, local_contrast=local_contrast,
                                 local_noise_k=local_noise_k, background_px=background_px,
                                 local_window_px=local_window_px, local_margin_px=local_margin_px,
-                                local_exclude_dark=local_exclude_dark)
+                                local_exclude_dark=local_exclude_dark, line_width_px=line_width_px,
+                                bridge_gap_px=bridge_gap_px)
     if min_component_px < 0:
         raise ValueError(f"min_component_px must be >= 0, got {min_component_px}")
     fg, offset, n, labels = labelled.foreground, labelled.roi_offset_xy, labelled.n_labels, labelled.labels

@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 
 from tendrilkit.segmentation.faint import faint_pixels
+from tendrilkit.segmentation.lines import bridge_line_gaps, light_line_pixels
 
 __all__ = ["LabelledForeground", "label_foreground", "grey_image", "foreground_roi", "faint_options"]
 
@@ -40,6 +41,8 @@ class LabelledForeground:
         ``(local_contrast, local_noise_k, background_px, local_window_px,
         local_margin_px, local_exclude_dark)``
         it was made with (:func:`foreground_roi`).
+    line_options : tuple
+        ``(line_width_px, bridge_gap_px)`` it was made with (:func:`foreground_roi`).
     """
 
     foreground: np.ndarray
@@ -50,6 +53,7 @@ class LabelledForeground:
     threshold: str | int = "otsu"
     opening_radius_px: int = 1
     local_options: tuple = (0.1, 5.0, 36, 9, 2, False)
+    line_options: tuple = (0, 0)
 
     @cached_property
     def pixels(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -128,6 +132,8 @@ def foreground_roi(
     local_window_px: int = 9,
     local_margin_px: int = 2,
     local_exclude_dark: bool = False,
+    line_width_px: int = 0,
+    bridge_gap_px: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Steps 1-4 of :func:`segment_view`: every dark pixel of the ROI, before any choice of component.
 
@@ -135,7 +141,8 @@ def foreground_roi(
     ----------
     image_bgr : (H, W, 3) or (H, W) uint8 array
         The full frame.
-    roi, keep_out, channel, threshold, opening_radius_px
+    roi, keep_out, channel, threshold, opening_radius_px, local_contrast, local_noise_k, background_px,
+    local_window_px, local_margin_px, local_exclude_dark, line_width_px, bridge_gap_px
         As in :func:`segment_view`.
 
     Returns
@@ -175,6 +182,10 @@ def foreground_roi(
         raise ValueError(f"local_window_px must be >= 1, got {local_window_px}")
     if local_margin_px < 0:
         raise ValueError(f"local_margin_px must be >= 0, got {local_margin_px}")
+    if line_width_px != 0 and line_width_px < 3:
+        raise ValueError(f"line_width_px must be 0 (no light lines) or >= 3, got {line_width_px}")
+    if bridge_gap_px < 0:
+        raise ValueError(f"bridge_gap_px must be >= 0, got {bridge_gap_px}")
 
     grey = grey_image(img[y0:y1, x0:x1], channel=channel)
     if threshold == "otsu":
@@ -208,6 +219,13 @@ def foreground_roi(
         if local_margin_px > 0:
             faint = cv2.bitwise_and(faint, cv2.compare(near, 0, cv2.CMP_EQ))
         fg = cv2.bitwise_or(fg, faint)
+    if line_width_px > 0:  # 4c: a pale line in front of a darker object (lighter than it, darker than the board)
+        fg = cv2.bitwise_or(fg, light_line_pixels(grey, fg, width_px=int(line_width_px),
+                                                  contrast=max(float(local_contrast), 0.05)))
+    if bridge_gap_px > 0:  # 4d: a line broken where it crosses another joined across the gap
+        fg = bridge_line_gaps(fg, gap_px=int(bridge_gap_px))
+    if (line_width_px > 0 or bridge_gap_px > 0) and keep_out is not None and a1 > a0 and b1 > b0:
+        fg[b0:b1, a0:a1] = 0  # nothing joins the stem to the tendril across the keep-out box
     return fg, np.array([x0, y0])
 
 
@@ -234,6 +252,8 @@ def label_foreground(
     local_window_px: int = 9,
     local_margin_px: int = 2,
     local_exclude_dark: bool = False,
+    line_width_px: int = 0,
+    bridge_gap_px: int = 0,
 ) -> LabelledForeground:
     """Steps 1-5 of :func:`segment_view`: the ROI's dark pixels (:func:`foreground_roi`) and their components.
 
@@ -241,7 +261,8 @@ def label_foreground(
     ----------
     image_bgr : (H, W, 3) or (H, W) uint8 array
         The full frame.
-    roi, keep_out, channel, threshold, opening_radius_px
+    roi, keep_out, channel, threshold, opening_radius_px, local_contrast, local_noise_k, background_px,
+    local_window_px, local_margin_px, local_exclude_dark, line_width_px, bridge_gap_px
         As in :func:`segment_view`.
 
     Returns
@@ -252,8 +273,10 @@ def label_foreground(
     local = faint_options(local_contrast, local_noise_k, background_px, local_window_px, local_margin_px,
                          local_exclude_dark)
     fg, offset = foreground_roi(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
-                                opening_radius_px=opening_radius_px, **local)
+                                opening_radius_px=opening_radius_px, **local, line_width_px=line_width_px,
+                                bridge_gap_px=bridge_gap_px)
     n, labels = cv2.connectedComponents(fg, connectivity=8, ltype=cv2.CV_32S)
     return LabelledForeground(foreground=fg, roi_offset_xy=offset, n_labels=int(n), labels=labels, channel=channel,
                               threshold=threshold, opening_radius_px=int(opening_radius_px),
-                              local_options=tuple(local.values()))
+                              local_options=tuple(local.values()),
+                              line_options=(int(line_width_px), int(bridge_gap_px)))
