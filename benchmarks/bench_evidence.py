@@ -3,6 +3,16 @@
     .venv/bin/python benchmarks/bench_evidence.py            # synthetic 1080p view (bench_2d's)
     .venv/bin/python benchmarks/bench_evidence.py phantom    # a rendered S3 phantom frame, three views
     .venv/bin/python benchmarks/bench_evidence.py masks [--scene pale] [--seeds 0:6] [--frames 6] [--out DIR]
+    .venv/bin/python benchmarks/bench_evidence.py lines [--seeds 0:40] [--frames 6] [--out DIR]
+
+``lines``: the ROI's foreground (:func:`tendrilkit.segmentation.label_foreground`,
+every component) with the experiment's options, with light lines
+(``line_width_px``), with joins across crossings (``bridge_gap_px``) and with
+both, interleaved per view; per look (pale / other) and overall: the share of
+the true centreline's projected points (inside the ROI, outside the keep-out
+box) within 1.5 px of the foreground (``found``), the pixels each variant adds
+farther than 2 px from the true tube, per view (``false_px``; a second
+tendril's pixels count as false), and the median CPU ms per view.
 
 ``masks``: the segmentation's mask against the truth's projected tube, per
 view, on random phantom scenes (:mod:`tendrilkit.phantom.scenes`; seeds
@@ -179,10 +189,80 @@ def bench_masks(argv: list[str]) -> None:
     print(table.reset_index().to_string(index=False, float_format=lambda x: f"{x:.3f}"))
 
 
+LINE_VARIANTS = {"plain": {}, "lines": {"line_width_px": 11}, "bridges": {"bridge_gap_px": 16},
+                 "lines+bridges": {"line_width_px": 11, "bridge_gap_px": 16}}
+
+
+def bench_lines(argv: list[str]) -> None:
+    import argparse
+    import tempfile
+
+    import pandas as pd
+
+    from tendrilkit.io import read_frames
+    from tendrilkit.options import stage_options
+    from tendrilkit.params import load_experiment
+    from tendrilkit.phantom import read_ground_truth, write_scene_experiment
+    from tendrilkit.segmentation import label_foreground
+
+    p = argparse.ArgumentParser(prog="bench_evidence.py lines")
+    p.add_argument("--seeds", default="0:40")
+    p.add_argument("--frames", type=int, default=6)
+    p.add_argument("--out", default=None, help="scenes are written (or reused) here, as random-SEED/")
+    a = p.parse_args(argv)
+    start, stop = (int(x) for x in a.seeds.split(":"))
+    if stop > 10000:
+        p.error("--seeds: 10000 and above are the held-out benchmark's")
+    out = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="bench_lines_"))
+    rows = []
+    for seed in range(start, stop):
+        folder = out / f"random-{seed}"
+        exp = load_experiment(write_scene_experiment(folder, seed=seed, scene="random", n_frames=a.frames))
+        gt = read_ground_truth(folder)
+        look = "pale" if gt.meta["factors"]["look"] == "pale" else "other"
+        opts = stage_options(exp, "segmentation")
+        opts.pop("min_component_px")
+        for f in range(len(gt.time_s)):
+            images = read_frames(exp, f)
+            for v, m in enumerate(exp.views):
+                plain = None
+                for name, extra in LINE_VARIANTS.items():
+                    c0 = time.process_time()
+                    lf = label_foreground(images[v], roi=m.roi, keep_out=m.keep_out, **{**opts, **extra})
+                    cpu = 1e3 * (time.process_time() - c0)
+                    fg = lf.foreground > 0
+                    if plain is None:
+                        plain = fg
+                        tube, P, _ = _truth_tube(gt, f, v, lf.roi_offset_xy, fg.shape)
+                        near_tube = cv2.dilate(tube.view(np.uint8), np.ones((5, 5), np.uint8)) > 0
+                        Pi = np.round(P).astype(int)
+                        ok = np.all(np.isfinite(P), axis=1) & np.all((Pi >= 0) & (Pi < np.array(fg.shape[::-1])), 1)
+                        ko = np.zeros(fg.shape, bool)
+                        if m.keep_out is not None:
+                            kx, ky, kw, kh = (int(round(c)) for c in m.keep_out)
+                            o = lf.roi_offset_xy
+                            ko[max(ky - o[1], 0):max(ky + kh - o[1], 0), max(kx - o[0], 0):max(kx + kw - o[0], 0)] = 1
+                        ok[ok] = ~ko[Pi[ok, 1], Pi[ok, 0]]
+                        Pi = Pi[ok]
+                    d = cv2.distanceTransform(np.where(fg, np.uint8(0), np.uint8(255)), cv2.DIST_L2, 5)
+                    found = float((d[Pi[:, 1], Pi[:, 0]] <= 1.5).mean()) if len(Pi) else float("nan")
+                    rows.append({"variant": name, "look": look, "found": found,
+                                 "false_px": int((fg & ~plain & ~near_tube).sum()), "cpu_ms": cpu})
+    t = pd.DataFrame(rows)
+    t = pd.concat([t, t.assign(look="all")], ignore_index=True)
+    table = t.groupby(["look", "variant"], sort=False).agg(views=("found", "size"), found=("found", "mean"),
+                                                           false_px=("false_px", "mean"), cpu_ms=("cpu_ms", "median"))
+    pd.set_option("display.width", 200)
+    print(f"seeds {start}:{stop}, {a.frames} frames; scenes in {out}")
+    print(table.reset_index().to_string(index=False, float_format=lambda x: f"{x:.3f}"))
+
+
 def main() -> None:
     cv2.setNumThreads(1)
     if len(sys.argv) > 1 and sys.argv[1] == "masks":
         bench_masks(sys.argv[2:])
+    elif len(sys.argv) > 1 and sys.argv[1] == "lines":
+        bench_lines(sys.argv[2:])
     elif len(sys.argv) > 1 and sys.argv[1] == "phantom":
         from tendrilkit.phantom import make_phantom, render_view
 
