@@ -134,8 +134,6 @@ def light_line_pixels(grey: np.ndarray, foreground: np.ndarray, *, width_px: int
     return gap
 
 
-#: Skeleton pixels at a line's end left out of its direction (:func:`bridge_line_gaps`): thinning bends an end.
-END_SKIP = 3
 #: Regions wider than this (px) are not lines (:func:`bridge_line_gaps` leaves them out of its skeleton).
 WIDE_PX = 12
 
@@ -153,17 +151,18 @@ def bridge_line_gaps(foreground: np.ndarray, *, gap_px: int = 30, back_px: int =
        :data:`WIDE_PX` / 2 from the board, grown by a pixel: leaves, markers)
        and its end pixels (one skeleton neighbour) on branches of at least
        ``back_px`` pixels;
-    2. each end's outward direction: from the pixel ``back_px`` steps back
-       along the skeleton to the one :data:`END_SKIP` steps back (thinning
-       bends a line's last pixels);
+    2. each end's outward direction: the principal axis of its own line's
+       skeleton pixels within ``back_px`` of it (noise leaves spurs on a
+       thinned line, and thinning bends its last pixels: a walk along the
+       skeleton would stop or turn there);
     3. two ends are joined when they are at most ``gap_px`` apart and the
        segment between them deviates by at most ``max_angle_deg`` from both
        directions (the line continues straight through; two ends side by side,
        or a line's tip pointing at another line's side, are not joined);
        closest pairs first, each end once;
     4. the join: a straight segment between the two ends, as wide as the
-       narrower of the two lines ``back_px`` from its end (twice the distance
-       from the skeleton to the board there less a pixel, at least 1 px). Nothing is removed: the
+       narrower of the two lines near its end (twice the distance
+       from the skeleton to the board there less two pixels, cv2.line's rounding adds them, at least 1 px). Nothing is removed: the
        line crossed keeps its pixels.
 
     Parameters
@@ -201,8 +200,8 @@ def bridge_line_gaps(foreground: np.ndarray, *, gap_px: int = 30, back_px: int =
 
     if gap_px < 1:
         raise ValueError(f"gap_px must be >= 1, got {gap_px}")
-    if back_px <= END_SKIP:
-        raise ValueError(f"back_px must be > {END_SKIP}, got {back_px}")
+    if back_px < 3:
+        raise ValueError(f"back_px must be >= 3, got {back_px}")
     fg = cv2.compare(foreground, 0, cv2.CMP_GT)
     # the lines only: wide regions (leaves, markers: over WIDE_PX across) left out of the thinning, a third of its
     # cost; their rims stay (a ring has no ends)
@@ -219,23 +218,24 @@ def bridge_line_gaps(foreground: np.ndarray, *, gap_px: int = 30, back_px: int =
     if len(ends) < 2:
         return fg
     inside = cv2.distanceTransform(sub, cv2.DIST_L2, 5)
-    padded = np.pad(skel, 1)
-    steps = [(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)]
+    _, lab = cv2.connectedComponents(skel, connectivity=8)
+    sk_rc = np.argwhere(skel > 0)
+    sk_lab = lab[sk_rc[:, 0], sk_rc[:, 1]]
     pos, dirs, widths = [], [], []
     for r, c in ends:
-        path = [(r + 1, c + 1)]
-        for _ in range(back_px):
-            pr, pc = path[-1]
-            nxt = [(pr + dr, pc + dc) for dr, dc in steps if padded[pr + dr, pc + dc] and (pr + dr, pc + dc) not in path]
-            if len(nxt) != 1:  # a junction or the branch's other end: too short or forked, no direction
-                break
-            path.append(nxt[0])
-        else:  # the direction over the branch's last back_px pixels but its END_SKIP last (a thinned end hooks)
-            (qr, qc), (pr, pc) = path[END_SKIP], path[-1]
-            d = np.array([qc - pc, qr - pr], float)
-            pos.append((float(c), float(r)))
-            dirs.append(d / np.hypot(*d))
-            widths.append(2.0 * float(inside[pr - 1, pc - 1]) - 1.0)  # the line's width back from its end
+        # the skeleton of the end's own line within back_px of it: its principal axis, pointing out at the end
+        # (robust to the spurs noise leaves on a thinned line and to the bend thinning gives its last pixels)
+        near = sk_rc[(sk_lab == lab[r, c]) & (np.abs(sk_rc[:, 0] - r) <= back_px) & (np.abs(sk_rc[:, 1] - c) <= back_px)]
+        near = near[np.hypot(near[:, 0] - r, near[:, 1] - c) <= back_px]
+        if len(near) < back_px // 2 + 1:  # a speck, not a line
+            continue
+        centre = near.mean(axis=0)
+        _, _, vt = np.linalg.svd(near - centre, full_matrices=False)
+        axis = vt[0] if np.dot(vt[0], (r - centre[0], c - centre[1])) >= 0 else -vt[0]
+        pos.append((float(c), float(r)))
+        dirs.append((float(axis[1]), float(axis[0])))
+        mid = near[np.argmin(np.hypot(near[:, 0] - centre[0], near[:, 1] - centre[1]))]
+        widths.append(2.0 * float(inside[mid[0], mid[1]]) - 2.0)  # the line's width back from its end
     if len(pos) < 2:
         return fg
     P, D = np.array(pos), np.array(dirs)
