@@ -49,8 +49,9 @@ def test_light_lines_find_a_pale_tendril_in_front_of_a_leaf_and_nothing_else():
     tube_near = cv2.dilate(truth["tube"].view(np.uint8), np.ones((5, 5), np.uint8)) > 0
     assert not (added & ~tube_near).any()
     assert not added[truth["vein"] & ~tube_near].any()
-    # the tendril is one line from its base across the leaf
-    m = segment_view(img, line_width_px=11, **marks)
+    # with the joins at the leaf's edges (where the faint pixels keep their distance from it), the tendril is one
+    # line from its base across the leaf
+    m = segment_view(img, line_width_px=11, bridge_gap_px=30, **marks)
     xs = np.nonzero(m.mask_roi[145:156])[1]
     assert xs.min() <= 35 and xs.max() >= 365
 
