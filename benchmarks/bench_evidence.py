@@ -189,8 +189,8 @@ def bench_masks(argv: list[str]) -> None:
     print(table.reset_index().to_string(index=False, float_format=lambda x: f"{x:.3f}"))
 
 
-LINE_VARIANTS = {"plain": {}, "lines": {"line_width_px": 11}, "bridges": {"bridge_gap_px": 16},
-                 "lines+bridges": {"line_width_px": 11, "bridge_gap_px": 16}}
+LINE_VARIANTS = {"plain": {}, "lines": {"line_width_px": 11}, "bridges": {"bridge_gap_px": 30},
+                 "lines+bridges": {"line_width_px": 11, "bridge_gap_px": 30}}
 
 
 def bench_lines(argv: list[str]) -> None:
