@@ -8,7 +8,8 @@ skeleton was walked. :func:`view_evidence` computes it once per view and
 frame, on the region of interest (ROI) only:
 
 * ``foreground``: every dark pixel of the ROI (the same channel, threshold,
-  faint pixels darker than their local background, keep-out box and opening as :func:`tendrilkit.segmentation.segment_view`,
+  faint pixels darker than their local background, light lines and joins across crossings when asked
+  (``line_width_px``, ``bridge_gap_px``), keep-out box and opening as :func:`tendrilkit.segmentation.segment_view`,
   by the same function, :func:`tendrilkit.segmentation.label_foreground`,
   or the segmentation's own when given),
   components smaller than ``min_component_px`` dropped; no component is
