@@ -49,6 +49,12 @@ def test_light_lines_find_a_pale_tendril_in_front_of_a_leaf_and_nothing_else():
     tube_near = cv2.dilate(truth["tube"].view(np.uint8), np.ones((5, 5), np.uint8)) > 0
     assert not (added & ~tube_near).any()
     assert not added[truth["vein"] & ~tube_near].any()
+    # in front of the leaf: a line of its own (a one-pixel rim of the leaf cleared beside it), not part of its blob
+    removed = before & ~after
+    assert removed.any() and not (removed & ~tube_near).any()
+    line = segment_view(img, line_width_px=11, bridge_gap_px=30, roi=(0, 0, 400, 300), keep_out=None,
+                        base_point_xy=(200, 150))  # the component at the middle of the leaf
+    assert not (line.mask_roi & ~tube_near).any()
     # with the joins at the leaf's edges (where the faint pixels keep their distance from it), the tendril is one
     # line from its base across the leaf
     m = segment_view(img, line_width_px=11, bridge_gap_px=30, **marks)

@@ -23,7 +23,9 @@
 4c. with ``line_width_px`` (off by default), light lines added
    (:func:`tendrilkit.segmentation.lines.light_line_pixels`): a thin line
    lighter than the dark pixels on both sides of it and darker than the
-   board, a pale tendril in front of a leaf or a shoot;
+   board, a pale tendril in front of a leaf or a shoot, with a one-pixel rim
+   of the object behind it cleared (:func:`tendrilkit.segmentation.lines.lines_in_front`:
+   a line, not a part of the leaf's blob);
 4d. with ``bridge_gap_px`` (off by default), line ends that face each other
    across a short gap joined (:func:`tendrilkit.segmentation.lines.bridge_line_gaps`):
    a line broken where it crosses another goes on straight through; the

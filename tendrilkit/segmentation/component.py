@@ -100,7 +100,9 @@ def segment_view(
         Step 4c, light lines (:func:`tendrilkit.segmentation.lines.light_line_pixels`):
         pixels of a line up to this wide, lighter than the dark pixels on both
         sides of it and darker than the board by ``local_contrast`` (at least
-        0.05) are added (a pale tendril in front of a leaf or a shoot); 0: none.
+        0.05) are added (a pale tendril in front of a leaf or a shoot), in
+        front of it (a one-pixel rim of the object cleared around them,
+        :func:`tendrilkit.segmentation.lines.lines_in_front`); 0: none.
     bridge_gap_px : int
         Step 4d (:func:`tendrilkit.segmentation.lines.bridge_line_gaps`):
         skeleton ends up to this far apart that face each other (the line

@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 
 from tendrilkit.segmentation.faint import faint_pixels
-from tendrilkit.segmentation.lines import bridge_line_gaps, light_line_pixels
+from tendrilkit.segmentation.lines import bridge_line_gaps, light_line_pixels, lines_in_front
 
 __all__ = ["LabelledForeground", "label_foreground", "grey_image", "foreground_roi", "faint_options"]
 
@@ -206,6 +206,7 @@ def foreground_roi(
         r = int(opening_radius_px)
         kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
         fg = cv2.morphologyEx(fg, cv2.MORPH_OPEN, kernel)
+    dark = fg  # the threshold's pixels (what a light line is in front of)
     if local_contrast > 0:  # not opened: a pale tendril's faint pixels are as narrow as its half-depth core
         near = fg
         if local_margin_px > 0:  # the rim of what the threshold found stays its own (dark tendrils unchanged)
@@ -220,8 +221,8 @@ def foreground_roi(
             faint = cv2.bitwise_and(faint, cv2.compare(near, 0, cv2.CMP_EQ))
         fg = cv2.bitwise_or(fg, faint)
     if line_width_px > 0:  # 4c: a pale line in front of a darker object (lighter than it, darker than the board)
-        fg = cv2.bitwise_or(fg, light_line_pixels(grey, fg, width_px=int(line_width_px),
-                                                  contrast=max(float(local_contrast), 0.05)))
+        lines = light_line_pixels(grey, fg, width_px=int(line_width_px), contrast=max(float(local_contrast), 0.05))
+        fg = lines_in_front(fg, lines, dark)
     if bridge_gap_px > 0:  # 4d: a line broken where it crosses another joined across the gap
         fg = bridge_line_gaps(fg, gap_px=int(bridge_gap_px))
     if (line_width_px > 0 or bridge_gap_px > 0) and keep_out is not None and a1 > a0 and b1 > b0:

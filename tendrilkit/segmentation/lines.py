@@ -1,12 +1,14 @@
 """Lines the darkness rule cannot see (steps 4c-4d of :func:`tendrilkit.segmentation.segment_view`).
 
-Both work on the ROI's foreground as steps 2-4b leave it (the thresholded
-and faint pixels), and only add pixels:
+They work on the ROI's foreground as steps 2-4b leave it (the thresholded
+and faint pixels):
 
 * :func:`light_line_pixels`: a thin line *lighter* than the dark object it
   crosses and darker than the board: a pale tendril in front of a leaf or a
   shoot cuts a light gap through the object's dark pixels, and its own pixels
   there are lighter than the threshold (they belong to neither);
+  :func:`lines_in_front` adds them in front of the object (a one-pixel rim of
+  the object cleared around them: the line stays a line);
 * :func:`bridge_line_gaps`: a line that stops and goes on straight a few
   pixels further (where it crosses another line, each loses its pixels near
   the other: the faint-pixel rule keeps its distance from darker pixels)
@@ -19,7 +21,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["light_line_pixels", "bridge_line_gaps", "board_level"]
+__all__ = ["light_line_pixels", "lines_in_front", "bridge_line_gaps", "board_level"]
 
 
 def board_level(grey: np.ndarray, *, window_px: int = 124) -> np.ndarray:
@@ -146,6 +148,50 @@ def light_line_pixels(grey: np.ndarray, foreground: np.ndarray, *, width_px: int
     keep[np.unique(lab[through > 0])] = True
     keep[0] = False
     out[keep[lab]] = 255
+    return out
+
+
+def lines_in_front(foreground: np.ndarray, lines: np.ndarray, behind: np.ndarray) -> np.ndarray:
+    """The foreground with light lines in front of the darker objects they cross: one line, not one blob.
+
+    A pale tendril lighter than the leaf it crosses lies in front of it. Its
+    pixels (``lines``, :func:`light_line_pixels`) are added, and the darker
+    objects' pixels (``behind``: the thresholded ones) that touch them are
+    cleared: a one-pixel rim between the line and the object behind it. The
+    line is then a thin line of its own across the leaf (its skeleton, its
+    component, its width), as it is seen, instead of a part of the leaf's
+    blob; the leaf keeps its other pixels, and the line's faint pixels beyond
+    the object (not thresholded) stay joined to it.
+
+    Parameters
+    ----------
+    foreground : (h, w) uint8 array
+        Nonzero on the pixels found dark (threshold and faint pixels).
+    lines : (h, w) uint8 array
+        Nonzero on the light lines' pixels (none of ``foreground``).
+    behind : (h, w) uint8 array
+        Nonzero on the darker objects' pixels (the threshold's).
+
+    Returns
+    -------
+    (h, w) uint8 array
+        255 on the new foreground, 0 elsewhere.
+
+    Example
+    -------
+    >>> fg = np.zeros((40, 60), np.uint8); fg[5:35, 10:50] = 255; fg[18:23, :] = 0
+    >>> ln = np.zeros_like(fg); ln[18:23, 10:50] = 255
+    >>> out = lines_in_front(fg, ln, fg)
+    >>> int(out[20, 30] > 0), int(out[17, 30] > 0), int(out[23, 30] > 0), int(out[16, 30] > 0)
+    (1, 0, 0, 1)
+    """
+    fg = cv2.compare(foreground, 0, cv2.CMP_GT)
+    ln = cv2.compare(lines, 0, cv2.CMP_GT)
+    if not ln.any():
+        return fg
+    rim = cv2.bitwise_and(cv2.dilate(ln, np.ones((3, 3), np.uint8)), cv2.compare(behind, 0, cv2.CMP_GT))
+    out = cv2.bitwise_or(fg, ln)
+    out[(rim > 0) & (ln == 0)] = 0
     return out
 
 
