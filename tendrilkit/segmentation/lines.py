@@ -131,16 +131,17 @@ def light_line_pixels(grey: np.ndarray, foreground: np.ndarray, *, width_px: int
         return out
     disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(width_px) | 1,) * 2)
     free = cv2.compare(fg, 0, cv2.CMP_EQ)
-    gap = cv2.bitwise_and(cv2.morphologyEx(fg, cv2.MORPH_CLOSE, disk), free)
-    if not gap.any():
+    wide = cv2.morphologyEx(fg, cv2.MORPH_OPEN, disk)  # leaves, the stem: what a line can cross in front of
+    through = cv2.bitwise_and(cv2.morphologyEx(wide, cv2.MORPH_CLOSE, disk), free)
+    if not through.any():  # no gap through a wide object: no line in front of one (most views; exact)
         return out
+    gap = cv2.bitwise_and(cv2.morphologyEx(fg, cv2.MORPH_CLOSE, disk), free)
     b = board_level(grey)
     darker = cv2.compare(grey.astype(np.float32), np.float32(1.0 - contrast) * b.astype(np.float32), cv2.CMP_LT)
     gap = cv2.bitwise_and(gap, darker)
     if min_width_px > 1:
         gap = cv2.morphologyEx(gap, cv2.MORPH_OPEN, np.ones((int(min_width_px),) * 2, np.uint8))
-    wide = cv2.morphologyEx(fg, cv2.MORPH_OPEN, disk)  # leaves, the stem: what a line can cross in front of
-    through = cv2.bitwise_and(gap, cv2.morphologyEx(wide, cv2.MORPH_CLOSE, disk))
+    through = cv2.bitwise_and(through, gap)
     if not through.any():
         return out
     n, lab = cv2.connectedComponents(gap, connectivity=8)
