@@ -206,16 +206,20 @@ def bench_lines(argv: list[str]) -> None:
     from tendrilkit.segmentation import label_foreground
 
     p = argparse.ArgumentParser(prog="bench_evidence.py lines")
-    p.add_argument("--seeds", default="0:40")
+    p.add_argument("--seeds", default="0:40", help="START:STOP (stop exclusive) or a comma-separated list")
     p.add_argument("--frames", type=int, default=6)
     p.add_argument("--out", default=None, help="scenes are written (or reused) here, as random-SEED/")
     a = p.parse_args(argv)
-    start, stop = (int(x) for x in a.seeds.split(":"))
-    if stop > 10000:
+    if ":" in a.seeds:
+        start, stop = (int(x) for x in a.seeds.split(":"))
+        seeds = list(range(start, stop))
+    else:
+        seeds = [int(x) for x in a.seeds.split(",")]
+    if max(seeds) >= 10000:
         p.error("--seeds: 10000 and above are the held-out benchmark's")
     out = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="bench_lines_"))
     rows = []
-    for seed in range(start, stop):
+    for seed in seeds:
         folder = out / f"random-{seed}"
         exp = load_experiment(write_scene_experiment(folder, seed=seed, scene="random", n_frames=a.frames))
         gt = read_ground_truth(folder)
@@ -253,7 +257,7 @@ def bench_lines(argv: list[str]) -> None:
     table = t.groupby(["look", "variant"], sort=False).agg(views=("found", "size"), found=("found", "mean"),
                                                            false_px=("false_px", "mean"), cpu_ms=("cpu_ms", "median"))
     pd.set_option("display.width", 200)
-    print(f"seeds {start}:{stop}, {a.frames} frames; scenes in {out}")
+    print(f"seeds {a.seeds}, {a.frames} frames; scenes in {out}")
     print(table.reset_index().to_string(index=False, float_format=lambda x: f"{x:.3f}"))
 
 

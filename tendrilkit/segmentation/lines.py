@@ -137,7 +137,9 @@ def light_line_pixels(grey: np.ndarray, foreground: np.ndarray, *, width_px: int
         return out
     gap = cv2.bitwise_and(cv2.morphologyEx(fg, cv2.MORPH_CLOSE, disk), free)
     b = board_level(grey)
-    darker = cv2.compare(grey.astype(np.float32), np.float32(1.0 - contrast) * b.astype(np.float32), cv2.CMP_LT)
+    # g < (1 - c) b for an integer g  <=>  g < ceil((1 - c) b): one table over the board's 256 levels
+    limit = np.ceil((1.0 - float(contrast)) * np.arange(256)).astype(np.uint8)
+    darker = cv2.compare(grey, cv2.LUT(b, limit), cv2.CMP_LT)
     gap = cv2.bitwise_and(gap, darker)
     if min_width_px > 1:
         gap = cv2.morphologyEx(gap, cv2.MORPH_OPEN, np.ones((int(min_width_px),) * 2, np.uint8))
