@@ -14,6 +14,16 @@ box) within 1.5 px of the foreground (``found``), the pixels each variant adds
 farther than 2 px from the true tube, per view (``false_px``; a second
 tendril's pixels count as false), and the median CPU ms per view.
 
+Measured 2026-11-30 (shared machine, load 17-21; CPU times are upper bounds),
+``lines --seeds 0:40`` (720 views; 360 of pale tendrils): centre line found,
+pale 0.789 -> 0.907 with light lines (``line_width_px: 11``), 0.795 with
+joins (``bridge_gap_px: 30``), 0.915 with both; other looks 1.000 in every
+variant; false pixels per view 0.65 (pale) / 3.0 (other) with light lines, 1.3
+/ 2.1 with joins; CPU per view 4.2 -> 9.0 ms (pale) and 3.3 -> 5.9 ms (other)
+with light lines, 10.5 / 8.2 ms with joins. Untouched dev seeds (the 13 pale
+scenes of 9100-9139, 234 views): 0.773 -> 0.913 (lines), 0.780 (joins), 0.920
+(both); false pixels 2.1 / 0.8 / 2.9 per view.
+
 ``masks``: the segmentation's mask against the truth's projected tube, per
 view, on random phantom scenes (:mod:`tendrilkit.phantom.scenes`; seeds
 0-9999 only: 10000 and above are the held-out benchmark's), with the faint

@@ -103,8 +103,12 @@ def light_line_pixels(grey: np.ndarray, foreground: np.ndarray, *, width_px: int
 
     Notes
     -----
-    About 2-4 ms on a 1080p phantom view's region of interest (one core): the
-    closings and the opening by the disk, the envelope, the labels.
+    About 1.5 ms on a 1080p phantom view's region of interest where no gap
+    runs through a wide object, 3-5 ms where one does (one core; the
+    closings and the opening by the disk, the envelope, the labels):
+    :func:`tendrilkit.segmentation.label_foreground` 4.2 -> 9.0 ms CPU per
+    view on pale random scenes, 3.3 -> 5.9 ms on the others, at a load of 20
+    (``benchmarks/bench_evidence.py lines``).
 
     Example
     -------
@@ -248,8 +252,9 @@ def bridge_line_gaps(foreground: np.ndarray, *, gap_px: int = 30, back_px: int =
 
     Notes
     -----
-    About 3-4 ms on a 1080p phantom view's region of interest (one core),
-    most of it the thinning.
+    About 4-6 ms on a 1080p phantom view's region of interest (one core, at
+    a load of 20: ``benchmarks/bench_evidence.py lines``), most of it the
+    thinning: over the 5 ms a view may add, so it is off by default.
 
     Example
     -------
