@@ -14,6 +14,24 @@ and faint pixels):
   the other: the faint-pixel rule keeps its distance from darker pixels)
   is joined across the gap, at its own width, so that the skeleton, the
   ordering and the multi-view method see one continuous line.
+
+Both are off by default (``segmentation.line_width_px``, ``bridge_gap_px``).
+Measured 2026-11-30 by ground truth on the 20 pale dev scenes of seeds 0-39
+(6 frames each, ``benchmarks/bench_generalize``'s scoring), frames right on
+all three criteria / within 0.5 mm mean / failed / reported ok but wrong,
+silent failures 0 throughout: chain 5.8 / 71.7 / 5.0 % / 9 -> 6.7 / 72.5 /
+7.5 % / 7 with light lines, 5.8 / 42.5 / 23.3 % / 6 with joins (the joins make
+crossings the walk cannot take); multi-view 17.5 / 68.3 / 0 % / 15 -> 17.5 /
+60.8 / 0 % / 8 with light lines, 19.2 / 61.7 / 0 % / 17 with joins, 19.2 /
+55.8 / 0 % / 9 with both. On the 20 other dev scenes light lines change the
+chain by one frame and cost the multi-view one silent frame (seed 2, 6 px
+added in one view); on the 13 untouched pale scenes of 9100-9139: chain 2.6 /
+93.6 / 0 % / 15 -> 5.1 / 73.1 / 6.4 % / 1, multi-view 12.8 / 62.8 / 0 % / 12
+(2 silent) -> 15.4 / 42.3 / 0 % / 3 (0 silent). The evidence is better (the
+centre line found 0.79 -> 0.91 on pale scenes, ``benchmarks/bench_evidence.py
+lines``); the methods do not yet use it better: more of the tendril is seen,
+so fewer wrong frames pass as ok, but a curve that follows it over a leaf is
+less often within 0.5 mm.
 """
 
 from __future__ import annotations
