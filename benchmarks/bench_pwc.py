@@ -149,12 +149,16 @@ def main() -> None:
     code = ("import time; c = time.process_time(); import tendrilkit.cli, tendrilkit.fitting, tendrilkit.io, "
             "tendrilkit.pwc; a = time.process_time() - c; import numpy as np; "
             "u = np.linspace(0, 12, 200); P = np.c_[30 * np.cos(u), 30 * np.sin(u), 8 * u]; "
+            # the first call of any compiled function sets numba up (typing registries, scipy.linalg for BLAS)
+            "from tendrilkit.pwc.laws import _pwl_step_means; "
+            "c = time.process_time(); _pwl_step_means(u[:5], u[[0, 4]], u[:2]); e = time.process_time() - c; "
             "c = time.process_time(); tendrilkit.pwc.fit_piecewise_clothoid(P); b = time.process_time() - c; "
             "c = time.process_time(); tendrilkit.pwc.fit_piecewise_clothoid(P); d = time.process_time() - c; "
-            "print(f'{a:.2f} {b - d:.2f}')")
+            "print(f'{a:.2f} {e + b - d:.2f} {e:.2f}')")
     out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True).stdout.split()
-    if len(out) == 2:
-        print(f"start-up of the fit command (CPU): imports {out[0]} s, numba's first cache load {out[1]} s")
+    if len(out) == 3:
+        print(f"start-up of the fit command (CPU): imports {out[0]} s, numba's first cache load {out[1]} s (of which "
+              f"{out[2]} s numba's own set-up at the first compiled call: its typing registries, scipy.linalg)")
     import numba
     compiled = any((Path(numba.__file__).parent / "core" / "__pycache__").glob("*.pyc"))
     print("site-packages bytecode: " + ("compiled" if compiled else
