@@ -167,6 +167,13 @@ def fit_frame(points_mm: np.ndarray, options: dict | None = None, *, frame: int 
     return np.asarray(fit.points_mm, float), segs, row
 
 
+def curves_table(frame: int, time_s: float, points_mm: np.ndarray) -> pd.DataFrame:
+    """One frame's points as rows of ``curves.csv`` / ``pwc_curves.csv``."""
+    n = len(points_mm)
+    return pd.DataFrame({"frame": int(frame), "time_s": time_s, "point": np.arange(n),
+                         "x_mm": points_mm[:, 0], "y_mm": points_mm[:, 1], "z_mm": points_mm[:, 2]})
+
+
 def metrics_table(rows: list[dict]) -> pd.DataFrame:
     mets = pd.DataFrame(rows, columns=list(PWC_METRICS.columns))
     for c in PWC_METRICS.of_kind("Int"):
