@@ -13,6 +13,14 @@
 Also prints the accuracy on the seeded noisy ground-truth curves and where the time of one
 frame goes (CPU per stage, measured in a second pass).
 
+    .venv/bin/python benchmarks/bench_pwc.py --curves-csv RUN/curves.csv   # a reconstruction's curves
+
+times the fit on every frame of a reconstruction's ``curves.csv`` (what the pipeline's ``pwc`` stage
+fits; e.g. ``reconstruct params/phantom_S3.yaml``'s) beside the benchmark's ground-truth curves, with
+what makes a frame dearer: how many searches a fit ran (the first, and the retries of ``retries``,
+which run when the rms residual exceeds ``RETRY_NOISE_RATIO`` of the noise estimated from the points),
+the candidates evaluated, the segments, and that rms-to-noise ratio. Then stops.
+
     .venv/bin/python benchmarks/bench_pwc.py --baseline /tmp/old   # a checkout of the old code
 
 compares with another checkout on the same machine load: the per-frame fit (CPU and wall) and the
@@ -28,15 +36,19 @@ by more than 0.02 mm).
 
 from __future__ import annotations
 
-import argparse
 import os
-import subprocess
-import sys
-import tempfile
-import time
-from pathlib import Path
 
-import numpy as np
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # one core, as the issue's figures (and the fit command) run
+
+import argparse  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -52,7 +64,11 @@ def main() -> None:
     ap.add_argument("--baseline", type=Path, help="a checkout of the old code: compare with it, then stop")
     ap.add_argument("--rounds", type=int, default=3, help="--baseline: alternate runs of each")
     ap.add_argument("--extra", type=int, default=200, help="--baseline: more ground-truth curves (seeds from 2000)")
+    ap.add_argument("--curves-csv", type=Path, help="a reconstruction's curves.csv: its frames against the benchmark's")
     args = ap.parse_args()
+    if args.curves_csv is not None:
+        _pipeline_curves(args.curves_csv, args.curves)
+        return
     if args.baseline is not None:
         _compare(args.baseline.resolve(), args.curves, args.frames, args.rounds)
         _compare_accuracy(args.baseline.resolve(), args.curves, args.frames, args.extra)
@@ -133,16 +149,70 @@ def main() -> None:
     code = ("import time; c = time.process_time(); import tendrilkit.cli, tendrilkit.fitting, tendrilkit.io, "
             "tendrilkit.pwc; a = time.process_time() - c; import numpy as np; "
             "u = np.linspace(0, 12, 200); P = np.c_[30 * np.cos(u), 30 * np.sin(u), 8 * u]; "
+            # the first call of any compiled function sets numba up (typing registries, scipy.linalg for BLAS)
+            "from tendrilkit.pwc.laws import _pwl_step_means; "
+            "c = time.process_time(); _pwl_step_means(u[:5], u[[0, 4]], u[:2]); e = time.process_time() - c; "
             "c = time.process_time(); tendrilkit.pwc.fit_piecewise_clothoid(P); b = time.process_time() - c; "
             "c = time.process_time(); tendrilkit.pwc.fit_piecewise_clothoid(P); d = time.process_time() - c; "
-            "print(f'{a:.2f} {b - d:.2f}')")
+            "print(f'{a:.2f} {e + b - d:.2f} {e:.2f}')")
     out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True).stdout.split()
-    if len(out) == 2:
-        print(f"start-up of the fit command (CPU): imports {out[0]} s, numba's first cache load {out[1]} s")
+    if len(out) == 3:
+        print(f"start-up of the fit command (CPU): imports {out[0]} s, numba's first cache load {out[1]} s (of which "
+              f"{out[2]} s numba's own set-up at the first compiled call: its typing registries, scipy.linalg)")
     import numba
     compiled = any((Path(numba.__file__).parent / "core" / "__pycache__").glob("*.pyc"))
     print("site-packages bytecode: " + ("compiled" if compiled else
           "NOT compiled (uv installs without it; `uv pip sync --compile-bytecode` or `python -m compileall`)"))
+
+
+def _search_figures(curves: list) -> dict:
+    """CPU ms per fit, searches per fit, candidates, segments and rms / noise of the first search, per curve."""
+    import tendrilkit.pwc.fit as F
+    from tendrilkit.frenet import noise_sigma_mm
+
+    searches: list = []
+    inner = F._auto_search
+
+    def counted(prep, **kw):
+        res = inner(prep, **kw)
+        searches.append(res)
+        return res
+
+    fit_piecewise_clothoid(curves[0])  # numba's caches
+    out = {k: [] for k in ("cpu_ms", "searches", "candidates", "segments", "noise_ratio")}
+    F._auto_search = counted
+    try:
+        for P in curves:
+            searches.clear()
+            c = time.process_time()
+            f = fit_piecewise_clothoid(P)
+            out["cpu_ms"].append(1e3 * (time.process_time() - c))
+            out["searches"].append(len(searches))
+            out["candidates"].append(sum(len(r["candidates"]) for r in searches))
+            out["segments"].append(f.n_segments_kappa + f.n_segments_tau)
+            out["noise_ratio"].append(np.sqrt(searches[0]["best"][2] / (3 * f.s_mm.size)) / noise_sigma_mm(P))
+    finally:
+        F._auto_search = inner
+    return {k: np.array(v, float) for k, v in out.items()}
+
+
+def _pipeline_curves(curves_csv: Path, n_curves: int) -> None:
+    """A reconstruction's curves against the benchmark's ground-truth curves: what makes its frames dearer."""
+    import pandas as pd
+
+    from tendrilkit.pwc.fit import RETRY_NOISE_RATIO
+
+    d = pd.read_csv(curves_csv).sort_values(["frame", "point"])
+    run = [g[["x_mm", "y_mm", "z_mm"]].to_numpy(float) for _, g in d.groupby("frame")]
+    bench = [random_pwc_curve(1000 + i).points_mm for i in range(n_curves)]
+    print(f"fit of every frame, CPU ms (load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores):")
+    for name, curves in ((f"ground-truth curves ({len(bench)})", bench), (f"{curves_csv} ({len(run)} frames)", run)):
+        f = _search_figures(curves)
+        print(f"  {name}: points {np.median([len(P) for P in curves]):.0f}; CPU median {np.median(f['cpu_ms']):.1f} "
+              f"mean {f['cpu_ms'].mean():.1f} max {f['cpu_ms'].max():.1f} ms; searches per fit {f['searches'].mean():.2f} "
+              f"(retried {100 * np.mean(f['searches'] > 1):.0f} %); candidates per fit {f['candidates'].mean():.1f}; "
+              f"segments (kappa + tau) {f['segments'].mean():.1f}; first search's rms / noise estimate median "
+              f"{np.median(f['noise_ratio']):.2f} (retry above {RETRY_NOISE_RATIO})")
 
 
 def _stage_times(curves) -> dict:

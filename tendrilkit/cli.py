@@ -102,7 +102,23 @@ def _cmd_overlay(args: argparse.Namespace) -> int:
     return 0
 
 
+def _single_threaded_blas() -> None:
+    """One BLAS thread unless the user chose otherwise (set before numpy is first imported, else nothing).
+
+    The fit's matrices are small (a few hundred rows, tens of columns): a second
+    BLAS thread costs more in hand-overs than it saves (on the site phantoms' curves
+    about a fifth more CPU on a busy machine), and the results are the same.
+    """
+    import os
+
+    if "numpy" in sys.modules:  # in-process (tests, notebooks): too late, and not ours to change
+        return
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+
+
 def _cmd_fit(args: argparse.Namespace) -> int:
+    _single_threaded_blas()
     from tendrilkit.fitting import run_fit
 
     summary = run_fit(Path(args.curves), Path(args.out))

@@ -91,3 +91,51 @@ def test_cli_reports_a_missing_csv_in_one_line(tmp_path):
     assert r.returncode == 2
     assert r.stderr.strip().count("\n") == 0 and "not found" in r.stderr
     assert "Traceback" not in r.stderr
+
+
+def test_fit_curves_gathers_each_frames_fit_in_frame_order():
+    """fit_curves: frames in order, each frame's points sorted, its first time_s (NaN only when all are),
+    the fitted points numbered from 0, failed frames in the metrics only: the same as fit_frame per frame."""
+    frames = {}
+    for frame, seed, n in ((7, 4, 120), (3, 5, 90), (12, 6, 60)):
+        P = random_pwc_curve(seed).points_mm[:n]
+        t = np.full(n, 2.0 * frame)
+        if frame == 3:
+            t[:] = np.nan
+        if frame == 12:
+            t[0] = np.nan  # the first point's time is the frame's, NaN or not
+        frames[frame] = (P, t)
+    frames[5] = (np.tile([1.0, 2.0, 3.0], (20, 1)), np.full(20, 1.0))  # fails
+    table = pd.concat([pd.DataFrame({"frame": f, "time_s": t, "point": np.arange(len(P)), "x_mm": P[:, 0],
+                                     "y_mm": P[:, 1], "z_mm": P[:, 2]}) for f, (P, t) in frames.items()])
+    from tendrilkit.fitting import fit_curves, fit_frame
+
+    pwc, segs, mets = fit_curves(table.sample(frac=1.0, random_state=1))
+    assert mets["frame"].tolist() == [3, 5, 7, 12]
+    assert mets["status"].tolist() == ["ok", "failed", "ok", "ok"]
+    assert pwc["frame"].unique().tolist() == [3, 7, 12]
+    for f in (3, 7, 12):
+        P, t = frames[f]
+        t_s = float(t[0]) if np.any(~np.isnan(t)) else np.nan
+        fitted, seg_rows, row = fit_frame(P, frame=f, time_s=t_s)
+        got = pwc[pwc["frame"] == f]
+        assert got["point"].tolist() == list(range(len(P)))
+        assert np.array_equal(got[["x_mm", "y_mm", "z_mm"]].to_numpy(), fitted)
+        assert np.array_equal(got["time_s"].to_numpy(), np.full(len(P), t_s), equal_nan=True)
+        assert len(segs[segs["frame"] == f]) == len(seg_rows)
+    assert (pwc.loc[pwc["frame"] == 7, "time_s"] == 14.0).all()
+    assert np.isnan(pwc.loc[pwc["frame"].isin([3, 12]), "time_s"]).all()
+    assert pwc["frame"].dtype == np.int64 and pwc["point"].dtype == np.int64
+
+
+@pytest.mark.parametrize("env, numpy_first, expected", [({}, False, "1"), ({"OPENBLAS_NUM_THREADS": "3"}, False, "3"),
+                                                        ({}, True, None)])
+def test_fit_command_uses_one_blas_thread_unless_told(env, numpy_first, expected):
+    import os
+
+    base = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+    code = ("import numpy; " if numpy_first else "") + (
+        "import os, tendrilkit.cli as c; c._single_threaded_blas(); print(os.environ.get('OPENBLAS_NUM_THREADS'))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, env={**base, **env}, capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == str(expected)
