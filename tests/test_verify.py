@@ -139,6 +139,31 @@ def test_temporal_jump_flags_only_the_jumping_frame():
     assert msgs[0][0].startswith("shape jump: shape moved by 10.0 mm")
 
 
+
+def test_length_disagreeing_with_most_frames_is_flagged_however_many_frames_repeat_it():
+    """Frames 4 and 5 are 16 % shorter than frames 0-3 (a curve cutting across a loop's crossing twice in a row,
+    development seeds 15 and 17): each has one neighbour agreeing with it, so no jump, but a tendril does not
+    change length: the two are flagged, the four that agree are not."""
+    T = _tendril_mm()
+    frames = list(range(6))
+    times = [15.0 * f for f in frames]
+    curves = [T] * 4 + [_tendril_mm(frac=0.84)] * 2
+    _, msgs = temporal_checks(frames, times, curves, [True] * 6, Thresholds())
+    flagged = [[m for m in ms if m.startswith("length:")] for ms in msgs]
+    assert [bool(m) for m in flagged] == [False] * 4 + [True] * 2
+    L = np.linalg.norm(np.diff(curves[4], axis=0), axis=1).sum()
+    assert flagged[4] == [f"length: the curve ({L:.1f} mm) disagrees with 4 of the 5 other frames that passed the image "
+                          "checks (by more than 5 % + 1 %/min): a tendril does not change length"]
+    # frames that did not pass the image checks do not vote; growth within the allowance is no disagreement
+    _, msgs = temporal_checks(frames, times, curves, [True] * 4 + [False] * 2, Thresholds())
+    assert not any(m.startswith("length:") for ms in msgs for m in ms)
+    growing = [_tendril_mm(frac=1.0 + 0.01 * f) for f in frames]  # 1 % per 15 s: at most 5 % in 75 s, allowed 6.25 %
+    _, msgs = temporal_checks(frames, times, growing, [True] * 6, Thresholds())
+    assert not any(m.startswith("length:") for ms in msgs for m in ms)
+    # a tie flags both sides
+    _, msgs = temporal_checks([0, 1], [0.0, 15.0], [T, _tendril_mm(frac=0.8)], [True, True], Thresholds())
+    assert all(any(m.startswith("length:") for m in ms) for ms in msgs)
+
 def test_temporal_allowance_grows_with_time():
     T = _tendril_mm()
     moved = T + np.array([0.0, 10.0, 0.0])              # 10 mm mean displacement (limit 8 mm in 15 s)
