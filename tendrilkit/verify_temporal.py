@@ -179,20 +179,20 @@ def _length_outliers(idx: list[int], frames: list[int], times_s: list[float], cu
     dict
         Position in the frame lists to its message.
     """
-    lengths = {i: _by_fraction(curves[i])[1] for i in idx}
+    if len(idx) < 2:
+        return {}
+    L = np.array([_by_fraction(curves[i])[1] for i in idx])
+    t = np.array([times_s[i] for i in idx], float)
     out: dict[int, str] = {}
-    for i in idx:
-        agree = disagree = 0
-        for j in idx:
-            if j == i:
-                continue
-            lim = th.max_length_change_pct + th.length_rate_pct_per_min * abs(times_s[i] - times_s[j]) / 60.0
-            if lengths[j] > 0 and abs(100.0 * (lengths[i] - lengths[j]) / lengths[j]) > lim:
-                disagree += 1
-            else:
-                agree += 1
+    for k, i in enumerate(idx):  # one row of the pairwise comparison at a time: memory linear in the frames
+        lim = th.max_length_change_pct + th.length_rate_pct_per_min * np.abs(t[k] - t) / 60.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            differs = (L > 0) & (np.abs(100.0 * (L[k] - L) / L) > lim)
+        differs[k] = False
+        disagree = int(differs.sum())
+        agree = len(idx) - 1 - disagree
         if disagree > agree:
-            out[i] = (f"length: the curve ({lengths[i]:.1f} mm) disagrees with {disagree} of the {agree + disagree} other "
+            out[i] = (f"length: the curve ({L[k]:.1f} mm) disagrees with {disagree} of the {agree + disagree} other "
                       f"frames that passed the image checks (by more than {th.max_length_change_pct:g} % + "
                       f"{th.length_rate_pct_per_min:g} %/min): a tendril does not change length")
     return out
