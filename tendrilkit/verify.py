@@ -255,12 +255,14 @@ class Thresholds:
         The projected tip stops within this distance of pixels wider than
         the tendril (an object it may cross: the stem, a shoot, a leaf),
         px, in two views or more (30 px): where the tendril ends cannot be
-        seen. On the multi-view curves of development seeds 0-39, 41-170
-        and 7015 (200 frames), the frames right on all three accuracy
-        criteria have no such pixel within 30 px in their second-best view
-        but one (a tip over a leaf, flagged by the tip continuation too);
-        the curves reported ``ok`` 18-33 mm short of the tip (seeds 13,
-        74, 170: a pale coil in front of a shoot, a tip on a leaf) 11-24 px
+        seen. On the multi-view curves of development seeds 0-19, 21 seeds
+        41-170 with coils, a shoot under the tendril, a petiole or a second
+        tendril, and 7015 (242 frames), the 60 frames right on all three
+        accuracy criteria have no such pixel within 30 px in their
+        second-best view but one (a tip over a leaf, flagged by the tip
+        continuation too); the curves reported ``ok`` 18-108 mm short of the
+        tip (seeds 13, 74, 90, 170: a pale coil in front of a shoot, a tip
+        on a leaf) 11-30 px
         (:mod:`tendrilkit.verify_object`). Not a column of ``frames.csv``
         (the site phantoms' result files stay as they were): the message
         gives the figures.

@@ -25,12 +25,15 @@ in a corridor ahead of the projected tip (along the curve's last
 how far ahead the first pixel wider than the tendril lies (0: at the tip
 itself), or None when none lies within ``reach_px``
 (``verification.min_tip_object_px``, 30 px). On the multi-view curves of
-development seeds 0-39, 41-170 and 7015 (200 frames; 3 half widths aside),
-the 41 frames right on all three accuracy criteria have no such pixel
-within 30 px in their second-best view but one (a tip over a leaf, 0 px,
-flagged by the tip continuation too); the six frames reported ``ok``
-18-33 mm short of the tip (seeds 13, 74, 170: a tip resting on a leaf, a
-coil over a leaf, the pale coil in front of a shoot) 11-24 px.
+development seeds 0-19, 21 seeds 41-170 with coils over a shoot, petioles
+or second tendrils, and 7015 (242 frames; 3 half widths aside), the 60
+frames right on all three accuracy criteria have no such pixel within
+30 px in their second-best view but one (a tip over a leaf, 0 px, flagged
+by the tip continuation too); the seven frames reported ``ok`` 18-108 mm
+short of the tip (seeds 13, 74, 90, 170: a tip resting on a leaf, a coil
+over a leaf, the pale coil in front of a shoot) 11-30 px. On the untouched
+development seeds 9200-9208 it flagged two right frames (tips 13-24 px
+from a shoot in two views or three) and no curve reported ``ok`` before.
 """
 
 from __future__ import annotations

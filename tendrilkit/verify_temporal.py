@@ -168,7 +168,7 @@ def _length_outliers(idx: list[int], frames: list[int], times_s: list[float], cu
     is the tendril's and a frame whose curve is shorter (cutting across a
     loop's crossing, stopping short) or longer (running on along clutter)
     than it is wrong, however many frames in a row repeat it. On the
-    multi-view curves of development seeds 0-19 and 41-170 (216 frames) it
+    multi-view curves of development seeds 0-19 and 21 seeds 41-170 (246 frames) it
     flags the frames reported ``ok`` 16-17 % shorter than the frames before
     them in two frames in a row (seeds 15, 17: max error 2.9-4.4 mm) and two
     frames already doubtful, no frame right on all three accuracy criteria.
