@@ -33,9 +33,10 @@ by the tip continuation too); the seven frames reported ``ok`` 18-108 mm
 short of the tip (seeds 13, 74, 90, 170: a tip resting on a leaf, a coil
 over a leaf, the pale coil in front of a shoot) 11-30 px. On the untouched
 development seeds 9200-9239 (both new checks together, 240 frames per
-method), multi-view: 5 frames no longer ``ok``, one of them 1.5 mm wrong
-and two off by more than 2 mm at the tip or somewhere, but two right on
-all three criteria (tips 13-24 px from a shoot in two views or three);
+method), multi-view: 5 frames no longer ``ok``, all by this check: one
+3.1 mm wrong (mean; 71 mm short), two 8-15 mm short at the tip, but two
+right on all three criteria (tips 13-24 px from a shoot in two views or
+three);
 chain: 5, every one off by more than 2 mm (tips 22-104 mm short), none
 right.
 """
