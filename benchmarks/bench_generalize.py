@@ -112,6 +112,18 @@ def one_scene(seed: int, scene: str, n_frames: int, out: str, method: str | None
     return seed, scores, "", time.perf_counter() - w0, time.process_time() - c0
 
 
+def trust_line(table: pd.DataFrame) -> str:
+    """The trust issue's figures (issue 13): silent failures, ``ok`` frames off by more than 2 mm somewhere, and
+    false alarms by the literal definition (mean <= 0.5 mm, not ``ok``) and among frames right on all three criteria."""
+    ok = table.status == "ok"
+    good, right = table.mean_mm <= 0.5, table.within.astype(bool)
+    off = ok & ((table.max_mm > 2) | (table.base_mm > 2) | (table.tip_mm > 2))
+    fa, far = good & ~ok, right & ~ok
+    return (f"trust: {int((ok & (table.mean_mm > 1.5)).sum())} silent (ok, mean > 1.5 mm); {int(off.sum())} ok with max "
+            f"or an end > 2 mm; false alarms {int(fa.sum())}/{int(good.sum())} = {100 * fa.sum() / max(good.sum(), 1):.1f} % "
+            f"(mean <= 0.5 mm, not ok), {int(far.sum())}/{int(right.sum())} among frames right on all three criteria")
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--seeds", default="0:10", help="START:STOP (stop exclusive)")
@@ -172,6 +184,7 @@ def main(argv: list[str] | None = None) -> int:
             "within_pct": "all3%", "failed_pct": "failed%", "silent": "silent", "silent_pct": "silent%",
             "flagged_wrong": "flagged_wrong"}
     print(summary.rename(columns=cols).to_string(index=False, float_format=lambda x: f"{x:.1f}"))
+    print(trust_line(table))
     rig_cols = [c for c in table if c.startswith("rig_max_px_")]
     if rig_cols:
         per_scene = table.groupby("scene")[rig_cols + [c.replace("max", "med") for c in rig_cols]].first()

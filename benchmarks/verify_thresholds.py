@@ -33,7 +33,8 @@ from tendrilkit.io import open_views, read_cameras  # noqa: E402
 from tendrilkit.evaluation import accuracy_against_truth  # noqa: E402
 from tendrilkit.options import stage_options  # noqa: E402
 from tendrilkit.params import load_experiment  # noqa: E402
-from tendrilkit.verify import Thresholds, image_check_messages, temporal_checks, verify_curve  # noqa: E402
+from tendrilkit.verify import Thresholds, verify_frame  # noqa: E402
+from tendrilkit.verify_temporal import temporal_checks  # noqa: E402
 
 
 def _layout(d: Path, method: str | None = None):
@@ -70,9 +71,8 @@ def reverify(seed_dir: Path, th: Thresholds, method: str | None = None) -> pd.Da
             P = g[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
             ev = [view_evidence(s.read(f), roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, **seg_opts)
                   for s, m in zip(srcs, exp.views)]
-            q = verify_curve(P, cams, ev, tolerance_px=th.tolerance_px, coverage_tolerance_px=th.coverage_tolerance_px)
-            q["pwc_r2"] = r.pwc_r2 if np.isfinite(r.pwc_r2) else None
-            msgs = image_check_messages(q, len(cams), th)
+            q = {"pwc_r2": r.pwc_r2 if np.isfinite(r.pwc_r2) else None}
+            msgs = verify_frame(P, cams, ev, q, th)
             rows.append({"frame": f, "time_s": r.time_s, "status": "doubtful" if msgs else "ok",
                          "message": "; ".join(msgs), **q})
             pts.append(P)

@@ -22,7 +22,7 @@ __all__ = ["assemble_tables", "with_temporal_checks"]
 
 
 def with_temporal_checks(results: list[FrameResult], verification=None) -> list[FrameResult]:
-    """The results with the checks against neighbouring frames applied (:func:`tendrilkit.verify.temporal_checks`).
+    """The results with the checks against neighbouring frames applied (:func:`tendrilkit.verify_temporal.temporal_checks`).
 
     Run at assembly time over the ordered results (so that it does not depend
     on chunks or workers): fills ``length_change_pct``, ``shape_change_mm``
@@ -30,7 +30,8 @@ def with_temporal_checks(results: list[FrameResult], verification=None) -> list[
     """
     from dataclasses import replace
 
-    from tendrilkit.verify import Thresholds, temporal_checks
+    from tendrilkit.verify import Thresholds
+    from tendrilkit.verify_temporal import temporal_checks
 
     th = Thresholds.from_params(verification) if verification is not None else Thresholds()
     results = sorted(results, key=lambda r: r.frame)

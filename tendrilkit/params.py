@@ -449,6 +449,7 @@ class Verification(_Strict):
     max_wide_run_px: PositiveFloat = 80.0
     min_self_distance_frac: NonNegFloat = 1.0
     max_beyond_tip_px: NonNegFloat = 10.0
+    min_tip_object_px: NonNegFloat = 30.0
 
 
 class Analysis(_Strict):

@@ -358,16 +358,13 @@ def _verify(points: np.ndarray, images: list, cameras: list[Camera], exp, seg_op
     options) or None; the evidence reuses them instead of thresholding again.
     """
     from tendrilkit.evidence import view_evidence
-    from tendrilkit.verify import Thresholds, image_check_messages, verify_curve
+    from tendrilkit.verify import Thresholds, verify_frame
 
-    th = Thresholds.from_params(exp.verification)
     evidence = [None if img is None else
                 view_evidence(img, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, foreground=fg,
                               **seg_opts)
                 for img, m, fg in zip(images, exp.views, labelled)]
-    q.update(verify_curve(points, cameras, evidence, tolerance_px=th.tolerance_px,
-                          coverage_tolerance_px=th.coverage_tolerance_px))
-    return image_check_messages(q, len(cameras), th)
+    return verify_frame(points, cameras, evidence, q, Thresholds.from_params(exp.verification))
 
 
 def _shape_and_fit(points: np.ndarray, q: dict, notes: list, exp, frame: int, t_s: float, fit: bool,
@@ -452,7 +449,7 @@ def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous
                      ) -> FrameResult:
     """:func:`reconstruct_frame` by ``reconstruction.method: multiview`` (:mod:`tendrilkit.multiview`)."""
     from tendrilkit.multiview import base_point_from_marks, distance_table, reconstruct_multiview
-    from tendrilkit.verify import Thresholds, image_check_messages, verify_curve
+    from tendrilkit.verify import Thresholds, verify_frame
 
     V = len(cameras)
     t_s = frame / exp.fps
@@ -483,10 +480,7 @@ def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous
                     q[f"reproj_{k_}_px_v{row['view']}"] = row[f"{k_}_px"]
         pwc, pwc_segments, pwc_row = _shape_and_fit(points, q, notes, exp, frame, t_s, fit, timings)
         t0 = time.perf_counter()
-        th = Thresholds.from_params(exp.verification)
-        q.update(verify_curve(points, cameras, views, tolerance_px=th.tolerance_px,
-                              coverage_tolerance_px=th.coverage_tolerance_px))
-        checks = image_check_messages(q, V, th)
+        checks = verify_frame(points, cameras, views, q, Thresholds.from_params(exp.verification))
         timings["verify"] = time.perf_counter() - t0
     except FrameError as e:
         return FrameResult(frame=frame, time_s=t_s, status="failed", message="; ".join(notes + [f"{type(e).__name__}: {e}"]),

@@ -6,7 +6,8 @@ import pytest
 
 from tendrilkit.camera import Camera
 from tendrilkit.evidence import view_evidence
-from tendrilkit.verify import Thresholds, image_check_messages, temporal_checks, verify_curve
+from tendrilkit.verify import Thresholds, image_check_messages, verify_curve, verify_frame
+from tendrilkit.verify_temporal import temporal_checks
 from tendrilkit.verify_base import base_components
 
 Z = 200.0  # every point at depth 200 mm: 5 px per mm with f = 1000
@@ -137,6 +138,31 @@ def test_temporal_jump_flags_only_the_jumping_frame():
     assert [bool(m) for m in msgs] == [True] + [False] * 5
     assert msgs[0][0].startswith("shape jump: shape moved by 10.0 mm")
 
+
+
+def test_length_disagreeing_with_most_frames_is_flagged_however_many_frames_repeat_it():
+    """Frames 4 and 5 are 16 % shorter than frames 0-3 (a curve cutting across a loop's crossing twice in a row,
+    development seeds 15 and 17): each has one neighbour agreeing with it, so no jump, but a tendril does not
+    change length: the two are flagged, the four that agree are not."""
+    T = _tendril_mm()
+    frames = list(range(6))
+    times = [15.0 * f for f in frames]
+    curves = [T] * 4 + [_tendril_mm(frac=0.84)] * 2
+    _, msgs = temporal_checks(frames, times, curves, [True] * 6, Thresholds())
+    flagged = [[m for m in ms if m.startswith("length:")] for ms in msgs]
+    assert [bool(m) for m in flagged] == [False] * 4 + [True] * 2
+    L = np.linalg.norm(np.diff(curves[4], axis=0), axis=1).sum()
+    assert flagged[4] == [f"length: the curve ({L:.1f} mm) disagrees with 4 of the 5 other frames that passed the image "
+                          "checks (by more than 5 % + 1 %/min): a tendril does not change length"]
+    # frames that did not pass the image checks do not vote; growth within the allowance is no disagreement
+    _, msgs = temporal_checks(frames, times, curves, [True] * 4 + [False] * 2, Thresholds())
+    assert not any(m.startswith("length:") for ms in msgs for m in ms)
+    growing = [_tendril_mm(frac=1.0 + 0.01 * f) for f in frames]  # 1 % per 15 s: at most 5 % in 75 s, allowed 6.25 %
+    _, msgs = temporal_checks(frames, times, growing, [True] * 6, Thresholds())
+    assert not any(m.startswith("length:") for ms in msgs for m in ms)
+    # a tie flags both sides
+    _, msgs = temporal_checks([0, 1], [0.0, 15.0], [T, _tendril_mm(frac=0.8)], [True, True], Thresholds())
+    assert all(any(m.startswith("length:") for m in ms) for ms in msgs)
 
 def test_temporal_allowance_grows_with_time():
     T = _tendril_mm()
@@ -415,3 +441,40 @@ def test_tendril_beyond_a_break_in_its_pixels_is_still_unexplained():
     short = verify_curve(_tendril_mm(frac=0.45), cams, ev)
     assert short["coverage_frac_v1"] < 0.75 and short["coverage_frac_v2"] < 0.75
     assert any(m.startswith("coverage: view 1") for m in image_check_messages(short, 2, Thresholds()))
+
+
+def _pale_over_band(at_frac=0.62, band_px=15, length_px=70):
+    """The tendril turns pale from just before a dark band (a shoot of the stem) that it crosses in front of:
+    beyond ``at_frac - 0.07`` its pixels are the board's, and it cuts the band's dark pixels where it crosses
+    (random seed 170: a pale coil in front of a shoot, the curve stopping at the shoot)."""
+    def draw(img, cam):
+        T = _tendril_mm()
+        xy = cam.project(T)
+        i0 = int((at_frac - 0.07) * 199)
+        cv2.polylines(img, [np.round(xy[i0:] * 16).astype(np.int32)], False, (240, 240, 240), 9, cv2.LINE_AA, 4)
+        i = int(at_frac * 199)
+        t = xy[i + 1] - xy[i]
+        n = np.array([-t[1], t[0]]) / np.hypot(*t)
+        a, b = xy[i] - length_px * n, xy[i] + length_px * n
+        cv2.line(img, tuple(np.round(a).astype(int)), tuple(np.round(b).astype(int)), (30, 30, 30), band_px)
+        cv2.polylines(img, [np.round(xy[i0:] * 16).astype(np.int32)], False, (235, 235, 235), 5, cv2.LINE_AA, 4)
+    return draw
+
+
+def test_curve_stopping_where_a_pale_tendril_crosses_an_object_is_caught():
+    """The curve stops at the band in both views, where the pale tendril goes on unseen: every other check
+    passes (nothing thin goes on beyond the tip, the band is wider than the tendril), the tip at an object does."""
+    cams, ev = _scene(_pale_over_band())
+    short = _tendril_mm()[:int(0.55 * 199)]
+    q: dict = {}
+    msgs = verify_frame(short, cams, ev, q, Thresholds())
+    assert image_check_messages(q, 2, Thresholds()) == []      # the checks with columns in frames.csv all pass
+    tip = [m for m in msgs if m.startswith("tip: the curve stops at an object")]
+    assert len(tip) == 1 and "view 1 (" in tip[0] and "view 2 (" in tip[0] and tip[0].endswith("(limit 30 px)"), msgs
+    assert verify_frame(short, cams, ev, {}, Thresholds(min_tip_object_px=2.0)) == []  # the band is farther ahead
+    # the same curve's tip in the open (no band, the tendril simply ends there) is not at an object
+    cams0, ev0 = _scene()
+    T = _tendril_mm()
+    assert verify_frame(T, cams0, ev0, {}, Thresholds()) == []
+    ends = verify_frame(short, cams0, ev0, {}, Thresholds())
+    assert ends and not any(m.startswith("tip: the curve stops at an object") for m in ends)
