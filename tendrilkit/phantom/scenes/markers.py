@@ -242,7 +242,7 @@ def world_marker_cover(scene: Scene, cams: list, curves: np.ndarray, radius: np.
         objects += [("a marker card", lambda c=c: _poly_mask(cam, card_corners_mm(c, _quiet_scale()))) for c in cards]
         objects += [("the tendril", lambda: _swept_mask(cam, curves, radius))]
         for name, mask in objects:
-            if np.any(mask() & wm):
+            if v + 1 not in hits.get(name, []) and np.any(mask() & wm):
                 hits.setdefault(name, []).append(v + 1)
     if not hits:
         return None
