@@ -18,7 +18,55 @@ from tendrilkit.io import FrameSource, read_ijcv25_extrinsics
 if TYPE_CHECKING:
     from tendrilkit.params import Experiment
 
-__all__ = ["calibrate_experiment", "calibrate_to_dir"]
+__all__ = ["calibrate_experiment", "calibrate_to_dir", "calibration_frames"]
+
+
+def calibration_frames(src: FrameSource, view: int, start: int, n: int, *, first=None) -> list:
+    """The frames of one view the calibration averages: ``start`` and the ``n - 1`` after it.
+
+    As many as the video has (a frame that cannot be read ends the list), so
+    the run (:func:`calibrate_experiment`) and the preflight
+    (:mod:`tendrilkit.preflight`) calibrate from the same frames.
+
+    Parameters
+    ----------
+    src : FrameSource
+        The view's open video.
+    view : int
+        0-based, for the message.
+    start : int
+        The first processed frame (``frames.start``).
+    n : int
+        ``calibration.average_frames``.
+    first : (height, width, 3) uint8 array, optional, keyword-only
+        Frame ``start`` when the caller has read it already.
+
+    Returns
+    -------
+    list of (height, width, 3) uint8 arrays
+        BGR, at least one.
+
+    Raises
+    ------
+    ExperimentError
+        Frame ``start`` cannot be read.
+    """
+    if first is not None:
+        frames = [first]
+    else:
+        try:
+            frames = [src.read(start)]
+        except FrameReadError as e:
+            raise ExperimentError(f"view {view + 1}: cannot read the first processed frame {start} for calibration "
+                                  f"({e})") from None
+    for f in range(start + 1, start + n):
+        if src.frame_count and f >= src.frame_count:
+            break
+        try:
+            frames.append(src.read(f))
+        except FrameReadError:  # the video ends (or a frame is damaged): average the frames read
+            break
+    return frames
 
 
 def calibrate_experiment(exp: "Experiment") -> CalibrationResult:
@@ -54,18 +102,7 @@ def calibrate_experiment(exp: "Experiment") -> CalibrationResult:
     images = []
     for v, video in enumerate(exp.videos):
         with FrameSource(video) as src:
-            try:
-                frames = [src.read(start)]
-            except FrameReadError as e:
-                raise ExperimentError(f"view {v + 1}: cannot read the first processed frame {start} for calibration ({e})") from None
-            for f in range(start + 1, start + exp.calibration.average_frames):
-                if src.frame_count and f >= src.frame_count:
-                    break
-                try:
-                    frames.append(src.read(f))
-                except FrameReadError:  # the video ends (or a frame is damaged): average the frames read
-                    break
-        images.append(frames)
+            images.append(calibration_frames(src, v, start, exp.calibration.average_frames))
     return calibrate_views(exp, image_sizes=sizes, images=images)
 
 

@@ -7,9 +7,13 @@ check passes, 1 otherwise (2: the file itself cannot be read). The checks:
                  (or the line says how they differ);
 ``intrinsics``   per view, the principal point near the image centre, fx and fy
                  alike, no placeholder left by ``init``;
-``marker``       the world marker is found in every view on the first
-                 processed frame, with the corner RMS of its single-marker pose;
-``poses``        the rig (``calibrate``): every camera on the board's front
+``marker``       the world marker is found in every view on the frames the run
+                 calibrates from (``calibration.average_frames`` from the first
+                 processed frame, corners refined by ``calibration.corner_refine``
+                 and averaged over the frames), with the corner RMS of its
+                 single-marker pose;
+``poses``        the rig (as the run calibrates it, from those corners,
+                 ``calibration.bundle_adjust``): every camera on the board's front
                  side, 50 mm - 5 m from the marker; after the bundle
                  adjustment, the markers seen by several views reproject
                  within 1.5 px in every view; and the views' base points agree:
@@ -93,8 +97,9 @@ def _intrinsics(exp, sizes) -> list:
 
 def check_lines(exp, *, n_trial: int = 2) -> list[tuple[bool, str]]:
     """Run every check of an experiment (loaded with ``marks_optional=True``); ``(ok, line)`` pairs."""
-    from tendrilkit.calibration import calibrate, detect_markers
+    from tendrilkit.calibration import average_detections, calibrate_from_observations, detect_markers
     from tendrilkit.calibration.poses import _pose_candidates
+    from tendrilkit.extrinsics import calibration_frames
     from tendrilkit.camera import Camera
     from tendrilkit.exceptions import ExperimentError, FrameReadError
 
@@ -118,19 +123,27 @@ def check_lines(exp, *, n_trial: int = 2) -> list[tuple[bool, str]]:
         intr = [Camera(np.array([[c.fx, 0, c.cx], [0, c.fy, c.cy], [0, 0, 1.0]]), np.asarray(c.dist, float),
                        width=w, height=h) for c, (w, h) in zip(exp.cameras, sizes)]
         # ------------------------------------------------------------ marker
-        mk = exp.marker
+        # the run's calibration: the same frames (calibration.average_frames from frames.start), the same
+        # corner refinement (calibration.corner_refine), the corners averaged over the frames
+        mk, cal_opts = exp.marker, exp.calibration
+        n_cal = cal_opts.average_frames
+        observations: dict[int, dict] = {}
         found, marker_ok = [], True
-        for v, (img, cam) in enumerate(zip(images, intr)):
+        for v, (img, cam, src) in enumerate(zip(images, intr, srcs)):
             if img is None:
                 marker_ok = False
                 continue
-            obs = detect_markers(img, mk.dictionary, camera=cam)
+            frames = calibration_frames(src, v, start, n_cal, first=img)
+            obs = average_detections([detect_markers(f, mk.dictionary, refine=cal_opts.corner_refine, camera=cam)
+                                      for f in frames])
+            observations[v] = obs
+            where = f"frame {start}" if len(frames) == 1 else f"any of frames {start}-{start + len(frames) - 1}"
             if mk.id not in obs:
                 marker_ok = False
                 others = ", ".join(str(m) for m in list(obs)[:6])
                 lines.append(_line(False, "marker", f"view {v + 1}: world marker {mk.id} ({mk.dictionary}) not found on "
-                                   f"frame {start}" + (f" (found {others}: is marker.id right?)" if obs else
-                                                       " (no marker at all: is marker.dictionary right, the marker in view and sharp?)")))
+                                   f"{where}" + (f" (found {others}: is marker.id right?)" if obs else
+                                                 " (no marker at all: is marker.dictionary right, the marker in view and sharp?)")))
                 continue
             rms = _pose_candidates(obs[mk.id], cam, mk.length_mm)[0][2]
             found.append(f"view {v + 1} {rms:.2f} px")
@@ -148,8 +161,9 @@ def check_lines(exp, *, n_trial: int = 2) -> list[tuple[bool, str]]:
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    cal = calibrate(images, intr, dictionary=mk.dictionary, world_id=mk.id, length_mm=mk.length_mm,
-                                    bundle_adjust=exp.calibration.bundle_adjust, frame=start)
+                    cal = calibrate_from_observations(observations, intr, world_id=mk.id, length_mm=mk.length_mm,
+                                                      bundle_adjust=cal_opts.bundle_adjust, frame=start,
+                                                      dictionary=mk.dictionary)
                 cameras = cal.cameras
             except (ExperimentError, ValueError, np.linalg.LinAlgError) as e:
                 lines.append(_line(False, "poses", f"calibration failed: {e}"))

@@ -316,3 +316,45 @@ def test_tip_leaf_on_the_outer_side_of_a_coil():
     a = np.linalg.norm(poly - centre, axis=1).max()
     b = np.linalg.norm(poly - centre, axis=1).min()
     assert not _pierces(ctx["curves"], ctx["radius"], centre, nrm, e1, e2, a, b)
+
+
+def test_world_marker_cover_names_what_lies_over_it():
+    """Dev seed 6013's case (the stem and its tape across the world marker in every view) and 8003's (an
+    object in space over it in one view) are named; a leaf lying on the board under the marker's paper is not."""
+    import dataclasses
+
+    from tendrilkit.phantom.scenes.markers import world_marker_cover
+
+    ph = S.make_scene(0, scene="clean", n_frames=1)
+    sc, cams, curves, radius = ph.scene, ph.cameras, ph.curves_mm, ph.radius_mm
+    assert world_marker_cover(sc, cams, curves, radius) is None
+    far = sc.stem_mm[len(sc.stem_mm) // 3]
+    across = dataclasses.replace(sc, stem_mm=sc.stem_mm - [far[0], far[1], 0.0],
+                                 tapes=[(np.zeros(2), 90.0, 25.0, 10.0)])
+    assert world_marker_cover(across, cams, curves, radius) == "the stem in views 1, 2, 3; a tape strip in views 1, 2, 3"
+    # a stick in space on the line of sight from view 1 to the marker, 120 mm above the board
+    c = cams[0].center_world
+    mid = c * 120.0 / c[2]
+    u = np.cross(c, [0.0, 0.0, 1.0])
+    pts = mid + np.linspace(-15, 15, 61)[:, None] * (u / np.linalg.norm(u))
+    stick = {"pts": pts, "radius": np.full(len(pts), 0.7)}
+    assert world_marker_cover(sc, cams, curves, radius, tubes=[stick]) == "an object in space in view 1"
+    leaf = {"centre": np.zeros(2), "angle_deg": 30.0, "a_mm": 30.0, "b_mm": 16.0, "petiole": np.array([[40.0, 0], [5, 0]])}
+    assert world_marker_cover(dataclasses.replace(sc, leaves=[leaf]), cams, curves, radius) is None
+
+
+@pytest.mark.slow
+def test_world_marker_is_found_in_every_view_of_scenes_that_had_it_covered():
+    """Dev seeds 6013 (stem and tape over the world marker in every view) and 8003 (a second tendril over it
+    in view 1) were made with the marker covered and could not be calibrated; now they are redrawn."""
+    from tendrilkit.calibration import detect_markers
+    from tendrilkit.phantom.design import WORLD_MARKER_ID
+    from tendrilkit.phantom.scenes.markers import world_marker_cover
+
+    for seed in (6013, 8003):
+        ph = S.make_scene(seed, n_frames=6)
+        assert ph.factors == draw_factors(seed)
+        assert world_marker_cover(ph.scene, ph.cameras, ph.curves_mm, ph.radius_mm, board_tubes=ph.board_tubes,
+                                  tubes=ph.tubes, plates=ph.plates, cards=ph.cards) is None
+        for v, cam in enumerate(ph.cameras):
+            assert WORLD_MARKER_ID in detect_markers(S.render_scene_view(ph, 0, v), "DICT_ARUCO_ORIGINAL", camera=cam)

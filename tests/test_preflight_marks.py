@@ -110,6 +110,40 @@ def test_check_clean_phantom_all_ok(scene, capsys):
     assert len(lines) == 6 and all(ln.startswith("OK") for ln in lines)
 
 
+def test_check_calibrates_as_the_run_does(scene, tmp_path, capsys, monkeypatch):
+    """The preflight's rig comes from the run's frames and corner refinement (calibration.average_frames,
+    calibration.corner_refine): the same corners, so the same cameras as ``calibrate``."""
+    import tendrilkit.calibration as C
+    from tendrilkit.extrinsics import calibrate_experiment
+    from tendrilkit.preflight import check_lines
+
+    assert "calibration:" not in scene.read_text()
+    path = _variant(scene, tmp_path, "cal-options", lambda s: s + "calibration: {corner_refine: edges, average_frames: 3}\n")
+    exp = load_experiment(path, marks_optional=True)
+    calls, made = [], []
+    detect, from_obs = C.detect_markers, C.calibrate_from_observations
+
+    def spy_detect(image, dictionary, *, refine="grid", camera=None):
+        calls.append(refine)
+        return detect(image, dictionary, refine=refine, camera=camera)
+
+    def spy_calibrate(*args, **kwargs):
+        made.append(from_obs(*args, **kwargs))
+        return made[-1]
+
+    monkeypatch.setattr(C, "detect_markers", spy_detect)
+    monkeypatch.setattr(C, "calibrate_from_observations", spy_calibrate)
+    lines = check_lines(exp)
+    assert all(ok for ok, ln in lines if ln.split(":")[0].split()[-1] in ("marker", "poses")), lines
+    assert calls == ["edges"] * 9  # three frames of each of the three views
+    monkeypatch.undo()
+    run = calibrate_experiment(exp)
+    assert len(made) == 1 and run.frame == made[0].frame == 0
+    for a, b in zip(made[0].cameras, run.cameras):
+        np.testing.assert_array_equal(a.R, b.R)
+        np.testing.assert_array_equal(a.t_mm, b.t_mm)
+
+
 def _fx(s: str, view: int, factor: float, both: bool) -> str:
     m = re.search(rf"\{{view: {view}, fx: ([0-9.]+), fy: ([0-9.]+)", s)
     fy = float(m.group(2)) * (factor if both else 1)

@@ -11,6 +11,10 @@
 
 Both keep every marker clear of the tendril's projection (40 px) in every
 view; a placement that fails raises :class:`~tendrilkit.phantom.scenes.clutter._Retry`.
+
+:func:`world_marker_cover`: once every object of a scene is placed, what
+lies over the world marker's paper in a view (the calibration needs it in
+every view: a user does not tape it under the stem).
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ from scipy.spatial import cKDTree
 from tendrilkit.camera import Camera
 from tendrilkit.phantom.design import WORLD_MARKER_ID
 from tendrilkit.phantom.projection import _pixel_to_board, _project_safe
-from tendrilkit.phantom.scene import MarkerSpec, Scene, _quiet_scale, _square_poly
+from tendrilkit.phantom.scene import MarkerSpec, Scene, _poly_mask, _quiet_scale, _rect_poly, _square_poly, _tube_mask
 from tendrilkit.phantom.scenes.clutter import _Retry
 
 
@@ -187,3 +191,68 @@ def place_card(scene: Scene, cams: list, curves: np.ndarray, avoid_mm: list, rng
                      "corners_mm": card_corners_mm(card), "view": v + 1})
         return card
     raise _Retry("glancing_marker: no room for a tilted card clear of the tendril and the markers")
+
+
+def world_marker_cover(scene: Scene, cams: list, curves: np.ndarray, radius: np.ndarray, *, board_tubes: list = (),
+                       tubes: list = (), plates: list = (), cards: list = ()) -> str | None:
+    """What covers the world marker's paper in a view, or None when it is clear in every view.
+
+    The world marker defines the world frame: the calibration must find it
+    in every view. Every object the renderer draws over the board's markers
+    is tested, on the half-resolution masks of
+    :func:`tendrilkit.phantom.scene.build_scene`, against the marker's paper
+    square (its quiet zone included): the taped stem and its node, the tape
+    strips, side shoots on the board, objects in space (second tendril,
+    shoots, petioles, leaves), marker cards, and the tendril swept over every
+    frame. Leaves lying on the board are not: the marker's paper is drawn
+    over them, and so is every other marker's (placed clear of it).
+
+    Parameters
+    ----------
+    scene : Scene
+        The world marker (id :data:`~tendrilkit.phantom.design.WORLD_MARKER_ID`) among its markers.
+    cams : list of Camera
+        The views the calibration reads.
+    curves : (n_frames, n, 3) float array
+        The tendril, mm.
+    radius : (n,) float array
+        The tendril's radius per sample, mm.
+    board_tubes, tubes, plates, cards : lists, keyword-only
+        As :class:`~tendrilkit.phantom.scenes.make.ScenePhantom` holds them.
+
+    Returns
+    -------
+    str or None
+        E.g. ``"the stem in views 1, 2, 3"``: the objects over it and the views.
+    """
+    world = next(m for m in scene.markers if m.id == WORLD_MARKER_ID)
+    paper = _square_poly(world, _quiet_scale())
+    hits: dict[str, list[int]] = {}
+    for v, cam in enumerate(cams):
+        wm = _poly_mask(cam, paper)
+        if not wm.any():
+            continue
+        objects = [("the stem", lambda: _tube_mask(cam, scene.stem_mm, scene.stem_radius_mm)),
+                   ("the node", lambda: _tube_mask(cam, scene.node_mm[None], scene.node_radius_mm))]
+        objects += [("a tape strip", lambda t=t: _poly_mask(cam, _rect_poly(*t))) for t in scene.tapes]
+        objects += [("a side shoot on the board", lambda b=b: _tube_mask(cam, b["pts"], b["radius"]))
+                    for b in board_tubes]
+        objects += [("an object in space", lambda b=b: _tube_mask(cam, b["pts"], b["radius"])) for b in tubes]
+        objects += [("a leaf in space", lambda p=p: _poly_mask(cam, p["poly"])) for p in plates]
+        objects += [("a marker card", lambda c=c: _poly_mask(cam, card_corners_mm(c, _quiet_scale()))) for c in cards]
+        objects += [("the tendril", lambda: _swept_mask(cam, curves, radius))]
+        for name, mask in objects:
+            if v + 1 not in hits.get(name, []) and np.any(mask() & wm):
+                hits.setdefault(name, []).append(v + 1)
+    if not hits:
+        return None
+    return "; ".join(f"{name} in view{'s' if len(vs) > 1 else ''} {', '.join(map(str, vs))}"
+                     for name, vs in hits.items())
+
+
+def _swept_mask(cam: Camera, curves: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """Half-resolution mask of the tendril's tube over every frame (every second sample)."""
+    m = _tube_mask(cam, curves[0, ::2], radius[::2])
+    for c in curves[1:]:
+        m |= _tube_mask(cam, c[::2], radius[::2])
+    return m
