@@ -81,6 +81,7 @@ def _announce(cluster) -> None:
 
 
 def _cmd_reconstruct(args: argparse.Namespace) -> int:
+    _single_threaded_blas()
     from tendrilkit.runner import run_reconstruct
 
     with _cluster(args) as cluster:
@@ -107,7 +108,8 @@ def _single_threaded_blas() -> None:
 
     The fit's matrices are small (a few hundred rows, tens of columns): a second
     BLAS thread costs more in hand-overs than it saves (on the site phantoms' curves
-    about a fifth more CPU on a busy machine), and the results are the same.
+    about a fifth more CPU on a busy machine), and the results are the same. The
+    same holds for ``reconstruct``, whose parallelism is one process per worker.
     """
     import os
 
