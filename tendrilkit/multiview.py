@@ -30,14 +30,19 @@ Coverage (:func:`adjust_tip`)
     The tip is moved outward, 0.5 mm at a time, while two views or more see
     the extension on their skeletons, and back while the tip is not on the
     skeleton of at least two views: the curve explains the tendril's pixels
-    from the base outward and can neither shrink nor run on.
+    from the base outward and can neither shrink nor run on. The views'
+    skeletons hold thin structures only (:data:`tendrilkit.mv_evidence.WIDE_PX`):
+    a tip cannot run along the medial axis of a leaf it touches. An
+    extension that ends where two views' ROIs end is undone: it ran onto
+    something hanging in from outside (a second tendril, a petiole), and
+    the tendril's tip is a free end inside every ROI.
 
 Tracking (:func:`reconstruct_multiview`)
     A frame starts from the previous frame's curve (identity carried in 3D),
     whose length is a prior: up to it, the tip is kept and extended wherever
     two views see it on their skeletons, also over pixels the curve explains
     already (a tip lying over its own coil in a view); beyond it, only over
-    new pixels.
+    new pixels, and by ``max_growth`` (8 %) at most.
     The result is checked on every view: precision (nodes on the skeleton)
     and coverage (skeleton pixels of the touched components explained). When
     there is no previous curve, or the check fails, the curve is acquired

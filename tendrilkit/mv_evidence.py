@@ -2,8 +2,9 @@
 
 Built on :func:`tendrilkit.evidence.view_evidence` (every dark pixel of the
 ROI outside the keep-out box, no component chosen, and its skeleton): the
-skeleton pixels go into a k-d tree, and every pixel gets the mean and the
-principal direction of its neighbours within 3.5 px, so that the distance of
+skeleton pixels of thin structures (the medial axis of a leaf or the stem
+is not a tendril's centre line: :data:`WIDE_PX`) go into a k-d tree, and
+every pixel gets the mean and the principal direction of its neighbours within 3.5 px, so that the distance of
 a projected point to the skeleton (:func:`skeleton_distance`) is sub-pixel
 and smooth across the curve.
 """
@@ -49,9 +50,11 @@ class SkeletonEvidence:
     foreground : (h, w) bool array
         Every dark pixel of the ROI (:attr:`tendrilkit.evidence.ViewEvidence.foreground`).
     skeleton : (h, w) bool array
-        Its skeleton, on the crop.
+        Its skeleton on thin structures (``skeleton_xy``), on the crop.
     skeleton_xy : (k, 2) float array
-        The skeleton's pixels, full-image ``(x, y)``.
+        The skeleton's pixels on thin structures (under :data:`WIDE_PX`, or
+        :data:`WIDE_FACTOR` times the median depth, inside their dark region),
+        full-image ``(x, y)``.
     tree : scipy.spatial.cKDTree
         Of ``skeleton_xy``: the nearest skeleton pixel of any point.
     centre_xy, tangent_xy : (k, 2) float arrays
