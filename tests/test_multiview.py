@@ -263,3 +263,21 @@ def test_tracked_tip_stops_at_the_length_prior():
     prev_length = float(np.linalg.norm(np.diff(prev, axis=0), axis=1).sum())
     assert r.mode == "tracked"
     assert prev_length * 1.04 <= length <= prev_length * 1.08 + 1.0 < L, (length, prev_length, L)
+
+
+def test_tracked_tip_does_not_run_on_onto_a_line_leaving_the_roi():
+    """A second tendril touches the tip end to end and hangs out of the ROI (consistent in 3D, seen by every
+    view): tracked with a loose length prior, the extension along it ends at the ROIs' edge, so it is undone and
+    the tip stays where the tendril ends (the marks put the tendril's free end inside every ROI)."""
+    s = np.linspace(0.0, 1.0, 2000)
+    X = np.c_[-5 + 40 * s, 4 * np.sin(2 * s), 20 + 3 * s]
+    images, cams, exp = render_tube_views(X, width_px=9, margin_px=40)
+    t = (X[-1] - X[-20]) / np.linalg.norm(X[-1] - X[-20])
+    other = X[-1] + 0.3 * t + np.linspace(0.0, 80.0, 200)[:, None] * t  # straight on, out of every ROI
+    for img, cam in zip(images, cams):
+        p = cam.project(other)
+        cv2.polylines(img, [np.round(p * 16).astype(np.int32)], False, (40, 40, 40), 9, cv2.LINE_AA, 4)
+    B = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=8.0)
+    r = reconstruct_multiview(_evidence(images, cams, exp), B, previous_mm=X, max_growth=1.0, min_score=0.0)
+    assert r.mode == "tracked"
+    assert _errors(resample_polyline(r.nodes_mm, 200), X)["tip"] <= 2.0
