@@ -30,14 +30,19 @@ Coverage (:func:`adjust_tip`)
     The tip is moved outward, 0.5 mm at a time, while two views or more see
     the extension on their skeletons, and back while the tip is not on the
     skeleton of at least two views: the curve explains the tendril's pixels
-    from the base outward and can neither shrink nor run on.
+    from the base outward and can neither shrink nor run on. The views'
+    skeletons hold thin structures only (:data:`tendrilkit.mv_evidence.WIDE_PX`):
+    a tip cannot run along the medial axis of a leaf it touches. An
+    extension that ends where two views' ROIs end is undone: it ran onto
+    something hanging in from outside (a second tendril, a petiole), and
+    the tendril's tip is a free end inside every ROI.
 
 Tracking (:func:`reconstruct_multiview`)
     A frame starts from the previous frame's curve (identity carried in 3D),
     whose length is a prior: up to it, the tip is kept and extended wherever
     two views see it on their skeletons, also over pixels the curve explains
     already (a tip lying over its own coil in a view); beyond it, only over
-    new pixels.
+    new pixels, and by ``max_growth`` (8 %) at most.
     The result is checked on every view: precision (nodes on the skeleton)
     and coverage (skeleton pixels of the touched components explained). When
     there is no previous curve, or the check fails, the curve is acquired
@@ -221,7 +226,7 @@ def _support(evidence, P):
 
 
 def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: float = 0.5,
-               max_extend_mm: float = 60.0, prior_mm: float = 0.0) -> np.ndarray:
+               max_extend_mm: float = 60.0, prior_mm: float = 0.0, max_length_mm: float = np.inf) -> np.ndarray:
     """Move the tip to where the views' evidence ends (extend, then trim), base kept.
 
     Parameters
@@ -237,6 +242,10 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         is kept, and the tip extended, while two views see it on their
         skeletons, also on pixels the curve explains already (the tip lying
         over its own coil in a view); beyond it, only on new pixels.
+    max_length_mm : float
+        The extension stops at this arc length (tracking: the previous
+        frame's length and the growth a tendril can have between processed
+        frames): a tip that would run on is stopped where the tendril ends.
 
     Returns
     -------
@@ -256,6 +265,8 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     claims = claim(evidence, None, resample_polyline(body, step=0.25)) if len(body) >= 2 else None
     lag = int(round(3.0 / step_mm))
     for _ in range(int(max_extend_mm / step_mm)):
+        if s_[-1] + step_mm * (len(ext) + 1) > max_length_mm:
+            break
         dirs = cone_directions(t, 30.0, 3)
         P = tip + step_mm * dirs
         d, seen, near, bg = point_costs(evidence, P, nearest=True)
@@ -275,6 +286,11 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         ext.append(tip)
         if len(ext) > lag:
             claims = claim(evidence, claims, np.asarray(ext[-lag - 2:-lag]))
+    if ext and runs_out(evidence, [np.asarray(X + ext, float)], 2.0)[0] \
+            and not runs_out(evidence, [np.asarray(X, float)], 2.0)[0]:
+        # the extension ends where two views stop seeing (their ROIs' edge): it ran onto something hanging in
+        # from outside (a second tendril, a petiole); the tendril's tip is a free end inside every ROI
+        return np.asarray(X, float)
     return np.asarray(X + ext, float)
 
 
@@ -359,9 +375,9 @@ def _score(prec: np.ndarray, cov: np.ndarray) -> float:
     return float(s.mean()) if s.size else 0.0
 
 
-def _fit(X0, evidence, B, segment_mm, prior_mm=0.0):
+def _fit(X0, evidence, B, segment_mm, prior_mm=0.0, max_length_mm=np.inf):
     X = refine_curve(_resample(X0, segment_mm), evidence, base_mm=B, segment_mm=segment_mm)
-    X = adjust_tip(X, evidence, prior_mm=prior_mm)
+    X = adjust_tip(X, evidence, prior_mm=prior_mm, max_length_mm=max_length_mm)
     X = _resample(X, segment_mm)
     X = refine_curve(X, evidence, base_mm=B, segment_mm=_segment(X), cap_px=(8.0, 6.0), iterations=10, huber_px=3.0)
     return X
@@ -369,6 +385,7 @@ def _fit(X0, evidence, B, segment_mm, prior_mm=0.0):
 
 def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, previous_mm: np.ndarray | None = None,
                           segment_mm: float = 1.0, min_score: float = 0.9, max_shrink: float = 0.08,
+                          max_growth: float = 0.08,
                           keep_candidates: bool = False) -> MultiviewResult:
     """The 3D curve of one frame from every view's evidence, tracked or acquired.
 
@@ -387,6 +404,13 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
         A tracked curve shorter than the previous one by more than this
         fraction is lost too (a tendril grows; it does not shrink by 8 %
         between processed frames).
+    max_growth : float
+        The length prior's other side: a tracked curve's tip is not extended
+        beyond the previous curve's length plus this fraction (a tendril's
+        length changes by well under 1 % per minute; the rest is the
+        previous curve's own error): it is not run on past the tip onto a
+        leaf or another object touching it. A curve acquired afresh (tracking
+        lost: the previous curve does not explain this frame) is not capped.
     min_score : float
         A tracked curve whose precision x coverage (mean over the views)
         is below this, or below this less 0.1 in one view, is lost: the frame is acquired afresh too and the better
@@ -408,10 +432,12 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
     B = np.asarray(base_mm, float)
     cands = []
     note = ""
+    cap_mm = np.inf  # the length prior: the previous curve's length and the growth between processed frames
     if previous_mm is not None and len(previous_mm) >= 3:
+        cap_mm = (1.0 + max_growth) * _length(np.asarray(previous_mm, float))
         P = np.asarray(previous_mm, float)
         P = P - P[0] + B  # the base does not move
-        X = _fit(P, evidence, B, segment_mm, prior_mm=_length(P))
+        X = _fit(P, evidence, B, segment_mm, prior_mm=_length(P), max_length_mm=cap_mm)
         prec, cov = curve_support(X, evidence)
         cands.append({"mode": "tracked", "nodes_mm": X, "precision": prec, "coverage": cov, "score": _score(prec, cov)})
         worst = float(np.nanmin(prec * cov)) if np.any(np.isfinite(prec * cov)) else 0.0

@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 from tendrilkit.geometry import resample_polyline
 from tendrilkit.multiview import base_point_from_marks, reconstruct_multiview
 from tendrilkit.evidence import view_evidence
-from tendrilkit.mv_evidence import skeleton_evidence
+from tendrilkit.mv_evidence import skeleton_distance, skeleton_evidence
 from tendrilkit.phantom import render_tube_views
 from tendrilkit.pipeline import reconstruct_frame
 
@@ -222,3 +222,62 @@ def test_plot_multiview_decision(coil):
     r = reconstruct_multiview(evs, B, keep_candidates=True)
     fig = plot_multiview_decision(evs, r, truth_mm=X, title="coil")
     assert len(fig.axes) == 3 and r.candidates and r.candidates[0]["mode"] == "acquired"
+
+
+def test_medial_axis_of_a_leaf_is_not_tendril_evidence():
+    """A thin line (5 px) touching a leaf (a disc 40 px across): the line's skeleton stays, the leaf's medial
+    axis (its skeleton, 7 px or more inside the dark region) is left out, so a tip cannot run along it."""
+    from tendrilkit.camera import Camera
+    from tendrilkit.mv_evidence import WIDE_PX
+
+    img = np.full((80, 140, 3), 255, np.uint8)
+    img[37:42, 5:90] = 30                               # the tendril, ending at x = 89
+    cv2.circle(img, (108, 39), 20, (30, 30, 30), -1)    # the leaf its tip touches
+    vw = view_evidence(img, roi=[0, 0, 140, 80], keep_out=None, base_point_xy=[5, 39], opening_radius_px=0,
+                       min_component_px=10)
+    ev = skeleton_evidence(vw, Camera(K=np.array([[1000.0, 0, 70], [0, 1000.0, 40], [0, 0, 1]])))
+    xy = ev.skeleton_xy
+    depth = vw.inside_px[xy[:, 1].astype(int), xy[:, 0].astype(int)]
+    assert depth.max() < max(WIDE_PX, 2.0 * np.median(depth)), depth.max()
+    assert np.count_nonzero((xy[:, 0] >= 10) & (xy[:, 0] <= 80)) >= 65  # the line's skeleton, whole
+    assert not np.any(np.hypot(xy[:, 0] - 108, xy[:, 1] - 39) < 12)     # nothing of the leaf's middle
+    _, _, seen, _, _, covered = skeleton_distance(ev, np.array([[108.0, 39.0]]), index=True)
+    assert seen[0] and covered[0]  # the leaf's middle: covered (neither evidence for nor against a curve there)
+
+
+def test_tracked_tip_stops_at_the_length_prior():
+    """Tracking from a previous curve 70 % as long as this frame's tendril (a stop-short the frame before):
+    the tip is extended, but not beyond the previous length + ``max_growth``; without a prior it reaches the
+    true tip. The prior is what stops a tip running on past the tendril's end onto a touching leaf."""
+    s = np.linspace(0.0, 1.0, 2000)
+    X = np.c_[-5 + 60 * s, 6 * np.sin(2 * s), 20 + 4 * s]
+    images, cams, exp = render_tube_views(X, width_px=9)
+    B = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=8.0)
+    evs = _evidence(images, cams, exp)
+    free = reconstruct_multiview(evs, B)
+    assert _errors(resample_polyline(free.nodes_mm, 200), X)["tip"] <= 2.0
+    L = float(np.linalg.norm(np.diff(X, axis=0), axis=1).sum())
+    prev = resample_polyline(X[s <= 0.7], 60)
+    r = reconstruct_multiview(evs, B, previous_mm=prev, max_growth=0.08, min_score=0.0)
+    length = float(np.linalg.norm(np.diff(r.nodes_mm, axis=0), axis=1).sum())
+    prev_length = float(np.linalg.norm(np.diff(prev, axis=0), axis=1).sum())
+    assert r.mode == "tracked"
+    assert prev_length * 1.04 <= length <= prev_length * 1.08 + 1.0 < L, (length, prev_length, L)
+
+
+def test_tracked_tip_does_not_run_on_onto_a_line_leaving_the_roi():
+    """A second tendril touches the tip end to end and hangs out of the ROI (consistent in 3D, seen by every
+    view): tracked with a loose length prior, the extension along it ends at the ROIs' edge, so it is undone and
+    the tip stays where the tendril ends (the marks put the tendril's free end inside every ROI)."""
+    s = np.linspace(0.0, 1.0, 2000)
+    X = np.c_[-5 + 40 * s, 4 * np.sin(2 * s), 20 + 3 * s]
+    images, cams, exp = render_tube_views(X, width_px=9, margin_px=40)
+    t = (X[-1] - X[-20]) / np.linalg.norm(X[-1] - X[-20])
+    other = X[-1] + 0.3 * t + np.linspace(0.0, 80.0, 200)[:, None] * t  # straight on, out of every ROI
+    for img, cam in zip(images, cams):
+        p = cam.project(other)
+        cv2.polylines(img, [np.round(p * 16).astype(np.int32)], False, (40, 40, 40), 9, cv2.LINE_AA, 4)
+    B = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=8.0)
+    r = reconstruct_multiview(_evidence(images, cams, exp), B, previous_mm=X, max_growth=1.0, min_score=0.0)
+    assert r.mode == "tracked"
+    assert _errors(resample_polyline(r.nodes_mm, 200), X)["tip"] <= 2.0
