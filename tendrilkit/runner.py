@@ -363,7 +363,8 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         write_result(markers, out / "calibration_markers.csv", schema.CALIBRATION_MARKERS)
         write_json({"stamp": cal_stamp}, stamp_path)
     # the world frame the rig was calibrated in: every frame's millimetres depend on it (verify_calibration)
-    run_check = world_marker_message(markers, exp.marker.id, Thresholds.from_params(exp.verification).max_world_marker_px)
+    run_check = world_marker_message(markers, exp.marker.id,
+                                     Thresholds.from_params(exp.verification).max_world_marker_px)
 
     fp = frame_fingerprint(exp, cameras, video_info)
     done = _load_done(out, frames, fp)
