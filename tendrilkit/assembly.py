@@ -1,10 +1,11 @@
 """Assembly of the result tables from the per-frame results (EXPERIMENT_FORMAT.md).
 
 :func:`with_temporal_checks` applies the checks against neighbouring frames
-over the ordered results, then :func:`assemble_tables` builds every table of
+over the ordered results, :func:`with_run_checks` those failed by the whole
+run (the calibration's world frame), then :func:`assemble_tables` builds every table of
 :data:`tendrilkit.pipeline.RESULT_FILES` but ``calibration_markers.csv``,
-rows sorted by frame (then point, view, ...). Both run once over all frames,
-so that neither depends on chunks or workers.
+rows sorted by frame (then point, view, ...). All run once over all frames,
+so that none depends on chunks or workers.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from tendrilkit import schema
 from tendrilkit.pipeline import FrameResult
 from tendrilkit.schema import quality_columns
 
-__all__ = ["assemble_tables", "with_temporal_checks"]
+__all__ = ["assemble_tables", "with_temporal_checks", "with_run_checks"]
 
 
 def with_temporal_checks(results: list[FrameResult], verification=None) -> list[FrameResult]:
@@ -46,7 +47,29 @@ def with_temporal_checks(results: list[FrameResult], verification=None) -> list[
         status = "doubtful" if (msg or r.status == "doubtful") else "ok"
         notes = r.message.split("; ")[len(r.checks):] if r.message else []
         message = "; ".join(list(r.checks) + list(msg) + notes)  # the failed checks first, then the notes
-        out.append(replace(r, status=status, message=message, quality={**r.quality, **fig}))
+        out.append(replace(r, status=status, message=message, quality={**r.quality, **fig},
+                           checks=list(r.checks) + list(msg)))
+    return out
+
+
+def with_run_checks(results: list[FrameResult], checks: list[str]) -> list[FrameResult]:
+    """The results with checks failed by the whole run (the calibration's world frame,
+    :mod:`tendrilkit.verify_calibration`) added to every reconstructed frame: ``ok`` becomes ``doubtful``.
+
+    The messages follow the frame's own failed checks, before its notes. No checks: the results unchanged.
+    """
+    from dataclasses import replace
+
+    if not checks:
+        return list(results)
+    out = []
+    for r in results:
+        if r.status == "failed":
+            out.append(r)
+            continue
+        notes = r.message.split("; ")[len(r.checks):] if r.message else []
+        own = list(r.checks) + list(checks)
+        out.append(replace(r, status="doubtful", message="; ".join(own + notes), checks=own))
     return out
 
 

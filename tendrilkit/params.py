@@ -450,6 +450,7 @@ class Verification(_Strict):
     min_self_distance_frac: NonNegFloat = 1.0
     max_beyond_tip_px: NonNegFloat = 10.0
     min_tip_object_px: NonNegFloat = 30.0
+    max_world_marker_px: PositiveFloat = 0.5
 
 
 class Analysis(_Strict):

@@ -89,7 +89,7 @@ from tendrilkit import schema
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import ExperimentError, FrameError, FrameReadError
 from tendrilkit.options import stage_options
-from tendrilkit.assembly import assemble_tables, with_temporal_checks
+from tendrilkit.assembly import assemble_tables, with_run_checks, with_temporal_checks
 from tendrilkit.pipeline import RESULT_FILES, FrameResult, reconstruct_frame
 from tendrilkit.segmentation import segment_view
 
@@ -317,10 +317,12 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     """
     from tendrilkit.extrinsics import calibrate_experiment
     from tendrilkit.inputs import check_inputs
-    from tendrilkit.io import (check_writable_dir, file_stamp, open_views, read_cameras, write_cameras, write_result,
-                               write_frame_record, write_json)
+    from tendrilkit.io import (check_writable_dir, file_stamp, open_views, read_cameras, read_csv, write_cameras,
+                               write_result, write_frame_record, write_json)
     from tendrilkit.params import load_experiment
     from tendrilkit.progress import progress as progress_bar
+    from tendrilkit.verify import Thresholds
+    from tendrilkit.verify_calibration import world_marker_message
 
     exp = _with_overrides(load_experiment(experiment_path), overrides)
     out = check_writable_dir(out_dir)
@@ -350,14 +352,19 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
         try:
             if json.loads(stamp_path.read_text(encoding="utf-8")).get("stamp") == cal_stamp:
                 cameras = read_cameras(out / "cameras.json")
+                markers = read_csv(out / "calibration_markers.csv", table=schema.CALIBRATION_MARKERS)
         except (OSError, json.JSONDecodeError, ExperimentError):
             cameras = None
     if cameras is None:
         calib = calibrate_experiment(exp)
         cameras = calib.cameras
+        markers = calib.markers
         write_cameras(cameras, out / "cameras.json", quality=calib.view_quality())
-        write_result(calib.markers, out / "calibration_markers.csv", schema.CALIBRATION_MARKERS)
+        write_result(markers, out / "calibration_markers.csv", schema.CALIBRATION_MARKERS)
         write_json({"stamp": cal_stamp}, stamp_path)
+    # the world frame the rig was calibrated in: every frame's millimetres depend on it (verify_calibration)
+    run_check = world_marker_message(markers, exp.marker.id,
+                                     Thresholds.from_params(exp.verification).max_world_marker_px)
 
     fp = frame_fingerprint(exp, cameras, video_info)
     done = _load_done(out, frames, fp)
@@ -444,7 +451,8 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     finally:
         cv2.setNumThreads(old_threads)
 
-    results = with_temporal_checks([done[f] for f in frames], exp.verification)
+    results = with_run_checks(with_temporal_checks([done[f] for f in frames], exp.verification),
+                              [run_check] if run_check else [])
     tables = assemble_tables(results, V)
     for name, df in tables.items():
         write_result(df, out / name, schema.frames_table(V) if name == "frames.csv" else schema.RESULT_TABLES[name])
