@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 
 from tendrilkit.exceptions import TendrilLostError
-from tendrilkit.segmentation.foreground import LabelledForeground, _box, label_foreground
+from tendrilkit.segmentation.foreground import LabelledForeground, _box, faint_options, label_foreground
 
 __all__ = ["TendrilMask", "segment_view"]
 
@@ -123,17 +123,15 @@ def segment_view(
     ValueError
         Malformed arguments (shape, box, threshold).
     """
+    local = faint_options(local_contrast, local_noise_k, background_px, local_window_px, local_margin_px,
+                          local_exclude_dark)
     labelled = label_foreground(image_bgr, roi=roi, keep_out=keep_out, channel=channel, threshold=threshold,
-                                opening_radius_px=opening_radius_px, local_contrast=local_contrast,
-                                local_noise_k=local_noise_k, background_px=background_px,
-                                local_window_px=local_window_px, local_margin_px=local_margin_px,
-                                local_exclude_dark=local_exclude_dark, line_width_px=line_width_px,
+                                opening_radius_px=opening_radius_px, **local, line_width_px=line_width_px,
                                 bridge_gap_px=bridge_gap_px)
     if min_component_px < 0:
         raise ValueError(f"min_component_px must be >= 0, got {min_component_px}")
-    fg, offset, n, labels = labelled.foreground, labelled.roi_offset_xy, labelled.n_labels, labelled.labels
+    offset, n, labels = labelled.roi_offset_xy, labelled.n_labels, labelled.labels
     x, y, w, h = _box(roi, "roi")
-    x0, y0 = int(offset[0]), int(offset[1])
     if keep_out is not None:
         kx, ky, kw, kh = _box(keep_out, "keep_out")
 
