@@ -45,11 +45,22 @@ def with_temporal_checks(results: list[FrameResult], verification=None) -> list[
             out.append(r)
             continue
         status = "doubtful" if (msg or r.status == "doubtful") else "ok"
-        notes = r.message.split("; ")[len(r.checks):] if r.message else []
-        message = "; ".join(list(r.checks) + list(msg) + notes)  # the failed checks first, then the notes
-        out.append(replace(r, status=status, message=message, quality={**r.quality, **fig},
-                           checks=list(r.checks) + list(msg)))
+        out.append(replace(_with_checks(r, msg), status=status, quality={**r.quality, **fig}))
     return out
+
+
+def _with_checks(r: FrameResult, new: list[str]) -> FrameResult:
+    """``r`` with the failed checks ``new`` after its own, before its notes (the message: checks, then notes).
+
+    The notes are what follows the frame's checks in its message. A check may itself hold "; " (a shape
+    jump names its parts), so the message is cut after the joined checks, not split on "; ".
+    """
+    from dataclasses import replace
+
+    head = "; ".join(r.checks)
+    rest = r.message[len(head):].removeprefix("; ") if r.message and r.message.startswith(head) else r.message
+    own = list(r.checks) + list(new)
+    return replace(r, message="; ".join(own + ([rest] if rest else [])), checks=own)
 
 
 def with_run_checks(results: list[FrameResult], checks: list[str]) -> list[FrameResult]:
@@ -67,9 +78,7 @@ def with_run_checks(results: list[FrameResult], checks: list[str]) -> list[Frame
         if r.status == "failed":
             out.append(r)
             continue
-        notes = r.message.split("; ")[len(r.checks):] if r.message else []
-        own = list(r.checks) + list(checks)
-        out.append(replace(r, status="doubtful", message="; ".join(own + notes), checks=own))
+        out.append(replace(_with_checks(r, checks), status="doubtful"))
     return out
 
 

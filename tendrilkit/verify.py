@@ -494,19 +494,19 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     sk = ev.skeleton_xy
     sr = (sk[:, 1] - off[1]).astype(int)
     sc = (sk[:, 0] - off[0]).astype(int)
+    # the tendril's thin line, not a leaf's blob or a thicker stem (no radius: every skeleton pixel)
     thin_px = WIDE_RATIO * radius_px if np.isfinite(radius_px) and radius_px > 0 else np.inf
-    touched = across_gaps(ev.labels, sk, sr, sc, inside[sr, sc] <= thin_px, touched, dense)
+    thin = inside[sr, sc] <= thin_px
+    touched = across_gaps(ev.labels, sk, sr, sc, thin, touched, dense)
     mine = np.isin(ev.labels[sr, sc], touched)
-    sk, sr, sc = sk[mine], sr[mine], sc[mine]
+    sk, sr, sc, thin = sk[mine], sr[mine], sc[mine], thin[mine]
     if len(sk) == 0:
         return 0.0
     # one query serves the coverage (within cov_tol) and the crossing arms (attached within cov_tol + 3)
     dist, nearest = tree_cls(dense).query(sk, distance_upper_bound=cov_tol + 3.0 + 1e-9)
     near = dist < cov_tol + 1e-9
     n_near = int(near.sum())
-    free = ~near
-    if np.isfinite(radius_px) and radius_px > 0:  # the tendril's thin line, not a leaf's blob or a thicker stem
-        free &= inside[sr, sc] <= WIDE_RATIO * radius_px
+    free = ~near & thin
     if not free.any():
         return 1.0 if n_near else 0.0
     import cv2

@@ -32,7 +32,7 @@ def _calibrate(cover_px: float):
     obs[0][WORLD_ID] = w
     res = calibrate_from_observations(obs, truth, world_id=WORLD_ID, length_mm=L)
     # scale of the calibrated world against the truth: distance between two camera centres
-    centres = [np.array([c.center_world() if callable(c.center_world) else c.center_world for c in cams])
+    centres = [np.array([c.center_world for c in cams])
                for cams in (res.cameras, truth)]
     scale = np.linalg.norm(centres[0][0] - centres[0][2]) / np.linalg.norm(centres[1][0] - centres[1][2])
     return res, scale
@@ -74,3 +74,19 @@ def test_run_check_turns_every_reconstructed_frame_doubtful():
     assert out[1].message == "tip: x; calibration: c; a note" and out[1].checks == ["tip: x", "calibration: c"]
     assert out[2].message == "no tendril"
     assert [r.status for r in with_run_checks([ok], [])] == ["ok"]
+
+
+def test_run_check_after_a_shape_jump_repeats_no_part_of_the_message():
+    """A shape-jump check names its parts joined by "; ": the run's check goes after it, the note last, once each."""
+    from tendrilkit.assembly import with_temporal_checks
+
+    s = np.linspace(0, 1, 100)
+    curve = np.column_stack([40 * s, 18 * s**2, 0 * s])
+    curves = [curve, curve, curve + [0, 200, 0], curve, curve]
+    results = [FrameResult(frame=i, time_s=15.0 * i, status="ok", message="a note", points_mm=c)
+               for i, c in enumerate(curves)]
+    jumped = with_temporal_checks(results)[2]
+    assert jumped.status == "doubtful" and jumped.checks
+    out = with_run_checks([jumped], ["calibration: c"])[0]
+    assert out.message == "; ".join(list(jumped.checks) + ["calibration: c", "a note"])
+    assert out.checks == list(jumped.checks) + ["calibration: c"]
