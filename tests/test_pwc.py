@@ -551,6 +551,6 @@ def test_auto_searches_again_when_residuals_exceed_the_noise():
     P = random_pwc_curve(3).points_mm
     sigma, n = noise_sigma_mm(P), len(P)
     sse_at = lambda ratio: (ratio * sigma) ** 2 * 3 * n  # noqa: E731
-    assert not F._missed((None, None, sse_at(0.8), 0.9999), 0.999, P, n)
-    assert F._missed((None, None, sse_at(1.2 * F.RETRY_NOISE_RATIO), 0.9999), 0.999, P, n)
-    assert F._missed((None, None, sse_at(0.5), 0.99), 0.999, P, n)
+    assert not F._missed((None, None, sse_at(0.8), 0.9999), 0.999, sigma, n)
+    assert F._missed((None, None, sse_at(1.2 * F.RETRY_NOISE_RATIO), 0.9999), 0.999, sigma, n)
+    assert F._missed((None, None, sse_at(0.5), 0.99), 0.999, sigma, n)
