@@ -109,7 +109,8 @@ def _single_threaded_blas() -> None:
     The fit's matrices are small (a few hundred rows, tens of columns): a second
     BLAS thread costs more in hand-overs than it saves (on the site phantoms' curves
     about a fifth more CPU on a busy machine), and the results are the same. The
-    same holds for ``reconstruct``, whose parallelism is one process per worker.
+    same holds for ``reconstruct`` and ``batch``, whose parallelism is one process
+    per worker or experiment.
     """
     import os
 
@@ -129,6 +130,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 
 
 def _cmd_batch(args: argparse.Namespace) -> int:
+    _single_threaded_blas()  # experiments run in parallel processes (and their notebooks' kernels inherit it)
     from tendrilkit.batch import run_batch
 
     def report(o) -> None:  # each experiment as it finishes, on stderr (the table goes to stdout)
