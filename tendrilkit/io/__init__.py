@@ -21,15 +21,18 @@ import tempfile
 from dataclasses import dataclass
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import TYPE_CHECKING, Iterator
 
-import cv2
 import numpy as np
 import pandas as pd
 
-from tendrilkit.camera import Camera
 from tendrilkit.exceptions import ExperimentError, FrameReadError, OutputWriteError
 from tendrilkit.schema import FRAMES_HEAD, RESULT_TABLES, Table, frames_table
+
+if TYPE_CHECKING:  # cv2 and the camera (numba) are imported where frames or cameras are read: the fit
+    import cv2  # command reads and writes tables only, and its start-up is part of its time
+
+    from tendrilkit.camera import Camera
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 #: A video read jumping forward by at most this many frames steps over them with
@@ -50,6 +53,8 @@ class FrameSource:
     """
 
     def __init__(self, path: str | Path) -> None:
+        import cv2
+
         self.path = Path(path)
         self._cap: cv2.VideoCapture | None = None
         self._next = 0
@@ -91,6 +96,8 @@ class FrameSource:
 
     def read(self, index: int) -> np.ndarray:
         """Frame ``index`` (0-based) as BGR uint8 (height, width, 3)."""
+        import cv2
+
         if index < 0:
             raise FrameReadError(f"{self.path.name}: frame {index} is negative")
         if self._files is not None:
@@ -155,6 +162,8 @@ def write_video(frames, path: str | Path, *, fps: float = 10.0) -> int:
 
     Returns the number of frames written. The file appears only when complete.
     """
+    import cv2
+
     path = Path(path)
     n = 0
     if not path.suffix:
@@ -463,6 +472,8 @@ def write_cameras(cameras: list[Camera], path: str | Path, *, quality: list[dict
 
 
 def read_cameras(path: str | Path) -> list[Camera]:
+    from tendrilkit.camera import Camera
+
     path = Path(path)
     if not path.is_file():
         raise ExperimentError(f"{path}: cameras file not found")
