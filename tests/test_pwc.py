@@ -480,25 +480,31 @@ def test_run_fingerprint_covers_sub_packages(tmp_path, monkeypatch):
 
 
 def test_searches_sharing_a_memo_give_the_same_fits(monkeypatch):
-    """A retry with more lookahead looks up the refinements the first search made (same laws in,
-    same bits out): its result equals a search without the memo, with fewer refinements."""
+    """A retry with more lookahead looks up the refinements, penalty paths and starts' SSE the first
+    search made (same laws in, same bits out): its result equals a search without the memo, with
+    fewer refinements."""
     import tendrilkit.pwc.selection as S
     from tendrilkit.pwc.signals import _prepare
 
-    calls = []
-    refine = S._refine_laws
+    calls, paths, sses = [], [], []
+    refine, path, law_sse = S._refine_laws, S.penalty_path, S._law_sse
     monkeypatch.setattr(S, "_refine_laws", lambda *a: calls.append(1) or refine(*a))
+    monkeypatch.setattr(S, "penalty_path", lambda *a, **k: paths.append(1) or path(*a, **k))
+    monkeypatch.setattr(S, "_law_sse", lambda *a: sses.append(1) or law_sse(*a))
     prep = _prepare(random_pwc_curve(3).points_mm, None, "l2", None, None)
     kw = dict(criterion="bic", target_r2=0.999, max_segments=10, refine=True, insertions=True,
               quick_iterations=4, max_candidates=40)
     memo: dict = {}
     S._auto_search(prep, lookahead=1, memo=memo, **kw)
-    n0 = len(calls)
+    n0, p0, e0 = len(calls), len(paths), len(sses)
     shared = S._auto_search(prep, lookahead=2, memo=memo, **kw)
-    n_shared = len(calls) - n0
+    n_shared, p_shared, e_shared = len(calls) - n0, len(paths) - p0, len(sses) - e0
     fresh = S._auto_search(prep, lookahead=2, **kw)
-    n_fresh = len(calls) - n0 - n_shared
+    n_fresh, p_fresh, e_fresh = len(calls) - n0 - n_shared, len(paths) - p0 - p_shared, len(sses) - e0 - e_shared
     assert 0 < n_shared < n_fresh
+    # the penalty paths (and their laws) are made once per prep; the starts' SSE are looked up
+    assert p0 == 2 and p_shared == 0 and p_fresh == 2
+    assert e_shared < e_fresh
     assert np.array_equal(shared["candidates"], fresh["candidates"])
     for key in ("lk", "lt"):
         assert np.array_equal(shared[key].knots_mm, fresh[key].knots_mm)

@@ -55,7 +55,8 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
 
     ``memo``: a dict shared by the searches of one ``prep`` (a retry with more lookahead
     repeats the first search's steps until it turns elsewhere): refinements and score
-    tests already computed from the same laws are looked up, not redone (the same bits).
+    tests already computed from the same laws are looked up, not redone (the same bits), and
+    so are the penalty paths with their laws and the SSE of the starts.
     """
     memo = {} if memo is None else memo
 
@@ -72,12 +73,21 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             memo[key] = _best_insertions(prep, lk, lt)
         return memo[key]
 
+    def start_sse(lk, lt):
+        key = ("sse", lk.knots_mm.tobytes(), lk.values.tobytes(), lt.knots_mm.tobytes(), lt.values.tobytes())
+        if key not in memo:
+            memo[key] = _law_sse(prep, lk, lt)
+        return memo[key]
+
     s, fr = prep.s, prep.fr
-    path_k = penalty_path(prep.Ck, kmax=max_segments)
-    path_t = penalty_path(prep.Ct, kmax=max_segments)
-    # continuity may merge segments, so several path entries can give one law: keep each once
-    laws_k = _DistinctLaws(s, fr.kappa, prep.wk, path_k, "kappa")
-    laws_t = _DistinctLaws(s, fr.tau, prep.wt, path_t, "tau")
+    key = ("paths", max_segments)
+    if key not in memo:  # the paths and their laws depend on prep and max_segments only: a retry reuses them
+        path_k = penalty_path(prep.Ck, kmax=max_segments)
+        path_t = penalty_path(prep.Ct, kmax=max_segments)
+        # continuity may merge segments, so several path entries can give one law: keep each once
+        memo[key] = (path_k, path_t, _DistinctLaws(s, fr.kappa, prep.wk, path_k, "kappa"),
+                     _DistinctLaws(s, fr.tau, prep.wt, path_t, "tau"))
+    path_k, path_t, laws_k, laws_t = memo[key]
     n = s.size
     sst = float(np.sum((prep.data - prep.data.mean(axis=0)) ** 2))
     rows: list[list[float]] = []
@@ -104,7 +114,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
         law (``move`` names the one that changes) keeps its current refined state.
         """
         if not refine:
-            return scored(laws_k[a], laws_t[b], _law_sse(prep, laws_k[a], laws_t[b]))
+            return scored(laws_k[a], laws_t[b], start_sse(laws_k[a], laws_t[b]))
         if cur is None:
             # the path laws, or constants (median curvature; curvature-weighted median
             # torsion, or none): noisy estimates can start the fit in a wrong basin
@@ -123,7 +133,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             u = _merge_knots(t_new, t_cur.knots_mm, prep.min_gap_mm)
             starts = [(k_cur, laws_t[b]), (k_cur, PiecewiseLinearLaw(t_new, t_cur(t_new), "tau")),
                       (k_cur, PiecewiseLinearLaw(u, t_cur(u), "tau"))]
-        start_k, start_t = min(starts, key=lambda x: _law_sse(prep, x[0], x[1]))
+        start_k, start_t = min(starts, key=lambda x: start_sse(x[0], x[1]))
         return scored(*refined(start_k, start_t, *quick))
 
     def better(x, y):
