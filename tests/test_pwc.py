@@ -487,10 +487,10 @@ def test_searches_sharing_a_memo_give_the_same_fits(monkeypatch):
     from tendrilkit.pwc.signals import _prepare
 
     calls, paths, sses = [], [], []
-    refine, path, law_sse = S._refine_laws, S.penalty_path, S._law_sse
+    refine, path, law_state = S._refine_laws, S.penalty_path, S._law_state
     monkeypatch.setattr(S, "_refine_laws", lambda *a: calls.append(1) or refine(*a))
     monkeypatch.setattr(S, "penalty_path", lambda *a, **k: paths.append(1) or path(*a, **k))
-    monkeypatch.setattr(S, "_law_sse", lambda *a: sses.append(1) or law_sse(*a))
+    monkeypatch.setattr(S, "_law_state", lambda *a: sses.append(1) or law_state(*a))
     prep = _prepare(random_pwc_curve(3).points_mm, None, "l2", None, None)
     kw = dict(criterion="bic", target_r2=0.999, max_segments=10, refine=True, insertions=True,
               quick_iterations=4, max_candidates=40)
@@ -502,13 +502,32 @@ def test_searches_sharing_a_memo_give_the_same_fits(monkeypatch):
     fresh = S._auto_search(prep, lookahead=2, **kw)
     n_fresh, p_fresh, e_fresh = len(calls) - n0 - n_shared, len(paths) - p0 - p_shared, len(sses) - e0 - e_shared
     assert 0 < n_shared < n_fresh
-    # the penalty paths (and their laws) are made once per prep; the starts' SSE are looked up
+    # the penalty paths (and their laws) are made once per prep; the starts' evaluations are looked up
     assert p0 == 2 and p_shared == 0 and p_fresh == 2
     assert e_shared < e_fresh
     assert np.array_equal(shared["candidates"], fresh["candidates"])
     for key in ("lk", "lt"):
         assert np.array_equal(shared[key].knots_mm, fresh[key].knots_mm)
         assert np.array_equal(shared[key].values, fresh[key].values)
+
+
+def test_refinement_from_the_starts_evaluation_is_the_same():
+    """The selection refines a start from the evaluation that chose it (``state``): the same bits as
+    a refinement that evaluates the start itself."""
+    from tendrilkit.pwc.laws import join_segments
+    from tendrilkit.pwc.refine import _law_state, _refine_laws
+    from tendrilkit.pwc.signals import _prepare
+
+    prep = _prepare(random_pwc_curve(5).points_mm, None, "l2", None, None)
+    L = prep.s[-1]
+    lk = join_segments(prep.s, prep.fr.kappa, np.searchsorted(prep.s, [0, L / 2, L + 1]), kind="kappa")
+    lt = join_segments(prep.s, prep.fr.tau, np.array([0, prep.s.size]), weights=prep.wt, kind="tau")
+    for iterations, rtol in ((2, 1e-4), (40, 1e-6)):
+        a = _refine_laws(prep, lk, lt, iterations, rtol)
+        b = _refine_laws(prep, lk, lt, iterations, rtol, state=_law_state(prep, lk, lt))
+        assert a[2] == b[2] and a[2] < _law_state(prep, lk, lt)[0]
+        for x, y in zip(a[:2], b[:2]):
+            assert np.array_equal(x.knots_mm, y.knots_mm) and np.array_equal(x.values, y.values)
 
 
 def test_gap_fraction_keeps_knots_apart():

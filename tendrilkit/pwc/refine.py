@@ -227,6 +227,13 @@ def _gap_fraction(knots, inner_step, gap):
 
 @njit(cache=True)
 def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
+    f, P, T, B, R, X = _lm_evaluate(s, kk, vk, kt, vt, data)
+    return _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, P, T, B, R, X)
+
+
+@njit(cache=True)
+def _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, P, T, B, R, X):
+    """:func:`_lm_core` from the evaluation ``f, P, T, B, R, X`` of the start (:func:`_lm_evaluate`'s)."""
     mk, mt = kk.shape[0], kt.shape[0]
     ik = mk - 2 if (free_knots and mk > 2) else 0
     it = mt - 2 if (free_knots and mt > 2) else 0
@@ -244,8 +251,7 @@ def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
     cap = np.empty(npar)
     gap_k = max(min(min_gap, 0.5 * _min_gap_of(kk)), 1e-6 * L)
     gap_t = max(min(min_gap, 0.5 * _min_gap_of(kt)), 1e-6 * L)
-    ck = _unpack_nb(p, kk, kt, free_knots)
-    f, P, T, B, R, X = _lm_evaluate(s, ck[0], ck[1], ck[2], ck[3], data)
+    ck = _unpack_nb(p, kk, kt, free_knots)  # the start's values: its evaluation is f, P, T, B, R, X
     mu = 1e-4
     n = s.shape[0]
     if not np.isfinite(f):
@@ -314,7 +320,7 @@ def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
     return ck[0], ck[1], ck[2], ck[3], f
 
 
-def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, iterations=40, rtol=1e-6):
+def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, iterations=40, rtol=1e-6, state=None):
     """Levenberg-Marquardt on the knot values (and inner knot positions), compiled.
 
     Residuals are the registered 3D errors. The Jacobian is analytic: a change
@@ -327,20 +333,34 @@ def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, it
     value by at most 1/L and a knot by at most L/10 (the reach of the linear
     model; a longer step raises the damping); knots stay ``min_gap`` mm
     apart. Stops when an iteration lowers the SSE by less than the fraction
-    ``rtol``.
+    ``rtol``. ``state``: the start's :func:`_law_state`, if the caller has it
+    (the start is then not evaluated again; the same bits).
     """
     f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
-    kk2, vk2, kt2, vt2, sse = _lm_core(f(s), f(data), f(kk), f(vk), f(kt), f(vt), bool(free_knots),
-                                       float(min_gap), int(iterations), float(rtol))
+    args = (f(s), f(data), f(kk), f(vk), f(kt), f(vt), bool(free_knots), float(min_gap), int(iterations), float(rtol))
+    if state is None:
+        kk2, vk2, kt2, vt2, sse = _lm_core(*args)
+    else:
+        kk2, vk2, kt2, vt2, sse = _lm_from(*args, *state)
     return (kk2, vk2, kt2, vt2), float(sse)
 
 
-def _refine_laws(prep, law_k, law_t, iterations=40, rtol=1e-6):
+def _refine_laws(prep, law_k, law_t, iterations=40, rtol=1e-6, state=None):
     s = prep.s
     (kk, vk, kt, vt), sse = _refine_laws_lm(
         s, prep.data, law_k.knots_mm, law_k.values, law_t.knots_mm, law_t.values,
-        free_knots=prep.free_knots, min_gap=prep.min_gap_mm, iterations=iterations, rtol=rtol)
+        free_knots=prep.free_knots, min_gap=prep.min_gap_mm, iterations=iterations, rtol=rtol, state=state)
     return PiecewiseLinearLaw(kk, vk, "kappa"), PiecewiseLinearLaw(kt, vt, "tau"), sse
+
+
+def _law_state(prep, law_k, law_t):
+    """The laws integrated from the identity and registered onto ``prep.data``: ``(sse, P, T, B, R, X)``.
+
+    :func:`_lm_evaluate`'s evaluation, which is where :func:`_refine_laws` starts (``state``): the
+    automatic selection compares its starts by this SSE and refines the best from it.
+    """
+    f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    return _lm_evaluate(prep.s, f(law_k.knots_mm), f(law_k.values), f(law_t.knots_mm), f(law_t.values), prep.data)
 
 
 @njit(cache=True)

@@ -13,7 +13,7 @@ import numpy as np
 from tendrilkit.pwc.costs import _check_signal
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _insert_knot, _Joiner, _merge_knots
 from tendrilkit.pwc.rebuild import _law_sse
-from tendrilkit.pwc.refine import _best_insertions, _refine_laws
+from tendrilkit.pwc.refine import _best_insertions, _law_state, _refine_laws
 from tendrilkit.pwc.search import penalty_path
 
 __all__: list[str] = []
@@ -56,15 +56,15 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
     ``memo``: a dict shared by the searches of one ``prep`` (a retry with more lookahead
     repeats the first search's steps until it turns elsewhere): refinements and score
     tests already computed from the same laws are looked up, not redone (the same bits), and
-    so are the penalty paths with their laws and the SSE of the starts.
+    so are the penalty paths with their laws and the evaluations of the starts.
     """
     memo = {} if memo is None else memo
 
-    def refined(lk, lt, iterations=40, rtol=1e-6):
+    def refined(lk, lt, iterations=40, rtol=1e-6, state=None):
         key = ("refine", lk.knots_mm.tobytes(), lk.values.tobytes(), lt.knots_mm.tobytes(), lt.values.tobytes(),
                iterations, rtol)
         if key not in memo:
-            memo[key] = _refine_laws(prep, lk, lt, iterations, rtol)
+            memo[key] = _refine_laws(prep, lk, lt, iterations, rtol, state)
         return memo[key]
 
     def insertions_at(lk, lt):
@@ -73,10 +73,11 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             memo[key] = _best_insertions(prep, lk, lt)
         return memo[key]
 
-    def start_sse(lk, lt):
-        key = ("sse", lk.knots_mm.tobytes(), lk.values.tobytes(), lt.knots_mm.tobytes(), lt.values.tobytes())
+    def start_state(lk, lt):
+        """The evaluation of a start (its SSE first), where its refinement begins."""
+        key = ("start", lk.knots_mm.tobytes(), lk.values.tobytes(), lt.knots_mm.tobytes(), lt.values.tobytes())
         if key not in memo:
-            memo[key] = _law_sse(prep, lk, lt)
+            memo[key] = _law_state(prep, lk, lt)
         return memo[key]
 
     s, fr = prep.s, prep.fr
@@ -114,7 +115,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
         law (``move`` names the one that changes) keeps its current refined state.
         """
         if not refine:
-            return scored(laws_k[a], laws_t[b], start_sse(laws_k[a], laws_t[b]))
+            return scored(laws_k[a], laws_t[b], _law_sse(prep, laws_k[a], laws_t[b]))
         if cur is None:
             # the path laws, or constants (median curvature; curvature-weighted median
             # torsion, or none): noisy estimates can start the fit in a wrong basin
@@ -133,8 +134,9 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             u = _merge_knots(t_new, t_cur.knots_mm, prep.min_gap_mm)
             starts = [(k_cur, laws_t[b]), (k_cur, PiecewiseLinearLaw(t_new, t_cur(t_new), "tau")),
                       (k_cur, PiecewiseLinearLaw(u, t_cur(u), "tau"))]
-        start_k, start_t = min(starts, key=lambda x: start_sse(x[0], x[1]))
-        return scored(*refined(start_k, start_t, *quick))
+        # compared by the SSE of the refinement's own evaluation, from which the best is refined
+        start_k, start_t = min(starts, key=lambda x: start_state(x[0], x[1])[0])
+        return scored(*refined(start_k, start_t, *quick, state=start_state(start_k, start_t)))
 
     def better(x, y):
         return _preferred(x, y, target_r2, criterion)
