@@ -103,7 +103,7 @@ from tendrilkit.verify_beyond import beyond_tip_px
 from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
-from tendrilkit.verify_tip import TIP_PX, on_wide, tip_continuation, tip_wide_fraction, wide_run_px
+from tendrilkit.verify_tip import TIP_PX, on_wide, skeleton_distance, tip_continuation, tip_wide_fraction, wide_run_px
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "verify_frame", "image_check_messages",
            "VERIFY_COLUMNS_FRAME"]
@@ -403,16 +403,21 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             # the skeleton shows the tendril's middle only where its line is seen: on pixels wider than the
             # tendril (a leaf it passes in front of) the skeleton is the blob's, not the tendril's
             on = dense[on_mask & ~wide]
+            # each skeleton pixel's distance to the curve (inf beyond the tolerance): the tip continuation's and
+            # the beyond-the-tip check's (one query for both)
+            sk_dist = None
             if on_mask.any() and len(ev.skeleton_xy):
+                sk_dist = skeleton_distance(ev.skeleton_xy, dense, coverage_tolerance_px)
                 if len(on):
                     out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
-                out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px)
+                out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px,
+                                                                        sk_dist=sk_dist)
             out[f"base_on_tendril_frac_v{v + 1}"] = base_on_tendril(ev, dense[keep], d[keep], tolerance_px,
                                                                      inside=inside_px)
             out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(wide, seen & (d <= tolerance_px))
             out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, seen & (d <= tolerance_px))
             out[f"beyond_tip_px_v{v + 1}"] = beyond_tip_px(ev, dense, inside_px, radius_px, cov_tol=coverage_tolerance_px,
-                                                           tol=tolerance_px, wide_ratio=WIDE_RATIO)
+                                                           tol=tolerance_px, wide_ratio=WIDE_RATIO, sk_dist=sk_dist)
             if extra is not None:
                 extra[f"tip_object_px_v{v + 1}"] = tip_object_px(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO,
                                                                  reach_px=tip_object_reach_px)

@@ -89,15 +89,24 @@ def base_on_tendril(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: flo
     h, w = ev.shape
     r = np.clip(np.rint(first[:, 1] - off[1]).astype(int), 0, h - 1)
     c = np.clip(np.rint(first[:, 0] - off[0]).astype(int), 0, w - 1)
+    if len(first) == 0:
+        return None
     rad = int(np.ceil(tol))
-    hit = []
-    for k in range(len(first)):
-        if dd[k] > tol:
-            hit.append(False)
-            continue
-        win = ev.labels[max(r[k] - rad, 0):r[k] + rad + 1, max(c[k] - rad, 0):c[k] + rad + 1]
-        hit.append(bool(np.isin(win, comps).any()))
-    return float(np.mean(hit)) if hit else None
+    # a sample is on a leaving component when one of its window's pixels (the (2 rad + 1)^2 pixels around it,
+    # cut at the crop's edge) is: the window's offsets gathered at once (one isin on the samples' box, not one
+    # per sample)
+    r0, r1 = max(int(r.min()) - rad, 0), min(int(r.max()) + rad + 1, h)
+    c0, c1 = max(int(c.min()) - rad, 0), min(int(c.max()) + rad + 1, w)
+    on_comp = np.isin(ev.labels[r0:r1, c0:c1], comps)
+    hit = np.zeros(len(first), bool)
+    for dr in range(-rad, rad + 1):
+        rr = r + dr
+        for dc in range(-rad, rad + 1):
+            cc = c + dc
+            ok = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
+            hit[ok] |= on_comp[rr[ok] - r0, cc[ok] - c0]
+    hit &= ~(dd > tol)
+    return float(np.mean(hit))
 
 
 def thin_at_base(ev: ViewEvidence, inside: np.ndarray, extra_px: float = 30.0) -> np.ndarray:
