@@ -73,13 +73,10 @@ def across_gaps(labels: np.ndarray, sk_xy: np.ndarray, sr: np.ndarray, sc: np.nd
     (k',) int array
         Sorted component labels, ``touched`` among them.
     """
-    import cv2
     from scipy.spatial import cKDTree
 
     lab = labels[sr, sc]
-    img = np.zeros(labels.shape, np.uint8)
-    img[sr, sc] = 1
-    n_nb = cv2.filter2D(img, -1, np.ones((3, 3), np.float32), borderType=cv2.BORDER_CONSTANT)[sr, sc] - 1
+    n_nb = _neighbour_counts(sr, sc, labels.shape)
     end = np.nonzero((n_nb == 1) & thin & (lab > 0))[0]
     done = {int(k) for k in touched}
     pts = np.vstack([dense_xy.reshape(-1, 2), sk_xy[np.isin(lab, touched) & thin]])
@@ -94,6 +91,25 @@ def across_gaps(labels: np.ndarray, sk_xy: np.ndarray, sr: np.ndarray, sc: np.nd
         done |= new
         pts = np.vstack([pts, sk_xy[np.isin(lab, list(new)) & thin]])
     return np.array(sorted(done), int)
+
+
+def _neighbour_counts(sr: np.ndarray, sc: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(m,) int: how many of the pixels ``(sr, sc)`` are 8-neighbours of each (pixels outside ``shape``: none).
+
+    A 3 x 3 box sum of their image at each, on the pixels' bounding box
+    grown by one (cut at ``shape``) rather than the whole crop: the same
+    counts.
+    """
+    import cv2
+
+    if len(sr) == 0:
+        return np.zeros(0, np.uint8)
+    h, w = shape
+    r0, r1 = max(int(sr.min()) - 1, 0), min(int(sr.max()) + 2, h)
+    c0, c1 = max(int(sc.min()) - 1, 0), min(int(sc.max()) + 2, w)
+    img = np.zeros((r1 - r0, c1 - c0), np.uint8)
+    img[sr - r0, sc - c0] = 1
+    return cv2.filter2D(img, -1, np.ones((3, 3), np.float32), borderType=cv2.BORDER_CONSTANT)[sr - r0, sc - c0] - 1
 
 
 def border_segments(img: np.ndarray, edge: np.ndarray) -> np.ndarray:
