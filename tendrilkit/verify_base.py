@@ -102,13 +102,10 @@ def base_on_tendril(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: flo
     r0, r1 = max(int(r.min()) - rad, 0), min(int(r.max()) + rad + 1, h)
     c0, c1 = max(int(c.min()) - rad, 0), min(int(c.max()) + rad + 1, w)
     on_comp = np.isin(ev.labels[r0:r1, c0:c1], comps)
-    hit = np.zeros(len(first), bool)
-    for dr in range(-rad, rad + 1):
-        rr = r + dr
-        for dc in range(-rad, rad + 1):
-            cc = c + dc
-            ok = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
-            hit[ok] |= on_comp[rr[ok] - r0, cc[ok] - c0]
+    dr, dc = (a.ravel() for a in np.mgrid[-rad:rad + 1, -rad:rad + 1])
+    rr, cc = r[:, None] + dr, c[:, None] + dc  # (samples, offsets)
+    ok = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
+    hit = (on_comp[np.clip(rr, r0, r1 - 1) - r0, np.clip(cc, c0, c1 - 1) - c0] & ok).any(axis=1)
     hit &= ~(dd > tol)
     return float(np.mean(hit))
 
