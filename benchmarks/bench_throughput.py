@@ -212,7 +212,8 @@ def sequence(site: str = "S3", n_frames: int = 60) -> None:
               f"loop overhead {1e3 * (loop_c / n - accounted) - 1e3 * dec_c / n:.1f}")
         if "verify" in mean and exp.reconstruction.method == "chain":  # its verify = every view's evidence (evidence.py) + the checks (verify*.py)
             print(f"      verify {1e3 * mean['verify']:.1f} = the views' evidence {1e3 * ev_c / n:.1f} "
-                  f"+ the checks {1e3 * (mean['verify'] - ev_c / n):.1f} (mean CPU ms/frame)")
+                  f"+ the checks {1e3 * (mean['verify'] - ev_c / n):.1f} (mean CPU ms/frame; the checks' share includes "
+                  f"the evidence's figures made when first read: inside distances, sampled distances)")
         # with the piece-wise clothoid fit at its target cost (issue 17: ~5 ms), everything else as measured
         proj_c = per_c - mean.get("pwc", 0.0) + FIT_TARGET_S
         print(f"      with the fit at {1e3 * FIT_TARGET_S:.0f} ms: {1e3 * proj_c:.1f} ms/frame CPU = "
