@@ -15,7 +15,9 @@
    not converted to images; what a skipped frame costs, grab() against read(),
    is printed too). Prints the ratio to decoding (target: at most 4x),
    frames per second (target: at least 10), the mean cost of every stage, and
-   the same figures with the piece-wise clothoid fit at its target (5 ms).
+   the same figures with the piece-wise clothoid fit at its target (5 ms),
+   and how the verification splits between the views' evidence
+   (``evidence.view_evidence``) and the checks (``verify*.py``).
    Both CPU time of this process (what one core pays, robust to a shared
    machine) and wall time are printed.
 2. How the cost of one frame grows (synthetic tube views through the IJCV25
@@ -110,12 +112,33 @@ def skip_cost(videos, n_frames: int) -> dict:
     return {k: float(np.median(v)) for k, v in out.items()}
 
 
-def frame_loop(exp, cameras, frames) -> tuple[float, float, list]:
-    """The frame loop of ``reconstruct --workers 1`` (reading included; no files written)."""
-    t0 = _clocks()
-    results = list(_iter_chunk(frames, [None] * exp.n_views, exp, cameras, True))
-    w, c = _since(t0)
-    return w, c, results
+def frame_loop(exp, cameras, frames) -> tuple[float, float, list, float]:
+    """The frame loop of ``reconstruct --workers 1`` (reading included; no files written).
+
+    Also returns the CPU seconds spent in :func:`tendrilkit.evidence.view_evidence` during the loop (the
+    chain method's ``verify`` stage makes every view's evidence, then runs the checks on it): how the
+    verification's cost splits between the evidence and the checks.
+    """
+    import tendrilkit.evidence as evidence
+
+    spent = [0.0]
+    plain = evidence.view_evidence
+
+    def timed(*args, **kwargs):  # a benchmark-only substitution, as the pipeline's clock above
+        t = time.process_time()
+        try:
+            return plain(*args, **kwargs)
+        finally:
+            spent[0] += time.process_time() - t
+
+    evidence.view_evidence = timed
+    try:
+        t0 = _clocks()
+        results = list(_iter_chunk(frames, [None] * exp.n_views, exp, cameras, True))
+        w, c = _since(t0)
+    finally:
+        evidence.view_evidence = plain
+    return w, c, results, spent[0]
 
 
 def write_results(exp, results, out: Path) -> tuple[float, float]:
@@ -157,7 +180,7 @@ def sequence(site: str = "S3", n_frames: int = 60) -> None:
         sel = frames[::step]
         # decoding measured before and after the frame loop (interleaved: the same load for both)
         dec = [decode_all(exp.videos, sel)]
-        loop_w, loop_c, results = frame_loop(exp, cameras, sel)
+        loop_w, loop_c, results, ev_c = frame_loop(exp, cameras, sel)
         dec.append(decode_all(exp.videos, sel))
         wr_w, wr_c = write_results(exp, results, tmp / f"out_step{step}")
         dec.append(decode_all(exp.videos, sel))
@@ -170,10 +193,10 @@ def sequence(site: str = "S3", n_frames: int = 60) -> None:
             for k, v in r.timings.items():
                 stages.setdefault(k, []).append(v)
         n_ok = sum(r.status == "ok" for r in results)
-        rows.append((step, len(sel), dec_w, dec_c, loop_w, loop_c, wr_w, wr_c, n_ok, stages))
+        rows.append((step, len(sel), dec_w, dec_c, loop_w, loop_c, wr_w, wr_c, n_ok, stages, ev_c))
     print(f"   views {len(exp.videos)} x {int(w)} px wide, {exp.points} points, one core "
           f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
-    for step, n, dec_w, dec_c, loop_w, loop_c, wr_w, wr_c, n_ok, stages in rows:
+    for step, n, dec_w, dec_c, loop_w, loop_c, wr_w, wr_c, n_ok, stages, ev_c in rows:
         tot_c, tot_w = loop_c + wr_c, loop_w + wr_w
         per_c, per_w = tot_c / n, tot_w / n
         print(f"   step {step}: {n} frames ({n_ok} ok); reading the 3 views: {1e3 * dec_c / n:.1f} ms/frame CPU "
@@ -187,6 +210,10 @@ def sequence(site: str = "S3", n_frames: int = 60) -> None:
         print(f"      per stage (mean CPU ms/frame): decode {1e3 * dec_c / n:.1f}, {split}"
               f"{', ' + other if other else ''}, writing {1e3 * wr_c / n:.1f}; "
               f"loop overhead {1e3 * (loop_c / n - accounted) - 1e3 * dec_c / n:.1f}")
+        if "verify" in mean and exp.reconstruction.method == "chain":  # its verify = every view's evidence (evidence.py) + the checks (verify*.py)
+            print(f"      verify {1e3 * mean['verify']:.1f} = the views' evidence {1e3 * ev_c / n:.1f} "
+                  f"+ the checks {1e3 * (mean['verify'] - ev_c / n):.1f} (mean CPU ms/frame; the checks' share includes "
+                  f"the evidence's figures made when first read: inside distances, sampled distances)")
         # with the piece-wise clothoid fit at its target cost (issue 17: ~5 ms), everything else as measured
         proj_c = per_c - mean.get("pwc", 0.0) + FIT_TARGET_S
         print(f"      with the fit at {1e3 * FIT_TARGET_S:.0f} ms: {1e3 * proj_c:.1f} ms/frame CPU = "

@@ -103,7 +103,7 @@ from tendrilkit.verify_beyond import beyond_tip_px
 from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
-from tendrilkit.verify_tip import TIP_PX, on_wide, tip_continuation, tip_wide_fraction, wide_run_px
+from tendrilkit.verify_tip import TIP_PX, on_wide, skeleton_distance, tip_continuation, tip_wide_fraction, wide_run_px
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "verify_frame", "image_check_messages",
            "VERIFY_COLUMNS_FRAME"]
@@ -396,23 +396,30 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             radius_px = _tendril_radius_px(ev, inside_px, dense[seen & (d <= tolerance_px)], coverage_tolerance_px)
             if np.isfinite(radius_px):  # px to mm at the curve's median depth in this view
                 widths.append(2.0 * radius_px * float(np.median(cam.world_to_cam(X)[:, 2])) / float(cam.K[0, 0]))
+            at_base = near_base(ev)  # the components at the base mark: the coverage's and the base check's
             out[f"coverage_frac_v{v + 1}"] = _coverage(ev, dense[seen], d[seen], tolerance_px,
-                                                       coverage_tolerance_px, cKDTree, inside_px, radius_px)
+                                                       coverage_tolerance_px, cKDTree, inside_px, radius_px,
+                                                       near=at_base)
             wide = on_wide(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO)
             on_mask = seen & (d <= tolerance_px)
             # the skeleton shows the tendril's middle only where its line is seen: on pixels wider than the
             # tendril (a leaf it passes in front of) the skeleton is the blob's, not the tendril's
             on = dense[on_mask & ~wide]
+            # each skeleton pixel's distance to the curve (inf beyond the tolerance): the tip continuation's and
+            # the beyond-the-tip check's (one query for both)
+            sk_dist = None
             if on_mask.any() and len(ev.skeleton_xy):
+                sk_dist = skeleton_distance(ev.skeleton_xy, dense, coverage_tolerance_px)
                 if len(on):
                     out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
-                out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px)
+                out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px,
+                                                                        sk_dist=sk_dist)
             out[f"base_on_tendril_frac_v{v + 1}"] = base_on_tendril(ev, dense[keep], d[keep], tolerance_px,
-                                                                     inside=inside_px)
+                                                                     inside=inside_px, near=at_base)
             out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(wide, seen & (d <= tolerance_px))
             out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, seen & (d <= tolerance_px))
             out[f"beyond_tip_px_v{v + 1}"] = beyond_tip_px(ev, dense, inside_px, radius_px, cov_tol=coverage_tolerance_px,
-                                                           tol=tolerance_px, wide_ratio=WIDE_RATIO)
+                                                           tol=tolerance_px, wide_ratio=WIDE_RATIO, sk_dist=sk_dist)
             if extra is not None:
                 extra[f"tip_object_px_v{v + 1}"] = tip_object_px(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO,
                                                                  reach_px=tip_object_reach_px)
@@ -442,7 +449,7 @@ def _tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, 
 
 
 def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float, tree_cls,
-              inside: np.ndarray, radius_px: float) -> float:
+              inside: np.ndarray, radius_px: float, *, near: np.ndarray | None = None) -> float:
     """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
 
     Counted are the skeleton pixels of the components the curve runs along,
@@ -465,7 +472,8 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
       a thin line crossing the tendril (a second tendril, a stalk).
 
     The coverage is the explained skeleton over explained plus the
-    tendril's unexplained branches.
+    tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`
+    of ``ev`` when the caller has it.
     """
     on = dense[d <= tol]
     if len(on) == 0 or len(ev.skeleton_xy) == 0:
@@ -488,7 +496,7 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     touched = np.nonzero(counts >= max(3, 0.05 * len(on)))[0]
     # and every component at the base mark, the stem's too (a curve on the stem leaves the tendril unexplained;
     # the stem's own pixels are then left out as clutter, below)
-    touched = np.union1d(touched, near_base(ev))
+    touched = np.union1d(touched, near_base(ev) if near is None else near)
     if touched.size == 0:
         return 0.0
     sk = ev.skeleton_xy

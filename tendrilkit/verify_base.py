@@ -51,21 +51,22 @@ def near_base(ev: ViewEvidence) -> np.ndarray:
     return np.unique(win[rr, cc][np.hypot(rr + r0 - by, cc + c0 - bx) <= reach])
 
 
-def base_components(ev: ViewEvidence) -> np.ndarray:
+def base_components(ev: ViewEvidence, *, near: np.ndarray | None = None) -> np.ndarray:
     """Labels of the dark components that leave the base mark.
 
     Those with a pixel within the keep-out box's half diagonal plus 4 px of
     the base mark (3 px without a box), except those touching the ROI's
     border: the stem and the node run out of the ROI, the tendril does not
-    (the ROI is the region it moves in).
+    (the ROI is the region it moves in). ``near``: :func:`near_base` of
+    ``ev`` when the caller has it.
     """
     L = ev.labels
     border = np.unique(np.concatenate([L[0], L[-1], L[:, 0], L[:, -1]]))
-    return np.setdiff1d(near_base(ev), np.append(border, 0))
+    return np.setdiff1d(near_base(ev) if near is None else near, np.append(border, 0))
 
 
 def base_on_tendril(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, length_px: float = 30.0, *,
-                     inside: np.ndarray | None = None):
+                     inside: np.ndarray | None = None, near: np.ndarray | None = None):
     """Fraction of the curve's first ``length_px`` (outside the keep-out box) on a component leaving the base.
 
     The components leaving the base mark are :func:`base_components` and,
@@ -76,11 +77,14 @@ def base_on_tendril(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: flo
     tendril's own component reaches the border where clutter crossing it (a
     twig, a petiole) or its coil does, while the stem it must not set off
     along is thicker than the tendril. None when no component leaves the
-    base mark in this view: nothing to compare with.
+    base mark in this view: nothing to compare with. ``near``:
+    :func:`near_base` of ``ev`` when the caller has it (computed once for
+    both).
     """
-    comps = base_components(ev)
+    near = near_base(ev) if near is None else near
+    comps = base_components(ev, near=near)
     if inside is not None:
-        comps = np.union1d(comps, thin_at_base(ev, inside))
+        comps = np.union1d(comps, thin_at_base(ev, inside, near=near))
     if comps.size == 0 or len(dense) == 0:
         return None
     first = dense[: int(length_px)]
@@ -89,18 +93,25 @@ def base_on_tendril(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: flo
     h, w = ev.shape
     r = np.clip(np.rint(first[:, 1] - off[1]).astype(int), 0, h - 1)
     c = np.clip(np.rint(first[:, 0] - off[0]).astype(int), 0, w - 1)
+    if len(first) == 0:
+        return None
     rad = int(np.ceil(tol))
-    hit = []
-    for k in range(len(first)):
-        if dd[k] > tol:
-            hit.append(False)
-            continue
-        win = ev.labels[max(r[k] - rad, 0):r[k] + rad + 1, max(c[k] - rad, 0):c[k] + rad + 1]
-        hit.append(bool(np.isin(win, comps).any()))
-    return float(np.mean(hit)) if hit else None
+    # a sample is on a leaving component when one of its window's pixels (the (2 rad + 1)^2 pixels around it,
+    # cut at the crop's edge) is: the window's offsets gathered at once (one isin on the samples' box, not one
+    # per sample)
+    r0, r1 = max(int(r.min()) - rad, 0), min(int(r.max()) + rad + 1, h)
+    c0, c1 = max(int(c.min()) - rad, 0), min(int(c.max()) + rad + 1, w)
+    on_comp = np.isin(ev.labels[r0:r1, c0:c1], comps)
+    dr, dc = (a.ravel() for a in np.mgrid[-rad:rad + 1, -rad:rad + 1])
+    rr, cc = r[:, None] + dr, c[:, None] + dc  # (samples, offsets)
+    ok = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w)
+    hit = (on_comp[np.clip(rr, r0, r1 - 1) - r0, np.clip(cc, c0, c1 - 1) - c0] & ok).any(axis=1)
+    hit &= ~(dd > tol)
+    return float(np.mean(hit))
 
 
-def thin_at_base(ev: ViewEvidence, inside: np.ndarray, extra_px: float = 30.0) -> np.ndarray:
+def thin_at_base(ev: ViewEvidence, inside: np.ndarray, extra_px: float = 30.0, *,
+                 near: np.ndarray | None = None) -> np.ndarray:
     """Labels of the components at the base mark whose line there is as thin as the thinnest one's.
 
     A component's line width at the base is twice the median inside
@@ -108,9 +119,10 @@ def thin_at_base(ev: ViewEvidence, inside: np.ndarray, extra_px: float = 30.0) -
     (:func:`near_base`) plus ``extra_px``, less one pixel; kept are those
     at most :data:`WIDE_RATIO` times the thinnest. The tendril leaves the
     base as the thinnest line there, the stem beside it is thicker (stems
-    2.9-4.6 mm, tendrils 0.8-2 mm on the random scenes).
+    2.9-4.6 mm, tendrils 0.8-2 mm on the random scenes). ``near``:
+    :func:`near_base` of ``ev`` when the caller has it.
     """
-    near = near_base(ev)
+    near = near_base(ev) if near is None else near
     sk = ev.skeleton_xy
     if near.size == 0 or sk is None or len(sk) == 0:
         return np.zeros(0, int)

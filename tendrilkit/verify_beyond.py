@@ -33,13 +33,14 @@ from __future__ import annotations
 import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
+from tendrilkit.verify_tip import skeleton_distance
 
 __all__ = ["beyond_tip_px"]
 
 
 def beyond_tip_px(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray, radius_px: float, *,
                   cov_tol: float, tol: float, wide_ratio: float, gap_px: float = 6.0, border_px: float = 2.0,
-                  direction_px: int = 10, cone_deg: float = 35.0) -> float:
+                  direction_px: int = 10, cone_deg: float = 35.0, sk_dist: np.ndarray | None = None) -> float:
     """Length (px) of thin, unexplained skeleton branches met ahead of the projected tip, across dark pixels.
 
     Parameters
@@ -72,6 +73,10 @@ def beyond_tip_px(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray,
         farther from the tip than the ray's dark pixels reach (plus
         ``gap_px`` and ``cov_tol``), are met (35 degrees: the tendril bends
         on behind the object).
+    sk_dist : (m,) float array, optional
+        :func:`tendrilkit.verify_tip.skeleton_distance` of the skeleton,
+        ``dense_xy`` and ``cov_tol``, when the caller has it (one query for
+        this and the tip continuation).
 
     Returns
     -------
@@ -79,8 +84,6 @@ def beyond_tip_px(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray,
         Total pixel count of the branches met (0: none; a right curve's
         tip is the tendril's end, the ray leaves the dark pixels at once).
     """
-    from scipy.spatial import cKDTree
-
     sk = ev.skeleton_xy
     if (sk is None or len(sk) == 0 or len(dense_xy) < 2 or not np.isfinite(radius_px) or radius_px <= 0):
         return 0.0
@@ -100,10 +103,8 @@ def beyond_tip_px(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray,
     ray, rc = ray[:n_in], rc[:n_in]
     if len(ray) == 0:
         return 0.0
-    light = ev.distance_px[rc[:, 1], rc[:, 0]] > tol
     k = int(np.floor(gap_px)) + 1  # the ray stops where a run of more than gap_px light samples starts
-    runs = np.flatnonzero(np.convolve(light.astype(np.int32), np.ones(k, np.int32), "valid") == k)
-    stop = int(runs[0]) if runs.size else len(ray)
+    stop = _ray_stop(ev, rc, tol, k)
     if stop == 0:
         return 0.0
     # met: thin skeleton pixels ahead of the tip (within ``cone_deg`` of its direction: the tendril bends a little
@@ -117,7 +118,9 @@ def beyond_tip_px(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray,
     if not ahead.any():
         return 0.0
     # the unexplained thin skeleton pixels and their branches
-    free = thin & (cKDTree(dense_xy).query(sk, distance_upper_bound=cov_tol + 1e-9)[0] > cov_tol)
+    if sk_dist is None:
+        sk_dist = skeleton_distance(sk, dense_xy, cov_tol)
+    free = thin & (sk_dist > cov_tol)
     if not (ahead & free).any():
         return 0.0
     fxy = sk[free]
@@ -137,3 +140,49 @@ def beyond_tip_px(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray,
     at_tip = np.bincount(b, weights=np.hypot(*(fxy - tip).T) <= cov_tol + 3.0, minlength=len(size)) > 0
     labels = np.unique(b[hit])
     return float(sum(size[k] for k in labels if k > 0 and not out_of_roi[k] and not at_tip[k]))
+
+
+#: Ray samples whose lightness :func:`_ray_stop` reads per box (a right curve's ray stops within a few).
+RAY_CHUNK = 48
+
+
+def _ray_stop(ev: ViewEvidence, rc: np.ndarray, tol: float, k: int) -> int:
+    """Index of the first of ``k`` light ray samples in a row (distance to the dark pixels above ``tol``), or ``len(rc)``.
+
+    ``rc``: (n, 2) int array, the ray's crop pixels ``(column, row)``. The
+    same as reading ``ev.distance_px`` along the ray, without the whole
+    crop's distance transform: the samples are read in chunks of
+    :data:`RAY_CHUNK`, each from the transform of its box grown by
+    ``ceil(tol) + 1`` px, and the reading stops at the first run found. Bit
+    for bit the same answers: a box's distance up to its margin is the whole
+    crop's (a dark pixel outside the box is farther than the margin: the
+    chamfer distance is at least the chessboard one; inside the box the
+    chamfer paths stay in it), and a larger one is above ``tol`` in both.
+    """
+    import cv2
+
+    n = len(rc)
+    if "distance_px" in ev.__dict__:  # made already (by another reader): read it
+        light = ev.distance_px[rc[:, 1], rc[:, 0]] > tol
+    else:
+        h, w = ev.shape
+        m = int(np.ceil(tol)) + 1
+        light = np.zeros(n, bool)
+        for s in range(0, n, RAY_CHUNK):
+            part = rc[s:s + RAY_CHUNK]
+            r0, r1 = max(int(part[:, 1].min()) - m, 0), min(int(part[:, 1].max()) + m + 1, h)
+            c0, c1 = max(int(part[:, 0].min()) - m, 0), min(int(part[:, 0].max()) + m + 1, w)
+            sub = np.ascontiguousarray(ev.foreground[r0:r1, c0:c1]).view(np.uint8)
+            if sub.any():
+                D = cv2.distanceTransform(cv2.compare(sub, 0, cv2.CMP_EQ), cv2.DIST_L2, 5)
+                light[s:s + len(part)] = D[part[:, 1] - r0, part[:, 0] - c0] > tol
+            else:  # no dark pixel within the margin
+                light[s:s + len(part)] = True
+            e = s + len(part)
+            runs = np.flatnonzero(np.convolve(light[:e].astype(np.int32), np.ones(k, np.int32), "valid") == k)
+            if runs.size:  # a run wholly inside the samples read: none can start earlier
+                return int(runs[0])
+        # (every sample read: the last check covered them all)
+        return n
+    runs = np.flatnonzero(np.convolve(light.astype(np.int32), np.ones(k, np.int32), "valid") == k)
+    return int(runs[0]) if runs.size else n

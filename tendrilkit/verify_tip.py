@@ -22,13 +22,14 @@ import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
 
-__all__ = ["TIP_PX", "tip_continuation", "on_wide", "tip_wide_fraction", "wide_run_px"]
+__all__ = ["TIP_PX", "tip_continuation", "skeleton_distance", "on_wide", "tip_wide_fraction", "wide_run_px"]
 
 #: The curve's tip, in :func:`tip_wide_fraction`: its last this many pixels of projection (px).
 TIP_PX = 20
 
 
-def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float) -> float:
+def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *,
+                     sk_dist: np.ndarray | None = None) -> float:
     """Length in px of the tendril's skeleton that goes on beyond the projected tip, unexplained.
 
     From the skeleton pixels near the projected tip (within ``cov_tol + 3``
@@ -46,13 +47,15 @@ def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float) -> 
         The projected curve, resampled every pixel, base to tip, full-image px.
     cov_tol : float
         A skeleton pixel within this distance of the curve is explained.
+    sk_dist : (m,) float array, optional
+        :func:`skeleton_distance` of ``ev``, ``dense_xy`` and ``cov_tol``,
+        when the caller has it (the same query serves
+        :func:`tendrilkit.verify_beyond.beyond_tip_px`).
     """
-    from scipy.spatial import cKDTree
-
     sk = ev.skeleton_xy
     if sk is None or len(sk) == 0 or len(dense_xy) == 0:
         return 0.0
-    dist, _ = cKDTree(dense_xy).query(sk, distance_upper_bound=cov_tol + 1e-9)
+    dist = skeleton_distance(sk, dense_xy, cov_tol) if sk_dist is None else sk_dist
     free = ~np.isfinite(dist)
     # not restricted to a line of the tendril's width: where the tendril goes on merged with clutter (along a
     # shoot, over a leaf) its skeleton is wider, and a shrunk chain curve (random seed 214) went unflagged
@@ -75,6 +78,17 @@ def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float) -> 
                 best[j] = g + w
                 heapq.heappush(heap, (g + w, j))
     return float(max(best.values()))
+
+
+def skeleton_distance(sk_xy: np.ndarray, dense_xy: np.ndarray, cov_tol: float) -> np.ndarray:
+    """(m,) float: each skeleton pixel's distance to the projected curve, px, inf beyond ``cov_tol`` (+ 1e-9).
+
+    ``sk_xy`` (m, 2) and ``dense_xy`` (n, 2, n >= 1) in the same pixels; a
+    skeleton pixel with a finite distance is explained by the curve.
+    """
+    from scipy.spatial import cKDTree
+
+    return cKDTree(dense_xy).query(sk_xy, distance_upper_bound=cov_tol + 1e-9)[0]
 
 
 def on_wide(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray, radius_px: float, *,

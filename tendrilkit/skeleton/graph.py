@@ -89,16 +89,21 @@ def skeleton_graph(skel: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[np.nd
     flat = np.flatnonzero(skel)
     n = len(flat)
     r, c = np.divmod(flat, w)
-    ids = np.full((h + 2, w + 2), -1, np.int64)
-    ids[r + 1, c + 1] = np.arange(n)
-    rows, cols, data = [], [], []
-    for (dr, dc), dist in zip(_STEPS_RC, _STEP_PX):
-        nb = ids[r + 1 + dr, c + 1 + dc]
-        ok = nb >= 0
-        rows.append(np.flatnonzero(ok))
-        cols.append(nb[ok])
-        data.append(np.full(int(ok.sum()), dist))
-    G = coo_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
+    # every node's neighbour in each of the 8 steps (-1: none), found among the sorted raster indices of the
+    # nodes (a node's index is its rank there) instead of an image-sized table of indices
+    nb = np.full((n, len(_STEPS_RC)), -1, np.int64)
+    for k, (dr, dc) in enumerate(_STEPS_RC):
+        rr, cc = r + dr, c + dc
+        target = rr * w + cc
+        pos = np.searchsorted(flat, target)
+        pos_in = np.minimum(pos, max(n - 1, 0))
+        found = (rr >= 0) & (rr < h) & (cc >= 0) & (cc < w) & (pos < n)
+        found &= flat[pos_in] == target
+        nb[found, k] = pos[found]
+    # the adjacency in CSR form, row by row; within a row the steps' raster order is the neighbours' order
+    ok = nb >= 0
+    indptr = np.concatenate([[0], np.cumsum(ok.sum(axis=1))])
+    G = csr_matrix((np.broadcast_to(_STEP_PX, nb.shape)[ok], nb[ok], indptr), shape=(n, n))
     G = _junction_trees(G)
     degrees = np.diff(G.indptr)
     flat_paths, starts = _walk_paths(G.indptr.astype(np.int64), G.indices.astype(np.int64), degrees.astype(np.int64))
@@ -120,11 +125,10 @@ def _junction_trees(G: csr_matrix) -> csr_matrix:
     J = csr_matrix((G.data[jj], G.indices[jj], np.concatenate([[0], np.cumsum(np.bincount(row[jj], minlength=n))])),
                    shape=(n, n))
     T = minimum_spanning_tree(J).tocoo()
-    tree = set(zip(T.row.tolist(), T.col.tolist()))
-    drop = np.zeros(len(G.indices), bool)
-    for k in np.flatnonzero(jj):
-        i, j = int(row[k]), int(G.indices[k])
-        drop[k] = (i, j) not in tree and (j, i) not in tree
+    # a junction-junction edge stays when the tree holds it, either way round (keys i * n + j)
+    tree = np.concatenate([T.row.astype(np.int64) * n + T.col, T.col.astype(np.int64) * n + T.row])
+    drop = jj.copy()
+    drop[jj] = ~np.isin(row[jj].astype(np.int64) * n + G.indices[jj], tree)
     keep = ~drop
     indptr = np.concatenate([[0], np.cumsum(np.bincount(row[keep], minlength=n))])
     return csr_matrix((G.data[keep], G.indices[keep], indptr), shape=(n, n))
