@@ -236,6 +236,11 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     evidence : list of SkeletonEvidence
     step_mm : float
     max_extend_mm : float
+        Longest extension, mm; when ``max_length_mm`` is finite, at least up
+        to it (a tracked curve's tip can lag the tendril's by tens of mm after
+        a large change between processed frames: the curve refitted from the
+        previous frame is cut back where the views stop agreeing, and grows
+        again along them).
     prior_mm : float
         Arc length (from the base) the curve is known to have (tracking: the
         previous frame's curve, a tendril does not shrink). Up to it, a node
@@ -264,6 +269,8 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     body = Xa[s_ <= s_[-1] - 3.0]
     claims = claim(evidence, None, resample_polyline(body, step=0.25)) if len(body) >= 2 else None
     lag = int(round(3.0 / step_mm))
+    if np.isfinite(max_length_mm):  # tracking: the tip may have moved far since the last processed frame
+        max_extend_mm = max(max_extend_mm, max_length_mm - s_[-1])
     for _ in range(int(max_extend_mm / step_mm)):
         if s_[-1] + step_mm * (len(ext) + 1) > max_length_mm:
             break
