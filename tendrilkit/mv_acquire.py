@@ -15,7 +15,7 @@ the base point (triangulated from the marks) by a beam search,
    views see it (then the evidence a few steps further on the same direction
    counts); bending and coming back within 1.2 mm of itself are penalised;
 3. the ``beam`` best hypotheses (score = sum of step costs minus a reward per
-   step, tips apart from each other) go on; a hypothesis with no acceptable
+   step, tips apart from each other or heading opposite ways) go on; a hypothesis with no acceptable
    step ends; the best-scoring one (the longest curve that the views explain)
    is the tendril, among those whose tip the views see (a curve that ends
    where two views' ROIs end has run onto something hanging in from outside:
@@ -194,6 +194,39 @@ def _seeds(evidence, base_mm, n_seeds: int) -> np.ndarray:
     return dirs[chosen]
 
 
+def _one_per_cell_and_way(P_mm: np.ndarray, dirs: np.ndarray, cell_mm: float) -> np.ndarray:
+    """Rows to keep of candidates sorted best first: per cell, the best, and the best heading against it.
+
+    Parameters
+    ----------
+    P_mm : (n, 3) float array
+        Candidates' tips, best first.
+    dirs : (n, 3) float array
+        Their last steps' unit directions.
+    cell_mm : float
+        Side of the cubic cells.
+
+    Returns
+    -------
+    (k,) int array
+        Increasing rows: in each cell the first candidate and the first whose
+        direction makes more than 90 degrees with it. Two passes of a coil over
+        the same place in all views (a self-crossing seen face-on everywhere)
+        run opposite ways there: the one going on and the one coming back do
+        not compete for one cell. Directions within 90 degrees of each other
+        still do (cells split by finer headings keep near copies of one path,
+        which crowd out the other branches).
+    """
+    cell = np.floor(np.asarray(P_mm, float) / cell_mm).astype(np.int64)
+    if len(cell) == 0:
+        return np.zeros(0, int)
+    _, first, inv = np.unique(cell, axis=0, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    against = np.flatnonzero(np.einsum("ij,ij->i", dirs, dirs[first[inv]]) < 0.0)
+    _, second = np.unique(inv[against], return_index=True)
+    return np.sort(np.r_[first, against[second]])
+
+
 def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm: float = 2.0, beam: int = 8,
                n_seeds: int = 6, cone_deg: float = 40.0, max_length_mm: float = 400.0,
                max_unseen_steps: int = 6) -> np.ndarray:
@@ -288,11 +321,9 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         finished.extend(hyps[h][:3] for h in np.flatnonzero(~has))
         idx = np.flatnonzero(ok)
         idx = idx[np.argsort(score[idx], kind="stable")]
-        # diversity: one hypothesis per cell of 1.5 steps (the best), at most two children per parent,
-        # so that the branches of a crossing both stay in the beam
-        cell = np.floor(pts[idx] / (1.5 * step_mm)).astype(np.int64)
-        _, first_in_cell = np.unique(cell, axis=0, return_index=True)
-        idx = idx[np.sort(first_in_cell)]
+        # diversity: per cell of 1.5 steps the best hypothesis and the best heading against it, at most two
+        # children per parent, so that the branches of a crossing both stay in the beam
+        idx = idx[_one_per_cell_and_way(pts[idx], dirs[idx], 1.5 * step_mm)]
         kept, per_parent = [], np.zeros(len(hyps), int)
         for i in idx:
             if per_parent[own[i]] < 2:
