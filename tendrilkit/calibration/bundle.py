@@ -11,6 +11,7 @@ import pandas as pd
 from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
+from tendrilkit.calibration import markers as _markers
 from tendrilkit.camera import Camera
 from tendrilkit.geometry import marker_corners
 
@@ -198,15 +199,18 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
         for m, c in sorted(obs[v].items()):
             if m != world_id and m not in slot:
                 continue
-            side = float(np.mean(np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1)))
+            sigma_c = _markers.corner_sigma_px(c)
             for k in range(4):
                 views.append(v)
                 slots.append(-1 if m == world_id else slot[m])
                 ks.append(k)
                 xy.append(c[k])
-                wts.append(np.sqrt(side))
+                wts.append(1.0 / sigma_c)
     views_a, slot_a, k_a, xy_a = np.array(views), np.array(slots), np.array(ks), np.array(xy)
-    wts_a = np.array(wts)[:, None] / np.sqrt(np.mean(np.square(wts)))
+    # weights 1 / sigma, scaled to a root mean square of 1: a weighted residual is in px of a corner of average
+    # weight, whose expected noise is then sigma_ref
+    sigma_ref = 1.0 / float(np.sqrt(np.mean(np.square(wts))))
+    wts_a = np.array(wts)[:, None] * sigma_ref
     n_cam = 6 * n_views
     off_plane = n_cam + 7 * nf
 
@@ -263,23 +267,27 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
     mw = {world_id: W.copy()} | {m: X1[slot[m]] for m in ids}
     lengths = {world_id: float(length_mm)} | {m: float(np.linalg.norm(X1[slot[m]][1] - X1[slot[m]][0])) for m in ids}
     rms = lambda r: float(np.sqrt(((r.reshape(-1, 2) / wts_a) ** 2).sum(1).mean()))  # noqa: E731  (unweighted)
-    sigma, cov = _camera_covariance(sol, n_cam)
+    sigma, cov = _camera_covariance(sol, n_cam, floor_px=sigma_ref)
     return {"cameras": cams, "markers_world": mw, "markers_world0": mw0, "lengths": lengths, "plane": plane,
             "rms0": rms(r0), "rms1": rms(sol.fun), "nfev": int(sol.nfev), "sigma_px": sigma, "camera_cov": cov}
 
 
-def _camera_covariance(sol, n_cam: int) -> tuple[float, np.ndarray]:
-    """The corner noise (px, per coordinate) the adjustment's residuals show and the covariance
+def _camera_covariance(sol, n_cam: int, floor_px: float = 0.0) -> tuple[float, np.ndarray]:
+    """The corner noise (px, per coordinate, of a corner of average weight) and the covariance
     (n_views, 6, 6) of each camera's pose (Rodrigues vector, translation mm) it implies.
 
-    ``sigma^2 = sum r^2 / (m - p)`` over the ``m`` residuals and ``p``
-    unknowns (the world marker's fixed corners set the gauge, so ``J^T J`` is
-    regular unless the markers cannot pin the rig: then the covariance is
+    ``sigma^2 = sum r^2 / (m - p)`` over the ``m`` weighted residuals and ``p``
+    unknowns, at least ``floor_px`` (the detector's measured noise,
+    :func:`~tendrilkit.calibration.markers.corner_sigma_px`: with few markers
+    the residuals have few degrees of freedom, and a free square absorbs part
+    of its corners' error, so they can show a noise several times below the
+    real one). The world marker's fixed corners set the gauge, so ``J^T J`` is
+    regular unless the markers cannot pin the rig (then the covariance is
     infinite); the covariance is ``sigma^2 (J^T J)^-1``, first order.
     """
     J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
     m, p = J.shape
-    sigma = float(np.sqrt(np.sum(sol.fun ** 2) / max(1, m - p)))
+    sigma = max(float(floor_px), float(np.sqrt(np.sum(sol.fun ** 2) / max(1, m - p))))
     n_views = n_cam // 6
     JtJ = J.T @ J
     try:
