@@ -94,8 +94,10 @@ class BundleReport:
     nfev : int
         Residual evaluations of the optimiser.
     sigma_px : float
-        The corner noise (px, per coordinate) the adjusted residuals show
-        (their sum of squares over the degrees of freedom).
+        The corner noise (px, per coordinate, of a corner of average weight)
+        the adjusted residuals show (their sum of squares over the degrees of
+        freedom), at least the detector's measured noise
+        (:func:`~tendrilkit.calibration.markers.corner_sigma_px`).
     camera_cov : (n_views, 6, 6) float array
         Covariance of each adjusted camera's pose (Rodrigues vector, translation
         mm), ``sigma_px^2 (J^T J)^-1`` (infinite when the markers cannot pin the rig).
@@ -313,10 +315,13 @@ def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.nd
     (:meth:`Camera.project`); ``scipy.optimize.least_squares`` minimises them
     with a robust ``loss`` (scale ``f_scale_px``) and the sparse Jacobian
     structure (a corner depends on one camera and one marker). Each corner's
-    residual is weighted by the square root of its marker's side in that view
-    (px): the corners come from edge points along every cell edge
-    (:func:`~tendrilkit.calibration.markers.detect_markers`), as many as the
-    side is long, so a small marker's corners are noisier. A marker whose
+    residual is weighted by one over its marker's expected corner error in
+    that view (:func:`~tendrilkit.calibration.markers.corner_sigma_px`, from
+    the marker's side and foreshortening in the image: a small marker's or a
+    glancing card's corners are noisier), the weights scaled to a root mean
+    square of 1. The pose covariance (:attr:`BundleReport.camera_cov`) uses
+    the same weights and the larger of the residuals' noise and that
+    model's. A marker whose
     mean error in a view stays above ``outlier_px`` after the first pass is
     dropped from that view and the adjustment rerun.
 
