@@ -201,18 +201,19 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
         for m, c in sorted(obs[v].items()):
             if m != world_id and m not in slot:
                 continue
-            sigma_c = _markers.corner_sigma_px(c)
+            w = _markers.corner_weight(c)  # proportional to 1 / corner_sigma_px(c)
             for k in range(4):
                 views.append(v)
                 slots.append(-1 if m == world_id else slot[m])
                 ks.append(k)
                 xy.append(c[k])
-                wts.append(1.0 / sigma_c)
+                wts.append(w)
     views_a, slot_a, k_a, xy_a = np.array(views), np.array(slots), np.array(ks), np.array(xy)
-    # weights 1 / sigma, scaled to a root mean square of 1: a weighted residual is in px of a corner of average
-    # weight, whose expected noise is then sigma_ref
-    sigma_ref = 1.0 / float(np.sqrt(np.mean(np.square(wts))))
-    wts_a = np.array(wts)[:, None] * sigma_ref
+    # scaled to a root mean square of 1: a weighted residual is in px of a corner of average weight, whose
+    # expected noise (corner_sigma_px = 10 CORNER_SIGMA_PX / weight) is then sigma_ref
+    rms_w = np.sqrt(np.mean(np.square(wts)))
+    wts_a = np.array(wts)[:, None] / rms_w
+    sigma_ref = 10.0 * _markers.CORNER_SIGMA_PX / float(rms_w)
     n_cam = 6 * n_views
     off_plane = n_cam + 7 * nf
 

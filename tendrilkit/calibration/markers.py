@@ -10,7 +10,8 @@ import numpy as np
 from tendrilkit.camera import Camera
 from tendrilkit.geometry import marker_corners
 
-__all__ = ["CORNER_SIGMA_PX", "REFINE_METHODS", "average_detections", "corner_sigma_px", "detect_markers"]
+__all__ = ["CORNER_SIGMA_PX", "REFINE_METHODS", "average_detections", "corner_sigma_px", "corner_weight",
+           "detect_markers"]
 
 #: Corner refinement methods of :func:`detect_markers`.
 REFINE_METHODS = ("grid", "edges", "subpix", "contour", "apriltag", "none")
@@ -484,15 +485,28 @@ def corner_sigma_px(corners_xy: np.ndarray) -> float:
     Examples
     --------
     >>> sq = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
-    >>> corner_sigma_px(sq) == CORNER_SIGMA_PX
+    >>> bool(np.isclose(corner_sigma_px(sq), CORNER_SIGMA_PX))
     True
     >>> corner_sigma_px(sq * [1.0, 0.4]) > 3 * CORNER_SIGMA_PX
     True
+    """
+    return float(10.0 * CORNER_SIGMA_PX / corner_weight(corners_xy))
+
+
+def corner_weight(corners_xy: np.ndarray) -> float:
+    """``10 * CORNER_SIGMA_PX / corner_sigma_px``: the square root of the marker's mean side (px), divided by
+    the foreshortening factor (1 up to an aspect ratio of ``CORNER_SIGMA_ASPECT_FREE``).
+
+    What the bundle adjustment weighs a marker's corner residuals by (scaled to a root mean square of 1).
+
+    Examples
+    --------
+    >>> corner_weight(np.array([[0.0, 0.0], [64.0, 0.0], [64.0, 64.0], [0.0, 64.0]]))
+    8.0
     """
     c = np.asarray(corners_xy, float).reshape(4, 2)
     side = max(float(np.mean(np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1))), 1.0)
     m1 = float(np.linalg.norm((c[1] + c[2]) / 2 - (c[0] + c[3]) / 2))
     m2 = float(np.linalg.norm((c[2] + c[3]) / 2 - (c[0] + c[1]) / 2))
     aspect = max(m1, m2) / max(min(m1, m2), 1e-9)
-    return float(CORNER_SIGMA_PX * np.sqrt(100.0 / side)
-                 * max(1.0, aspect / CORNER_SIGMA_ASPECT_FREE) ** CORNER_SIGMA_ASPECT_POWER)
+    return float(np.sqrt(side) / max(1.0, aspect / CORNER_SIGMA_ASPECT_FREE) ** CORNER_SIGMA_ASPECT_POWER)
