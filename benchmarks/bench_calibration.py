@@ -35,6 +35,26 @@ view (9334, 9338, 65), or a glancing card as the main shared marker
 can be low by 2-2.7x (65: 0.36 px at spread 0.15, residual sigma 0.009 px;
 38: 0.39 at 0.23): on 0:70 max/spread median 0.96, max 2.67; on 9300:9340
 median 0.76, max 2.2.
+After the corner-noise model (``corner-noise`` below; the adjustment weighs
+each marker's corners by one over their expected error and floors its noise
+estimate at the model's), measured 2026-11-30 at load 25-33, ``grid`` x 5:
+0:70 median 0.088, max 0.364 (38, the glancing card: 0.387 -> 0.212), none
+over, 7 flagged (the two worst, 65 at 0.364 and 38, among them; before, the
+flags went to seven scenes of 0.12-0.24 px), worst unflagged 0.301 (56,
+2 x spread 0.47); true/spread (per view, largest per scene) median 0.81,
+90th percentile 1.52, max 2.56 (seed 24; before 0.94 / 1.81 / 3.47); 65:
+spread 0.167 -> 0.301 (noise 0.009 -> 0.016 px). With corners drawn from the
+model itself (exact first-order covariance but for linearisation) the same
+ratio is 0.81 / 1.41 / 2.02: the model is honest up to a slightly heavier
+tail. The untouched range 9600:9640, measured once: 40 of 40 calibrated,
+median 0.093, max 0.204, none over, none flagged (before: see the next paragraph);
+true/spread median 0.92, 90th percentile 1.62, max 2.59 (9635), 2 scenes over 2.
+
+``corner-noise``: the ``grid`` corners (averaged over the 5 cached frames)
+against the generator's true corners per marker observation; the data of
+:func:`tendrilkit.calibration.markers.corner_sigma_px` (0:70: per-coordinate
+rms 0.013 px at a side of 100 px for aspect ratios under 1.35, 927
+observations; 33 foreshortened ones, aspect to 3.7, up to 15 times more).
 
 ``synthetic``: exact corners plus noise; camera rotation error and agreement
 of the single-marker poses and of the bundle adjustment.
