@@ -566,3 +566,53 @@ def test_calibration_options_in_the_experiment_file(tmp_path):
     with pytest.raises(ExperimentError) as e:
         load_experiment(p, check_files=False)
     assert "\n" not in str(e.value) and "calibration.average_frames" in str(e.value)
+
+
+# ------------------------------------------------- the corners' noise model and the spread's floor
+def test_corner_sigma_grows_for_small_and_glancing_markers():
+    """A marker's expected corner error falls as one over the square root of its side and grows with its
+    foreshortening beyond what the board's markers show seen obliquely (aspect up to 1.35)."""
+    from tendrilkit.calibration.markers import CORNER_SIGMA_ASPECT_FREE, CORNER_SIGMA_ASPECT_POWER, CORNER_SIGMA_PX, corner_sigma_px
+
+    sq = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
+    assert corner_sigma_px(sq + 500.0) == pytest.approx(CORNER_SIGMA_PX)
+    assert corner_sigma_px(sq * 0.25) == pytest.approx(2 * CORNER_SIGMA_PX)
+    oblique = sq * [1.0, 1 / 1.3]  # aspect 1.3, mean side 88.5 px: only the size counts
+    assert corner_sigma_px(oblique) == pytest.approx(CORNER_SIGMA_PX * np.sqrt(100 / 88.46), rel=1e-3)
+    card = sq * [1.0, 1 / 2.7]  # aspect 2.7 (a card seen at a glancing angle)
+    side = (100 + 100 / 2.7) / 2
+    want = CORNER_SIGMA_PX * np.sqrt(100 / side) * (2.7 / CORNER_SIGMA_ASPECT_FREE) ** CORNER_SIGMA_ASPECT_POWER
+    assert corner_sigma_px(card) == pytest.approx(want, rel=1e-9) and want > 5 * CORNER_SIGMA_PX
+    rot = np.array([[np.cos(0.7), -np.sin(0.7)], [np.sin(0.7), np.cos(0.7)]])
+    assert corner_sigma_px(card @ rot.T) == pytest.approx(corner_sigma_px(card))  # in-plane rotation: same
+
+
+def test_rig_spread_is_floored_at_the_detector_noise():
+    """Corners that agree better than any detector can (exact projections) do not make the rig's spread
+    vanish: the adjustment's noise, and the world marker alone's, are at least the detector's measured
+    noise, so the spread stays about what corners at that noise give (it was ~0 before the floor)."""
+    from tendrilkit.calibration import calibrate_from_observations, rig_uncertainty_px
+    from tendrilkit.calibration.markers import corner_sigma_px
+    from tendrilkit.calibration.rig import _single_covariance
+
+    cams = distorted_rig()
+    intr = [Camera(c.K, c.dist, width=c.width, height=c.height) for c in cams]
+    P = working_volume()
+    markers = synthetic_markers(np.random.default_rng(3))
+    exact = observe_markers(cams, markers, np.random.default_rng(5), 0.0)
+    model = corner_sigma_px(exact[0][WORLD_ID])
+    noisy = observe_markers(cams, markers, np.random.default_rng(5), model)
+    res0 = calibrate_from_observations(exact, intr, world_id=WORLD_ID, length_mm=L)
+    res1 = calibrate_from_observations(noisy, intr, world_id=WORLD_ID, length_mm=L)
+    floor = min(corner_sigma_px(c) for o in exact.values() for c in o.values())
+    assert res0.bundle.sigma_px >= floor
+    u0, u1 = rig_uncertainty_px(res0, P), rig_uncertainty_px(res1, P)
+    assert np.all(u0 > 0.5 * u1) and np.all(u0 < 2 * u1), (u0, u1)
+    err, _ = rig_agreement_px(res1.cameras, cams, P)
+    assert np.all(err <= 3 * u1), (err, u1)
+    alone = {v: {WORLD_ID: o[WORLD_ID]} for v, o in exact.items()}
+    with pytest.warns(UserWarning):
+        single = calibrate_from_observations(alone, intr, world_id=WORLD_ID, length_mm=L)
+    sigma, cov = _single_covariance(single, WORLD_ID, L)
+    assert sigma >= min(corner_sigma_px(o[WORLD_ID]) for o in exact.values())
+    assert np.all(np.isfinite(cov)) and np.all(rig_uncertainty_px(single, P, world_id=WORLD_ID, length_mm=L) > 0.1)

@@ -11,6 +11,7 @@ import pandas as pd
 from scipy.optimize import least_squares
 from scipy.sparse import lil_matrix
 
+from tendrilkit.calibration import markers as _markers
 from tendrilkit.camera import Camera
 from tendrilkit.geometry import marker_corners
 
@@ -93,8 +94,10 @@ class BundleReport:
     nfev : int
         Residual evaluations of the optimiser.
     sigma_px : float
-        The corner noise (px, per coordinate) the adjusted residuals show
-        (their sum of squares over the degrees of freedom).
+        The corner noise (px, per coordinate, of a corner of average weight)
+        the adjusted residuals show (their sum of squares over the degrees of
+        freedom), at least the detector's measured noise
+        (:func:`~tendrilkit.calibration.markers.corner_sigma_px`).
     camera_cov : (n_views, 6, 6) float array
         Covariance of each adjusted camera's pose (Rodrigues vector, translation
         mm), ``sigma_px^2 (J^T J)^-1`` (infinite when the markers cannot pin the rig).
@@ -198,15 +201,19 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
         for m, c in sorted(obs[v].items()):
             if m != world_id and m not in slot:
                 continue
-            side = float(np.mean(np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1)))
+            w = _markers.corner_weight(c)  # proportional to 1 / corner_sigma_px(c)
             for k in range(4):
                 views.append(v)
                 slots.append(-1 if m == world_id else slot[m])
                 ks.append(k)
                 xy.append(c[k])
-                wts.append(np.sqrt(side))
+                wts.append(w)
     views_a, slot_a, k_a, xy_a = np.array(views), np.array(slots), np.array(ks), np.array(xy)
-    wts_a = np.array(wts)[:, None] / np.sqrt(np.mean(np.square(wts)))
+    # scaled to a root mean square of 1: a weighted residual is in px of a corner of average weight, whose
+    # expected noise (corner_sigma_px = 10 CORNER_SIGMA_PX / weight) is then sigma_ref
+    rms_w = np.sqrt(np.mean(np.square(wts)))
+    wts_a = np.array(wts)[:, None] / rms_w
+    sigma_ref = 10.0 * _markers.CORNER_SIGMA_PX / float(rms_w)
     n_cam = 6 * n_views
     off_plane = n_cam + 7 * nf
 
@@ -263,23 +270,27 @@ def _solve_rig(obs: dict[int, dict[int, np.ndarray]], cams0: list[Camera], *, wo
     mw = {world_id: W.copy()} | {m: X1[slot[m]] for m in ids}
     lengths = {world_id: float(length_mm)} | {m: float(np.linalg.norm(X1[slot[m]][1] - X1[slot[m]][0])) for m in ids}
     rms = lambda r: float(np.sqrt(((r.reshape(-1, 2) / wts_a) ** 2).sum(1).mean()))  # noqa: E731  (unweighted)
-    sigma, cov = _camera_covariance(sol, n_cam)
+    sigma, cov = _camera_covariance(sol, n_cam, floor_px=sigma_ref)
     return {"cameras": cams, "markers_world": mw, "markers_world0": mw0, "lengths": lengths, "plane": plane,
             "rms0": rms(r0), "rms1": rms(sol.fun), "nfev": int(sol.nfev), "sigma_px": sigma, "camera_cov": cov}
 
 
-def _camera_covariance(sol, n_cam: int) -> tuple[float, np.ndarray]:
-    """The corner noise (px, per coordinate) the adjustment's residuals show and the covariance
+def _camera_covariance(sol, n_cam: int, floor_px: float = 0.0) -> tuple[float, np.ndarray]:
+    """The corner noise (px, per coordinate, of a corner of average weight) and the covariance
     (n_views, 6, 6) of each camera's pose (Rodrigues vector, translation mm) it implies.
 
-    ``sigma^2 = sum r^2 / (m - p)`` over the ``m`` residuals and ``p``
-    unknowns (the world marker's fixed corners set the gauge, so ``J^T J`` is
-    regular unless the markers cannot pin the rig: then the covariance is
+    ``sigma^2 = sum r^2 / (m - p)`` over the ``m`` weighted residuals and ``p``
+    unknowns, at least ``floor_px`` (the detector's measured noise,
+    :func:`~tendrilkit.calibration.markers.corner_sigma_px`: with few markers
+    the residuals have few degrees of freedom, and a free square absorbs part
+    of its corners' error, so they can show a noise several times below the
+    real one). The world marker's fixed corners set the gauge, so ``J^T J`` is
+    regular unless the markers cannot pin the rig (then the covariance is
     infinite); the covariance is ``sigma^2 (J^T J)^-1``, first order.
     """
     J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
     m, p = J.shape
-    sigma = float(np.sqrt(np.sum(sol.fun ** 2) / max(1, m - p)))
+    sigma = max(float(floor_px), float(np.sqrt(np.sum(sol.fun ** 2) / max(1, m - p))))
     n_views = n_cam // 6
     JtJ = J.T @ J
     try:
@@ -305,10 +316,13 @@ def bundle_adjust(cameras: list[Camera], observations: dict[int, dict[int, np.nd
     (:meth:`Camera.project`); ``scipy.optimize.least_squares`` minimises them
     with a robust ``loss`` (scale ``f_scale_px``) and the sparse Jacobian
     structure (a corner depends on one camera and one marker). Each corner's
-    residual is weighted by the square root of its marker's side in that view
-    (px): the corners come from edge points along every cell edge
-    (:func:`~tendrilkit.calibration.markers.detect_markers`), as many as the
-    side is long, so a small marker's corners are noisier. A marker whose
+    residual is weighted by one over its marker's expected corner error in
+    that view (:func:`~tendrilkit.calibration.markers.corner_sigma_px`, from
+    the marker's side and foreshortening in the image: a small marker's or a
+    glancing card's corners are noisier), the weights scaled to a root mean
+    square of 1. The pose covariance (:attr:`BundleReport.camera_cov`) uses
+    the same weights and the larger of the residuals' noise and that
+    model's. A marker whose
     mean error in a view stays above ``outlier_px`` after the first pass is
     dropped from that view and the adjustment rerun.
 

@@ -10,7 +10,8 @@ import numpy as np
 from tendrilkit.camera import Camera
 from tendrilkit.geometry import marker_corners
 
-__all__ = ["REFINE_METHODS", "average_detections", "detect_markers"]
+__all__ = ["CORNER_SIGMA_PX", "REFINE_METHODS", "average_detections", "corner_sigma_px", "corner_weight",
+           "detect_markers"]
 
 #: Corner refinement methods of :func:`detect_markers`.
 REFINE_METHODS = ("grid", "edges", "subpix", "contour", "apriltag", "none")
@@ -441,3 +442,71 @@ def average_detections(detections: list[dict[int, np.ndarray]], *, tol_px: float
         keep = dev <= max(tol_px, 3.0 * 1.4826 * float(np.median(dev)))
         out[m] = C[keep].mean(axis=0)
     return out
+
+
+#: The ``grid`` corners' error (px, per coordinate) on a marker of 100 px side seen face-on, corners averaged
+#: over 5 frames, measured against the generator's true corners (``bench_calibration.py corner-noise``; see
+#: :func:`corner_sigma_px`).
+CORNER_SIGMA_PX = 0.014
+#: How the corner error grows with the marker's foreshortening in the image (its aspect ratio) ...
+CORNER_SIGMA_ASPECT_POWER = 3.0
+#: ... above this aspect ratio (markers on the board seen obliquely, up to 1.35 in the site phantoms, keep
+#: the face-on error).
+CORNER_SIGMA_ASPECT_FREE = 1.35
+
+
+def corner_sigma_px(corners_xy: np.ndarray) -> float:
+    """The expected error (px, per coordinate) of a detected marker's corners, from their shape in the image.
+
+    ``CORNER_SIGMA_PX * sqrt(100 / side) * max(1, aspect / CORNER_SIGMA_ASPECT_FREE) ** CORNER_SIGMA_ASPECT_POWER``
+    with ``side`` the quadrilateral's mean side (px) and ``aspect`` the ratio of its longer to its shorter
+    mid-line (1 face-on; 2-3.7 for a card seen at a glancing angle). The corners come from edge points along
+    every cell edge (:func:`detect_markers`), as many as the marker is large, so their error falls as one over
+    the square root of the side; a foreshortened marker has fewer, blurrier edge points across its short
+    direction.
+
+    Measured (``benchmarks/bench_calibration.py corner-noise``: dev seeds 0-69, 960 marker observations, the
+    corners averaged over 5 frames as ``calibration.average_frames`` does, against the generator's true
+    corners): per-coordinate rms 0.0132 px scaled to a side of 100 px for aspect ratios under 1.35 (927
+    observations; median 0.010, 1 % of corners beyond 0.042 px; 0.014 under 1.4); over 1.35 (33, aspect up
+    to 3.7, cards at a glancing angle) the error divided by this model has a median 0.9 times the face-on one
+    and a heavier tail (rms 1.8 times). A single frame's corners are noisier: the adjustment's residuals
+    then show it (:func:`~tendrilkit.calibration.bundle.bundle_adjust` takes the larger).
+
+    Parameters
+    ----------
+    corners_xy : (4, 2) float array
+        The corners, px.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> sq = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
+    >>> bool(np.isclose(corner_sigma_px(sq), CORNER_SIGMA_PX))
+    True
+    >>> corner_sigma_px(sq * [1.0, 0.4]) > 3 * CORNER_SIGMA_PX
+    True
+    """
+    return float(10.0 * CORNER_SIGMA_PX / corner_weight(corners_xy))
+
+
+def corner_weight(corners_xy: np.ndarray) -> float:
+    """``10 * CORNER_SIGMA_PX / corner_sigma_px``: the square root of the marker's mean side (px), divided by
+    the foreshortening factor (1 up to an aspect ratio of ``CORNER_SIGMA_ASPECT_FREE``).
+
+    What the bundle adjustment weighs a marker's corner residuals by (scaled to a root mean square of 1).
+
+    Examples
+    --------
+    >>> corner_weight(np.array([[0.0, 0.0], [64.0, 0.0], [64.0, 64.0], [0.0, 64.0]]))
+    8.0
+    """
+    c = np.asarray(corners_xy, float).reshape(4, 2)
+    side = max(float(np.mean(np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1))), 1.0)
+    m1 = float(np.linalg.norm((c[1] + c[2]) / 2 - (c[0] + c[3]) / 2))
+    m2 = float(np.linalg.norm((c[2] + c[3]) / 2 - (c[0] + c[1]) / 2))
+    aspect = max(m1, m2) / max(min(m1, m2), 1e-9)
+    return float(np.sqrt(side) / max(1.0, aspect / CORNER_SIGMA_ASPECT_FREE) ** CORNER_SIGMA_ASPECT_POWER)
