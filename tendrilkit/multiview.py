@@ -62,7 +62,7 @@ from scipy.linalg import solveh_banded
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import DegenerateCurveError, TendrilLostError
 from tendrilkit.geometry import arc_length, resample_polyline, section_masks
-from tendrilkit.mv_acquire import ON_PX, advance, claim, cone_directions, grow_curve, point_costs, runs_out
+from tendrilkit.mv_acquire import ON_PX, TURN_PX, advance, claim, cone_directions, grow_curve, point_costs, runs_out
 from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
 from tendrilkit.triangulation import triangulate
 
@@ -226,9 +226,13 @@ def _support(evidence, P):
 
 
 def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: float = 0.5,
-               max_extend_mm: float = 60.0, prior_mm: float = 0.0, max_length_mm: float = np.inf,
-               turn_px: float = 0.5) -> np.ndarray:
+               max_extend_mm: float = 60.0, prior_mm: float = 0.0, max_length_mm: float = np.inf) -> np.ndarray:
     """Move the tip to where the views' evidence ends (extend, then trim), base kept.
+
+    Each step goes the way of the 30-degree cone that costs least: the mean
+    distance to the skeletons plus ``TURN_PX`` at the cone's edge (growing
+    with the square of the angle), so where the views cannot tell
+    directions apart the tip goes straight on instead of wandering.
 
     Parameters
     ----------
@@ -252,11 +256,6 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         The extension stops at this arc length (tracking: the previous
         frame's length and the growth a tendril can have between processed
         frames): a tip that would run on is stopped where the tendril ends.
-    turn_px : float
-        Cost (pixels, added to the step's mean distance to the skeletons) of
-        a step turning 30 degrees (the cone's edge), growing with the square
-        of the angle: a fifth of ``ON_PX``, so the skeletons' bends are
-        followed and ties are broken straight on.
 
     Returns
     -------
@@ -295,7 +294,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         # bending, as in the acquisition: where the views cannot tell the directions apart (the tangent in
         # the plane of the camera centres) the tip goes straight on instead of wandering in that plane
         # (a wandering extension is too long, and the refit buckles it: mm off, on the skeleton in every view)
-        cost = cost + turn_px * (np.degrees(np.arccos(np.clip(dirs @ t, -1.0, 1.0))) / 30.0) ** 2
+        cost = cost + TURN_PX * (np.degrees(np.arccos(np.clip(dirs @ t, -1.0, 1.0))) / 30.0) ** 2
         i = int(np.argmin(cost))
         tip = P[i]
         t = 0.7 * t + 0.3 * dirs[i]

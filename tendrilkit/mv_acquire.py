@@ -46,6 +46,9 @@ NEUTRAL_PX = 2.5
 ON_PX = 2.5
 #: A step costing more than this is not taken (pixels).
 STOP_PX = 4.0
+#: The cost of a step turning by the search cone's half-angle (pixels), growing with the square of the
+#: angle: a fifth of ``ON_PX``, so the skeletons' bends are followed and ties are broken straight on.
+TURN_PX = 0.5
 
 
 def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: float = CAP_PX, nearest: bool = False):
@@ -303,7 +306,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             cost[blind] = 0.5 * (NEUTRAL_PX + np.where(na >= 2, ma, NEUTRAL_PX).reshape(-1, len(look)).mean(axis=1))
         if not first:  # bending
             turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1)))
-            cost = cost + 0.5 * (turn / cone_deg) ** 2
+            cost = cost + TURN_PX * (turn / cone_deg) ** 2
         for h, (nodes, *_) in enumerate(hyps):  # self-avoidance
             if len(nodes) > 6:
                 old = np.asarray(nodes[:-5])

@@ -103,7 +103,7 @@ from tendrilkit.verify_beyond import beyond_tip_px
 from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
-from tendrilkit.verify_tip import TIP_PX, on_wide, skeleton_distance, tip_continuation, tip_wide_fraction, wide_run_px
+from tendrilkit.verify_tip import TIP_PX, on_wide, skeleton_to_curve_px, tip_continuation, tip_wide_fraction, wide_run_px
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "verify_frame", "image_check_messages",
            "VERIFY_COLUMNS_FRAME"]
@@ -409,7 +409,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             # the beyond-the-tip check's (one query for both)
             sk_dist = None
             if on_mask.any() and len(ev.skeleton_xy):
-                sk_dist = skeleton_distance(ev.skeleton_xy, dense, coverage_tolerance_px)
+                sk_dist = skeleton_to_curve_px(ev.skeleton_xy, dense, coverage_tolerance_px)
                 if len(on):
                     out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
                 out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px,

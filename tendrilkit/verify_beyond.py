@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
-from tendrilkit.verify_tip import skeleton_distance
+from tendrilkit.verify_tip import skeleton_to_curve_px
 
 __all__ = ["beyond_tip_px"]
 
@@ -74,7 +74,7 @@ def beyond_tip_px(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray,
         ``gap_px`` and ``cov_tol``), are met (35 degrees: the tendril bends
         on behind the object).
     sk_dist : (m,) float array, optional
-        :func:`tendrilkit.verify_tip.skeleton_distance` of the skeleton,
+        :func:`tendrilkit.verify_tip.skeleton_to_curve_px` of the skeleton,
         ``dense_xy`` and ``cov_tol``, when the caller has it (one query for
         this and the tip continuation).
 
@@ -119,7 +119,7 @@ def beyond_tip_px(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray,
         return 0.0
     # the unexplained thin skeleton pixels and their branches
     if sk_dist is None:
-        sk_dist = skeleton_distance(sk, dense_xy, cov_tol)
+        sk_dist = skeleton_to_curve_px(sk, dense_xy, cov_tol)
     free = thin & (sk_dist > cov_tol)
     if not (ahead & free).any():
         return 0.0

@@ -22,7 +22,7 @@ import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
 
-__all__ = ["TIP_PX", "tip_continuation", "skeleton_distance", "on_wide", "tip_wide_fraction", "wide_run_px"]
+__all__ = ["TIP_PX", "tip_continuation", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction", "wide_run_px"]
 
 #: The curve's tip, in :func:`tip_wide_fraction`: its last this many pixels of projection (px).
 TIP_PX = 20
@@ -48,14 +48,14 @@ def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *,
     cov_tol : float
         A skeleton pixel within this distance of the curve is explained.
     sk_dist : (m,) float array, optional
-        :func:`skeleton_distance` of ``ev``, ``dense_xy`` and ``cov_tol``,
+        :func:`skeleton_to_curve_px` of ``ev``, ``dense_xy`` and ``cov_tol``,
         when the caller has it (the same query serves
         :func:`tendrilkit.verify_beyond.beyond_tip_px`).
     """
     sk = ev.skeleton_xy
     if sk is None or len(sk) == 0 or len(dense_xy) == 0:
         return 0.0
-    dist = skeleton_distance(sk, dense_xy, cov_tol) if sk_dist is None else sk_dist
+    dist = skeleton_to_curve_px(sk, dense_xy, cov_tol) if sk_dist is None else sk_dist
     free = ~np.isfinite(dist)
     # not restricted to a line of the tendril's width: where the tendril goes on merged with clutter (along a
     # shoot, over a leaf) its skeleton is wider, and a shrunk chain curve (random seed 214) went unflagged
@@ -80,7 +80,7 @@ def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *,
     return float(max(best.values()))
 
 
-def skeleton_distance(sk_xy: np.ndarray, dense_xy: np.ndarray, cov_tol: float) -> np.ndarray:
+def skeleton_to_curve_px(sk_xy: np.ndarray, dense_xy: np.ndarray, cov_tol: float) -> np.ndarray:
     """(m,) float: each skeleton pixel's distance to the projected curve, px, inf beyond ``cov_tol`` (+ 1e-9).
 
     ``sk_xy`` (m, 2) and ``dense_xy`` (n, 2, n >= 1) in the same pixels; a

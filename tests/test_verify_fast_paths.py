@@ -17,7 +17,7 @@ from tendrilkit.evidence import ViewEvidence
 from tendrilkit.verify_base import base_components, base_on_tendril, thin_at_base
 from tendrilkit.verify_beyond import _ray_stop, beyond_tip_px
 from tendrilkit.verify_crossing import _neighbour_counts
-from tendrilkit.verify_tip import skeleton_distance, tip_continuation
+from tendrilkit.verify_tip import skeleton_to_curve_px, tip_continuation
 
 
 def _strokes(rng, h, w, n):
@@ -125,7 +125,7 @@ def test_one_skeleton_query_serves_the_tip_and_the_beyond_checks(seed):
     i = int(rng.integers(0, len(sk) - 1))
     dense = sk[: i + 2] + rng.normal(0, 0.7, (i + 2, 2))
     cov_tol = 4.0
-    sk_dist = skeleton_distance(sk, dense, cov_tol)
+    sk_dist = skeleton_to_curve_px(sk, dense, cov_tol)
     plain = cKDTree(dense).query(sk, distance_upper_bound=cov_tol + 1e-9)[0]
     assert np.array_equal(sk_dist, plain)
     assert tip_continuation(ev, dense, cov_tol, sk_dist=sk_dist) == tip_continuation(ev, dense, cov_tol)
