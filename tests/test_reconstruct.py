@@ -155,10 +155,17 @@ def test_reconstruct_frame_ok(synthetic):
     assert [t["section"] for t in r.reprojection] == ["base", "tip", "entire"] * 3
 
 
+def _chain(exp):
+    """The experiment with ``reconstruction.method: chain``: the tests of its 2D tracking state (per-view
+    centroids) and reference view hold whatever the default method is."""
+    return exp.model_copy(update={"reconstruction": exp.reconstruction.model_copy(update={"method": "chain"})})
+
+
 def test_reconstruct_frame_view_lost_then_frame_failed(synthetic):
     from tendrilkit.pipeline import reconstruct_frame
 
     images, cams, exp, X = synthetic
+    exp = _chain(exp)
     blank = np.full_like(images[0], 235)
     r = reconstruct_frame([blank, images[1], images[2]], cams, exp, fit=False)
     # reconstructed from views 2 and 3, but view 1 shows an empty board where the curve projects:
@@ -176,6 +183,7 @@ def test_reference_view_lost_uses_another(synthetic):
     from tendrilkit.pipeline import reconstruct_frame
 
     images, cams, exp, X = synthetic
+    exp = _chain(exp)
     r = reconstruct_frame([images[0], np.full_like(images[1], 235), images[2]], cams, exp, fit=False)
     # doubtful: the blank view 2 does not confirm the curve (see test_reconstruct_frame_view_lost_then_frame_failed)
     assert r.status == "doubtful" and r.message.startswith("precision: view 2 has 0 %"), r.message
