@@ -357,7 +357,8 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
         ``min_tip_object_px``).
     extra : dict, optional
         Filled with the figures that are not columns of ``frames.csv``
-        (``tip_object_px_v<i>``, :func:`tendrilkit.verify_object.tip_object_px`).
+        (``tip_object_px_v<i>``, :func:`tendrilkit.verify_object.tip_object_px`;
+        ``turn_branch_px_v<i>``, :func:`tendrilkit.verify_branch.turn_branch_px`).
 
     Returns
     -------
@@ -640,7 +641,8 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     :func:`verify_curve`'s figures (the columns of ``frames.csv``) are added
     to ``q`` (which may hold ``pwc_r2`` already); the messages are
     :func:`image_check_messages`' and those of the checks whose figures are
-    not columns (:func:`tendrilkit.verify_object.tip_object_message`).
+    not columns (:func:`tendrilkit.verify_object.tip_object_message`,
+    :func:`tendrilkit.verify_branch.turn_branch_message`).
 
     Parameters
     ----------
