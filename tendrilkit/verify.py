@@ -100,6 +100,7 @@ import numpy as np
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
 from tendrilkit.verify_base import WIDE_RATIO, base_on_tendril, near_base
 from tendrilkit.verify_beyond import beyond_tip_px
+from tendrilkit.verify_branch import turn_branch_message, turn_branch_px
 from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
@@ -356,7 +357,8 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
         ``min_tip_object_px``).
     extra : dict, optional
         Filled with the figures that are not columns of ``frames.csv``
-        (``tip_object_px_v<i>``, :func:`tendrilkit.verify_object.tip_object_px`).
+        (``tip_object_px_v<i>``, :func:`tendrilkit.verify_object.tip_object_px`;
+        ``turn_branch_px_v<i>``, :func:`tendrilkit.verify_branch.turn_branch_px`).
 
     Returns
     -------
@@ -423,6 +425,8 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             if extra is not None:
                 extra[f"tip_object_px_v{v + 1}"] = tip_object_px(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO,
                                                                  reach_px=tip_object_reach_px)
+                extra[f"turn_branch_px_v{v + 1}"] = turn_branch_px(ev, dense, inside_px, radius_px, sk_dist,
+                                                                   wide_ratio=WIDE_RATIO, cov_tol=coverage_tolerance_px)
     out["views_checked"] = checked
     out["line_width_mm"] = float(np.median(widths)) if widths else None
     out["self_distance_mm"] = self_distance_mm(X)
@@ -637,7 +641,8 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     :func:`verify_curve`'s figures (the columns of ``frames.csv``) are added
     to ``q`` (which may hold ``pwc_r2`` already); the messages are
     :func:`image_check_messages`' and those of the checks whose figures are
-    not columns (:func:`tendrilkit.verify_object.tip_object_message`).
+    not columns (:func:`tendrilkit.verify_object.tip_object_message`,
+    :func:`tendrilkit.verify_branch.turn_branch_message`).
 
     Parameters
     ----------
@@ -661,4 +666,5 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                           extra=extra))
     msgs = image_check_messages(q, len(cameras), th)
     m = tip_object_message(extra, len(cameras), th.min_tip_object_px)
-    return msgs + ([m] if m else [])
+    j = turn_branch_message(extra, len(cameras))
+    return msgs + [x for x in (m, j) if x]

@@ -30,11 +30,11 @@ def _stem_mm(n=100):
     return np.column_stack([-23 + 0 * t, -30 + 19 * t, np.zeros(n)])
 
 
-def _scene(extra_draw=None):
-    """Images and evidence of two views: tendril (5 px wide), stem (9 px wide), keep-out box between them;
-    ``extra_draw(img, cam)`` adds more dark shapes (a leaf, ...)."""
+def _scene(extra_draw=None, tendril_frac=1.0):
+    """Images and evidence of two views: tendril (5 px wide; its first ``tendril_frac``), stem (9 px wide),
+    keep-out box between them; ``extra_draw(img, cam)`` adds more dark shapes (a leaf, ...)."""
     cams = _cameras()
-    T, S = _tendril_mm(), _stem_mm()
+    T, S = _tendril_mm(frac=tendril_frac), _stem_mm()
     evidence = []
     for cam in cams:
         img = np.full((300, 400, 3), 240, np.uint8)
@@ -478,3 +478,39 @@ def test_curve_stopping_where_a_pale_tendril_crosses_an_object_is_caught():
     assert verify_frame(T, cams0, ev0, {}, Thresholds()) == []
     ends = verify_frame(short, cams0, ev0, {}, Thresholds())
     assert ends and not any(m.startswith("tip: the curve stops at an object") for m in ends)
+
+
+def _second_tendril(at_frac=0.6, free_mm=15.0, on_mm=35.0):
+    """A second tendril (as thin as the tendril) through the tendril's point at ``at_frac``, square to it: its free
+    end ``free_mm`` up and to the right of it, its other arm ``on_mm`` down and to the left, out of the ROI."""
+    P = _tendril_mm()[int(at_frac * 199)]
+    t = _tendril_mm()[int(at_frac * 199) + 1] - _tendril_mm()[int(at_frac * 199) - 1]
+    d = np.array([t[1], -t[0], 0.0]) / np.hypot(t[0], t[1])  # square to the tendril, up and to the right
+    s = np.linspace(-on_mm, free_mm, 200)
+    line = P + s[:, None] * d
+
+    def draw(img, cam):
+        xy = cam.project(line)
+        cv2.polylines(img, [np.round(xy * 16).astype(np.int32)], False, (30, 30, 30), 5, cv2.LINE_AA, 4)
+    return draw, P, d, free_mm
+
+
+def test_curve_turning_onto_a_second_tendril_is_caught():
+    """The tendril ends where a second tendril touches it; a curve that turns there onto the second tendril and runs
+    to its free end lies on the tendril's pixels and, the second tendril's other arm running out of the ROI,
+    explains every thin line the coverage counts (random seeds 9413, 9415: such frames were ``ok``). The second
+    tendril going on beyond the turn, straight on from the curve's last part, shows it."""
+    draw, P, d, free_mm = _second_tendril()
+    cams, ev = _scene(draw, tendril_frac=0.6)
+    right = _tendril_mm(frac=0.6)
+    wrong = np.vstack([right, P + np.linspace(0.25, free_mm, 60)[:, None] * d])
+    # the right curve's tip meets the second tendril (whose free arm it leaves unexplained: doubtful by the coverage,
+    # as on seed 9415), no junction on it
+    assert not any(m.startswith("junction:") for m in verify_frame(right, cams, ev, {}, Thresholds()))
+    q = verify_curve(wrong, cams, ev)
+    assert image_check_messages(q, 2, Thresholds()) == []  # every column's check passes
+    msgs = verify_frame(wrong, cams, ev, {}, Thresholds())
+    assert len(msgs) == 1 and msgs[0].startswith("junction:")
+    # a right curve crossing a thin line square to it: the line's arms leave the curve at the crossing's angle
+    cams, ev = _scene(_crossing_line(0.5))
+    assert verify_frame(_tendril_mm(), cams, ev, {}, Thresholds()) == []
