@@ -451,6 +451,8 @@ class Verification(_Strict):
     max_beyond_tip_px: NonNegFloat = 10.0
     min_tip_object_px: NonNegFloat = 30.0
     max_world_marker_px: PositiveFloat = 0.5
+    min_junction_turn_deg: float = Field(60.0, ge=0, le=180)
+    min_junction_line_px: NonNegFloat = 15.0
 
 
 class Analysis(_Strict):

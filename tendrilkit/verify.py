@@ -267,6 +267,13 @@ class Thresholds:
         (:mod:`tendrilkit.verify_object`). Not a column of ``frames.csv``
         (the site phantoms' result files stay as they were): the message
         gives the figures.
+    min_junction_turn_deg, min_junction_line_px : float
+        A junction: the projected curve turns by at least this (degrees,
+        60) where a thin line of unexplained skeleton at least this long
+        (px, 15) leaves it straight on from one side, in two views or more:
+        the curve may run onto a second tendril where it touches the
+        tendril (:mod:`tendrilkit.verify_branch` says how they were chosen).
+        In the message only, like ``min_tip_object_px``.
     max_world_marker_px : float
         Largest corner reprojection error of the world marker after the
         calibration's joint adjustment, px (0.5 px; also more than 3 times
@@ -301,6 +308,8 @@ class Thresholds:
     max_beyond_tip_px: float = 10.0
     min_tip_object_px: float = 30.0
     max_world_marker_px: float = 0.5
+    min_junction_turn_deg: float = 60.0
+    min_junction_line_px: float = 15.0
 
     @classmethod
     def from_params(cls, section) -> "Thresholds":
@@ -338,6 +347,7 @@ def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
 
 def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEvidence | None], *,
                  tolerance_px: float = 2.0, coverage_tolerance_px: float = 4.0, tip_object_reach_px: float = 30.0,
+                 junction_turn_deg: float = 60.0, junction_line_px: float = 15.0,
                  extra: dict | None = None) -> dict:
     """Image figures of one reconstructed curve in every view.
 
@@ -355,6 +365,9 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     tip_object_reach_px : float
         How far ahead of the tip to look for an object (:class:`Thresholds`
         ``min_tip_object_px``).
+    junction_turn_deg, junction_line_px : float
+        The junction check's smallest turn (degrees) and line (px)
+        (:class:`Thresholds` ``min_junction_turn_deg``, ``min_junction_line_px``).
     extra : dict, optional
         Filled with the figures that are not columns of ``frames.csv``
         (``tip_object_px_v<i>``, :func:`tendrilkit.verify_object.tip_object_px`;
@@ -426,7 +439,9 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                 extra[f"tip_object_px_v{v + 1}"] = tip_object_px(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO,
                                                                  reach_px=tip_object_reach_px)
                 extra[f"turn_branch_px_v{v + 1}"] = turn_branch_px(ev, dense, inside_px, radius_px, sk_dist,
-                                                                   wide_ratio=WIDE_RATIO, cov_tol=coverage_tolerance_px)
+                                                                   wide_ratio=WIDE_RATIO, cov_tol=coverage_tolerance_px,
+                                                                   min_turn_deg=junction_turn_deg,
+                                                                   min_branch_px=junction_line_px)
     out["views_checked"] = checked
     out["line_width_mm"] = float(np.median(widths)) if widths else None
     out["self_distance_mm"] = self_distance_mm(X)
@@ -663,6 +678,7 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     extra: dict = {}
     q.update(verify_curve(points_mm, cameras, evidence, tolerance_px=th.tolerance_px,
                           coverage_tolerance_px=th.coverage_tolerance_px, tip_object_reach_px=th.min_tip_object_px,
+                          junction_turn_deg=th.min_junction_turn_deg, junction_line_px=th.min_junction_line_px,
                           extra=extra))
     msgs = image_check_messages(q, len(cameras), th)
     m = tip_object_message(extra, len(cameras), th.min_tip_object_px)

@@ -46,7 +46,7 @@ __all__ = ["turn_branch_px", "turn_branch_message"]
 
 def turn_branch_px(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray, radius_px: float,
                    sk_dist: np.ndarray | None, *, wide_ratio: float, cov_tol: float, arm_px: int = 25,
-                   min_turn_deg: float = 60.0, min_cos: float = 0.9, min_branch_px: int = 15,
+                   min_turn_deg: float = 60.0, min_cos: float = 0.9, min_branch_px: float = 15,
                    branch_arm_px: tuple[float, float] = (5.0, 25.0)) -> float | None:
     """Length (px) of the longest unexplained thin line leaving a turn of the curve straight on from one side.
 
@@ -74,7 +74,7 @@ def turn_branch_px(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray
     min_cos : float
         Smallest cosine between the line's direction and the side's
         direction continued beyond the junction.
-    min_branch_px : int
+    min_branch_px : float
         Lines of fewer skeleton pixels are spurs.
     branch_arm_px : (float, float)
         The line's direction is that from its end nearest the curve to the

@@ -511,6 +511,10 @@ def test_curve_turning_onto_a_second_tendril_is_caught():
     assert image_check_messages(q, 2, Thresholds()) == []  # every column's check passes
     msgs = verify_frame(wrong, cams, ev, {}, Thresholds())
     assert len(msgs) == 1 and msgs[0].startswith("junction:")
+    # the limits are the experiment's verification keys: a longer line or a sharper turn asked for, no junction
+    assert verify_frame(wrong, cams, ev, {}, Thresholds(min_junction_line_px=1e4)) == []
+    assert verify_frame(wrong, cams, ev, {}, Thresholds(min_junction_turn_deg=180.0)) == []
+    assert Thresholds.from_params({"min_junction_turn_deg": 45, "min_junction_line_px": 20}).min_junction_line_px == 20.0
     # a right curve crossing a thin line square to it: the line's arms leave the curve at the crossing's angle
     cams, ev = _scene(_crossing_line(0.5))
     assert verify_frame(_tendril_mm(), cams, ev, {}, Thresholds()) == []
