@@ -98,10 +98,11 @@ def turn_branch_px(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray
     if free.sum() < min_branch_px:
         return None
     fr, fc, fxy = sr[free], sc[free], sk[free]
-    img = np.zeros(ev.shape, np.uint8)
-    img[fr, fc] = 1
+    r0, c0 = fr.min() - 1, fc.min() - 1  # label on the free pixels' box (a 1 px rim), not on the whole crop
+    img = np.zeros((fr.max() - r0 + 2, fc.max() - c0 + 2), np.uint8)
+    img[fr - r0, fc - c0] = 1
     nb, lab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
-    b = lab[fr, fc]
+    b = lab[fr - r0, fc - c0]
     tree = cKDTree(dense_xy)
     n = len(dense_xy)
     best = None
