@@ -226,14 +226,8 @@ def _gap_fraction(knots, inner_step, gap):
 
 
 @njit(cache=True)
-def _lm_core(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol):
-    f, P, T, B, R, X = _lm_evaluate(s, kk, vk, kt, vt, data)
-    return _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, P, T, B, R, X)
-
-
-@njit(cache=True)
 def _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, P, T, B, R, X):
-    """:func:`_lm_core` from the evaluation ``f, P, T, B, R, X`` of the start (:func:`_lm_evaluate`'s)."""
+    """Levenberg-Marquardt from the evaluation ``f, P, T, B, R, X`` of the start (:func:`_lm_evaluate`'s)."""
     mk, mt = kk.shape[0], kt.shape[0]
     ik = mk - 2 if (free_knots and mk > 2) else 0
     it = mt - 2 if (free_knots and mt > 2) else 0
@@ -338,10 +332,9 @@ def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, it
     """
     f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
     args = (f(s), f(data), f(kk), f(vk), f(kt), f(vt), bool(free_knots), float(min_gap), int(iterations), float(rtol))
-    if state is None:
-        kk2, vk2, kt2, vt2, sse = _lm_core(*args)
-    else:
-        kk2, vk2, kt2, vt2, sse = _lm_from(*args, *state)
+    if state is None:  # one compiled function fewer to load at start-up than a compiled composition
+        state = _lm_evaluate(args[0], args[2], args[3], args[4], args[5], args[1])
+    kk2, vk2, kt2, vt2, sse = _lm_from(*args, *state)
     return (kk2, vk2, kt2, vt2), float(sse)
 
 

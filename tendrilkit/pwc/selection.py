@@ -31,10 +31,15 @@ def _mid_penalty(lo: float, hi: float) -> float:
     return float(np.sqrt(lo * hi))
 
 
-def _bic(sse: np.ndarray, n: int, k_kappa: np.ndarray, k_tau: np.ndarray) -> np.ndarray:
+def _bic(sse: float, n: int, k_kappa: int, k_tau: int) -> float:
+    """BIC of a fit of ``n`` 3D points with ``k_kappa`` + ``k_tau`` segments and SSE ``sse`` (mm^2).
+
+    On numpy float64 scalars (the same bits as on 0-d arrays, a tenth of the time: it runs for
+    every candidate).
+    """
     m = 3 * n
     p = 2 * k_kappa + 2 * k_tau + 6
-    return m * np.log(np.maximum(sse, 1e-300) / m) + p * np.log(m)
+    return float(m * np.log(np.float64(max(sse, 1e-300)) / m) + p * np.log(np.float64(m)))
 
 
 def _preferred(x, y, target_r2, criterion):
@@ -97,7 +102,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
     def scored(lk, lt, sse, row=None):
         """(lk, lt, sse, r2, bic, row index), recorded in the candidates table."""
         r2 = 1.0 - sse / sst
-        bic = float(_bic(np.array(sse), n, np.array(lk.n_segments), np.array(lt.n_segments)))
+        bic = _bic(sse, n, lk.n_segments, lt.n_segments)
         entry = [lk.n_segments, lt.n_segments, r2, sse, bic, 0.0]
         if row is None:
             rows.append(entry)
