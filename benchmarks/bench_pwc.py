@@ -21,6 +21,14 @@ what makes a frame dearer: how many searches a fit ran (the first, and the retri
 which run when the rms residual exceeds ``RETRY_NOISE_RATIO`` of the noise estimated from the points),
 the candidates evaluated, the segments, and that rms-to-noise ratio. Then stops.
 
+    .venv/bin/python benchmarks/bench_pwc.py --command-csv RUN/curves.csv   # issue 17's fit-command figure
+
+times ``python -m tendrilkit fit`` on that CSV (issue 17 means a reconstruction's curves of 100 frames),
+process start included, ``--rounds`` runs (wall and CPU, like ``time``), and then where one such run's CPU
+goes, part by part in a fresh process (imports: numpy, pandas, numba, tendrilkit; numba's set-up at its
+first compiled call; reading the CSV; the first fit, which loads numba's caches; the other fits; writing
+the tables). Then stops.
+
     .venv/bin/python benchmarks/bench_pwc.py --baseline /tmp/old   # a checkout of the old code
 
 compares with another checkout on the same machine load: the per-frame fit (CPU and wall) and the
@@ -65,7 +73,11 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3, help="--baseline: alternate runs of each")
     ap.add_argument("--extra", type=int, default=200, help="--baseline: more ground-truth curves (seeds from 2000)")
     ap.add_argument("--curves-csv", type=Path, help="a reconstruction's curves.csv: its frames against the benchmark's")
+    ap.add_argument("--command-csv", type=Path, help="time the fit command on this curves.csv, and its parts")
     args = ap.parse_args()
+    if args.command_csv is not None:
+        _fit_command(args.command_csv.resolve(), args.rounds)
+        return
     if args.curves_csv is not None:
         _pipeline_curves(args.curves_csv, args.curves)
         return
@@ -163,6 +175,76 @@ def main() -> None:
     compiled = any((Path(numba.__file__).parent / "core" / "__pycache__").glob("*.pyc"))
     print("site-packages bytecode: " + ("compiled" if compiled else
           "NOT compiled (uv installs without it; `uv pip sync --compile-bytecode` or `python -m compileall`)"))
+
+
+_COMMAND_PARTS = """
+import sys, time
+c = time.process_time(); t = {{}}
+import numpy as np
+t["imports: numpy"] = time.process_time() - c; c = time.process_time()
+import pandas
+t["imports: pandas"] = time.process_time() - c; c = time.process_time()
+import numba
+t["imports: numba"] = time.process_time() - c; c = time.process_time()
+import tendrilkit.cli, tendrilkit.fitting as F, tendrilkit.io as io, tendrilkit.pwc, tendrilkit.schema as S
+t["imports: tendrilkit"] = time.process_time() - c; c = time.process_time()
+from pathlib import Path
+from tendrilkit.pwc.laws import _pwl_step_means
+u = np.linspace(0.0, 1.0, 5)
+_pwl_step_means(u, u[[0, 4]], u[:2])  # numba's set-up at its first compiled call (registries, scipy.linalg)
+t["numba set-up (first compiled call)"] = time.process_time() - c; c = time.process_time()
+curves = F._read_curves(Path({csv!r}))
+t["reading the CSV (pandas, checks)"] = time.process_time() - c; c = time.process_time()
+first = curves[curves["frame"] == curves["frame"].min()]
+F.fit_curves(first)
+t["first frame's fit (numba's cache loads included)"] = time.process_time() - c; c = time.process_time()
+pwc, segs, mets = F.fit_curves(curves)
+n = mets.shape[0]
+t[f"all {{n}} fits again (the first's cache loads apart: its own CPU is in here)"] = time.process_time() - c
+c = time.process_time()
+for df, name, table in zip((pwc, segs, mets), ("a", "b", "c"), (S.PWC_CURVES, S.PWC_SEGMENTS, S.PWC_METRICS)):
+    io.write_result(df, Path({out!r}) / name, table)
+t["writing the three tables"] = time.process_time() - c
+for k, v in t.items():
+    print(f"{{v:.3f}} {{k}}")
+"""
+
+
+def _fit_command(csv: Path, rounds: int) -> None:
+    """Issue 17's figure: ``python -m tendrilkit fit CSV``, process start included; then its parts (CPU)."""
+    if not csv.is_file():
+        print(f"--command-csv: {csv} not found; expected a curves.csv")
+        raise SystemExit(2)
+    with tempfile.TemporaryDirectory() as tmp:
+        env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS",
+                                                                 "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")}
+        walls, cpus = [], []
+        for run in range(rounds + 1):  # the first run may compile numba's caches: shown, not counted
+            t, c0 = time.perf_counter(), os.times()
+            r = subprocess.run([sys.executable, "-m", "tendrilkit", "fit", str(csv), "--out", str(Path(tmp) / "out")],
+                               cwd=REPO, capture_output=True, text=True, env=env)  # the command sets its BLAS threads
+            dt, c1 = time.perf_counter() - t, os.times()
+            cpu = (c1.children_user - c0.children_user) + (c1.children_system - c0.children_system)
+            if run:
+                walls.append(dt)
+                cpus.append(cpu)
+            print(f"fit command on {csv.name}, run {run}{' (cache fill, not counted)' if not run else ''}: {dt:.2f} s "
+                  f"wall, {cpu:.2f} s CPU [{(r.stdout.strip() or r.stderr.strip()).splitlines()[-1]}] "
+                  f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
+        print(f"fit command, median of {rounds} runs: {np.median(walls):.2f} s wall, {np.median(cpus):.2f} s CPU "
+              f"(target <= 2 s)")
+        code = _COMMAND_PARTS.format(csv=str(csv), out=tmp)
+        env1 = {**env, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+        out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, env=env1)
+        if out.returncode:
+            print(out.stderr.strip().splitlines()[-1])
+            return
+        rows = [line.split(" ", 1) for line in out.stdout.strip().splitlines()]
+        total = sum(float(v) for v, _ in rows)
+        print(f"where one run's CPU goes (a fresh process, parts timed apart; the first fit counted twice), "
+              f"total {total:.2f} s:")
+        for v, k in rows:
+            print(f"  {k:62s} {float(v):6.3f} s")
 
 
 def _search_figures(curves: list) -> dict:
