@@ -111,6 +111,7 @@ def main() -> None:
     print("where the time goes (CPU ms per frame, second pass, stages timed separately):")
     for name, ms in _stage_times(curves).items():
         print(f"  {name:44s} {ms:6.2f}")
+    _print_refinements("the refinements by kind", [tc.points_mm for tc in curves])
 
     gt = []
     for tc in curves[:10]:
@@ -295,6 +296,40 @@ def _pipeline_curves(curves_csv: Path, n_curves: int) -> None:
               f"(retried {100 * np.mean(f['searches'] > 1):.0f} %); candidates per fit {f['candidates'].mean():.1f}; "
               f"segments (kappa + tau) {f['segments'].mean():.1f}; first search's rms / noise estimate median "
               f"{np.median(f['noise_ratio']):.2f} (retry above {RETRY_NOISE_RATIO})")
+        _print_refinements(f"  {name}: the refinements by kind", curves)
+
+
+def _print_refinements(title: str, curves: list) -> None:
+    """Levenberg-Marquardt calls per fit by kind, and their CPU: what the candidates of the search cost."""
+    import tendrilkit.pwc.selection as S
+
+    kinds = {(2, True): "a candidate, from the best of its starts (quick)",
+             (2, False): "a candidate knot of the score test (quick)",
+             (S.STEP_ITERATIONS, False): "the step taken, further",
+             (40, False): "the last step, to convergence"}
+    inner = S._refine_laws
+    acc: dict = {}
+
+    def counted(prep, lk, lt, iterations=40, rtol=1e-6, state=None):
+        c = time.process_time()
+        try:
+            return inner(prep, lk, lt, iterations, rtol, state)
+        finally:
+            a = acc.setdefault((iterations, state is not None), [0, 0.0])
+            a[0] += 1
+            a[1] += time.process_time() - c
+
+    S._refine_laws = counted
+    try:
+        for P in curves:
+            fit_piecewise_clothoid(P, n_points=len(P))
+    finally:
+        S._refine_laws = inner
+    n = len(curves)
+    print(f"{title} (Levenberg-Marquardt calls per fit, {n} fits):")
+    for key, (calls, cpu) in sorted(acc.items()):
+        print(f"  {kinds.get(key, f'{key[0]} iterations'):50s} {calls / n:5.1f} calls {1e3 * cpu / n:6.2f} ms CPU "
+              f"({1e6 * cpu / calls:.0f} us each)")
 
 
 def _stage_times(curves) -> dict:
