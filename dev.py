@@ -73,11 +73,6 @@ def setup() -> None:
     site = subprocess.check_output([str(PY), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], text=True).strip()
     Path(site, "tendrilkit-checkout.pth").write_text(str(ROOT) + "\n")
     _run([PY, "-m", "ipykernel", "install", "--sys-prefix", "--name", "python3"], stdout=subprocess.DEVNULL)
-    # numba's caches of the compiled kernels (ordering, matching, triangulation, the piece-wise clothoid
-    # fit): without them a fresh clone's first command compiles them (the fit's alone: about 20 s of CPU
-    # before `python -m tendrilkit fit` fits its first frame; with them its start-up is about a second)
-    _say("compiling the numba kernels (once)")
-    _run([PY, "-c", "from tendrilkit.runner import _warm_up; _warm_up(True)"])
     STAMP.write_text(digest + "\n")
     _say("environment ready")
 
