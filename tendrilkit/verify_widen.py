@@ -1,0 +1,172 @@
+"""The checks' reading of a curve whose distal part runs on a line wider than the tendril before it.
+
+A tendril is a tube of constant diameter that tapers towards its tip; it
+never thickens distally. A curve that leaves the tendril somewhere and runs
+on to its end along another object (a leaf the tip rests on, along its
+middle; a side shoot of the stem it crosses; the stem) lies on dark pixels
+in every view, and each view can explain it: on a leaf's or a shoot's blob
+any path is on the dark pixels, and where the object is seen edge-on in one
+view it is a thin line there. Every other check can then pass: the part on
+the other object is short enough for the merged check, the last pixels are
+the leaf's tapered point (not wider than the tendril) or the shoot's end.
+What the images do show is the width of the dark line under the curve: on
+the other object it is that object's width, wider than the tendril's just
+before, from the point where the curve left the tendril to its end.
+
+:func:`distal_widening` measures, per view, the width of the dark line
+under the curve (twice the inside distance at the projected curve, in mm at
+the curve's depth) every half millimetre along it, and returns the largest
+ratio of the median width over a distal stretch (from a point to the tip,
+at least ``min_distal_mm`` long) to the median width over the
+``proximal_mm`` before that point. A right curve scores about 1 or less
+(the tip tapers); a clutter crossing the tendril in one view widens a
+short stretch in the middle, not the whole distal part. The frame is
+``doubtful`` when the ratio exceeds the limit in two views or more (in one
+view the tendril's last part may pass in front of a leaf).
+
+Measured (development seeds; see ``verify.Thresholds.max_distal_widening``).
+"""
+
+from __future__ import annotations
+
+import bisect
+
+import numpy as np
+
+from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
+
+__all__ = ["MAX_DISTAL_WIDENING", "STEP_MM", "distal_widening", "distal_widening_message"]
+
+#: Default limit of the ratio, in two views or more (``verification: max_distal_widening``; the module's
+#: docstring gives the measurements).
+MAX_DISTAL_WIDENING = 1.2
+
+#: Spacing of the samples along the 3D curve, mm.
+STEP_MM = 0.5
+
+
+def _resample(points_mm: np.ndarray, step_mm: float) -> np.ndarray:
+    """(n, 3) points every ``step_mm`` along the polyline (its start included, its end within a step)."""
+    seg = np.linalg.norm(np.diff(points_mm, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    t = np.arange(0.0, s[-1] + 1e-9, step_mm)
+    return np.column_stack([np.interp(t, s, points_mm[:, k]) for k in range(3)])
+
+
+def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: float = 2.0,
+                    min_distal_mm: float = 5.0, proximal_mm: float = 20.0,
+                    step_mm: float = STEP_MM) -> float | None:
+    """Largest ratio of the line's width under a distal stretch of the curve to its width just before, one view.
+
+    Parameters
+    ----------
+    points_mm : (n, 3) float array
+        The centreline, base (0) to tip, world mm.
+    cam : Camera
+        This view's camera (``project``, ``in_image``, ``world_to_cam``, ``K``).
+    ev : ViewEvidence
+        This view's evidence.
+    tol_px : float
+        A sample within this distance of a dark pixel is on the dark pixels
+        (others, and samples the view does not see, do not count).
+    min_distal_mm : float
+        Shortest distal stretch (from a point to the tip), mm.
+    proximal_mm : float
+        Length of the stretch before the point whose width is the reference, mm.
+    step_mm : float
+        Sample spacing along the curve, mm.
+
+    Returns
+    -------
+    float or None
+        The ratio (1: as wide as before); None when no point has enough
+        samples on the dark pixels on both sides (at least half of each
+        stretch).
+
+    Notes
+    -----
+    The width at a sample is :math:`w = 2\\,d\\,z/f_x` mm, with :math:`d`
+    the largest inside distance (distance to the board, px) in the 3 x 3
+    pixels around the projected sample, :math:`z` the sample's depth in the
+    camera and :math:`f_x` the focal length, px. The ratio at sample
+    :math:`k` is :math:`\\mathrm{median}(w_{k..n}) /
+    \\mathrm{median}(w_{k-m..k-1})`, :math:`m` = ``proximal_mm / step_mm``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tendrilkit.camera import Camera
+    >>> from tendrilkit.evidence import view_evidence
+    >>> cam = Camera(K=np.array([[100.0, 0, 100], [0, 100, 50], [0, 0, 1]]), dist=np.zeros(5), R=np.eye(3),
+    ...              t_mm=np.array([0.0, 0.0, 100.0]))
+    >>> img = np.full((100, 200, 3), 220, np.uint8)
+    >>> img[48:53, 20:120] = 40                  # a line 5 px (5 mm) wide ...
+    >>> img[44:57, 120:170] = 40                 # ... going on as a band 13 px wide
+    >>> ev = view_evidence(img, roi=[0, 0, 200, 100], keep_out=None, base_point_xy=[20, 50])
+    >>> X = np.column_stack([np.linspace(-75, 65, 50), np.zeros(50), np.zeros(50)])
+    >>> round(distal_widening(X, cam, ev), 1)
+    2.3
+    """
+    X = np.asarray(points_mm, float).reshape(-1, 3)
+    if len(X) < 2:
+        return None
+    S = _resample(X, step_mm)
+    xy = cam.project(S)
+    seen = np.all(np.isfinite(xy), axis=1) & ~ev.in_keep_out(xy) & cam.in_image(xy) & roi_contains(ev, xy)
+    on = seen & (sample_distance(ev, xy) <= tol_px)
+    if on.sum() < 4:
+        return None
+    off = ev.roi_offset_xy
+    h, w = ev.shape
+    r = np.rint(xy[on, 1] - off[1]).astype(int)
+    c = np.rint(xy[on, 0] - off[0]).astype(int)
+    inside = ev.inside_px
+    local = np.zeros(len(r), np.float32)
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            local = np.maximum(local, inside[np.clip(r + dr, 0, h - 1), np.clip(c + dc, 0, w - 1)])
+    width = np.full(len(S), np.nan)
+    width[on] = 2.0 * local * cam.world_to_cam(S[on])[:, 2] / float(cam.K[0, 0])
+    n_d = int(round(min_distal_mm / step_mm))
+    n_p = int(round(proximal_mm / step_mm))
+    n = len(S)
+    if n < n_p + n_d:
+        return None
+    # the median width of every suffix (distal stretch k..n-1), from the tip backwards
+    med_d = np.full(n, np.nan)
+    cnt_d = np.zeros(n, int)
+    kept: list[float] = []
+    for k in range(n - 1, -1, -1):
+        if np.isfinite(width[k]):
+            bisect.insort(kept, float(width[k]))
+        m = len(kept)
+        cnt_d[k] = m
+        if m:
+            med_d[k] = 0.5 * (kept[(m - 1) // 2] + kept[m // 2])
+    # the median width of every window of n_p samples before k (NaN sorts last)
+    win = np.sort(np.lib.stride_tricks.sliding_window_view(width, n_p), axis=1)[:n - n_p + 1]
+    cnt_p = np.isfinite(win).sum(axis=1)
+    rows = np.arange(len(win))
+    lo, hi = np.maximum(cnt_p - 1, 0) // 2, np.minimum(cnt_p // 2, n_p - 1)
+    med_p = np.where(cnt_p > 0, 0.5 * (win[rows, lo] + win[rows, hi]), np.nan)
+    k = np.arange(n_p, n - n_d + 1)  # window k - n_p .. k - 1 is win[k - n_p]
+    ok = ((cnt_d[k] >= max(n_d // 2, 2)) & (cnt_d[k] >= 0.5 * (n - k)) & (cnt_p[k - n_p] >= n_p // 2)
+          & (med_p[k - n_p] > 0))
+    if not ok.any():
+        return None
+    return float(np.max(med_d[k[ok]] / med_p[k[ok] - n_p]))
+
+
+def distal_widening_message(figures: dict, n_views: int, limit: float) -> str | None:
+    """The message of the distal widening check (None: passed).
+
+    ``figures``: ``distal_widening_v<i>`` (1-based views; None: not measured).
+    Fails when the ratio exceeds ``limit`` in two views or more.
+    """
+    values = [(v, figures.get(f"distal_widening_v{v}")) for v in range(1, n_views + 1)]
+    wide = [(v, x) for v, x in values if x is not None and x > limit]
+    if len(wide) < 2:
+        return None
+    return ("widening: the curve's distal part runs on a line wider than the tendril before it (a tendril tapers; "
+            "a leaf or a shoot the curve ran onto is wider) in " + ", ".join(f"view {v} ({x:.2f} x)" for v, x in wide)
+            + f" (limit {limit:g} x)")
