@@ -14,11 +14,13 @@ the other object it is that object's width, wider than the tendril's just
 before, from the point where the curve left the tendril to its end.
 
 :func:`distal_widening` measures, per view, the width of the dark line
-under the curve (twice the inside distance at the projected curve, in mm at
-the curve's depth) every half millimetre along it, and returns the largest
-ratio of the median width over a distal stretch (from a point to the tip,
-at least ``min_distal_mm`` long) to the median width over the
-``proximal_mm`` before that point. A right curve scores about 1 or less
+under the curve (twice the inside distance at the projected curve, px)
+every half millimetre along it, where the curve's projection does not
+cross itself, and returns the largest ratio of the median width over a
+distal stretch (from a point to the tip, at least ``min_distal_mm`` long)
+to the median width over the ``proximal_mm`` before that point, among the
+points where the distal line is at least ``min_excess_px`` wider (the
+inside distance moves in steps of about half a pixel). A right curve scores about 1 or less
 (the tip tapers); a clutter crossing the tendril in one view widens a
 short stretch in the middle, not the whole distal part. The frame is
 ``doubtful`` when the ratio exceeds the limit in two views or more (in one
@@ -32,6 +34,7 @@ from __future__ import annotations
 import bisect
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
 
@@ -40,6 +43,10 @@ __all__ = ["MAX_DISTAL_WIDENING", "STEP_MM", "distal_widening", "distal_widening
 #: Default limit of the ratio, in two views or more (``verification: max_distal_widening``; the module's
 #: docstring gives the measurements).
 MAX_DISTAL_WIDENING = 1.2
+
+#: Two samples farther apart along the curve than this (mm) whose projections lie within a line width of each
+#: other are a crossing of the curve with itself in that view.
+SELF_SEPARATION_MM = 5.0
 
 #: Spacing of the samples along the 3D curve, mm.
 STEP_MM = 0.5
@@ -54,7 +61,7 @@ def _resample(points_mm: np.ndarray, step_mm: float) -> np.ndarray:
 
 
 def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: float = 2.0,
-                    min_distal_mm: float = 5.0, proximal_mm: float = 20.0,
+                    min_distal_mm: float = 5.0, proximal_mm: float = 20.0, min_excess_px: float = 2.0,
                     step_mm: float = STEP_MM) -> float | None:
     """Largest ratio of the line's width under a distal stretch of the curve to its width just before, one view.
 
@@ -73,22 +80,28 @@ def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: flo
         Shortest distal stretch (from a point to the tip), mm.
     proximal_mm : float
         Length of the stretch before the point whose width is the reference, mm.
+    min_excess_px : float
+        A distal stretch counts only if its line is at least this much wider
+        than the reference, px (the inside distance's quantisation).
     step_mm : float
         Sample spacing along the curve, mm.
 
     Returns
     -------
     float or None
-        The ratio (1: as wide as before); None when no point has enough
-        samples on the dark pixels on both sides (at least half of each
-        stretch).
+        The largest ratio among the points where the line is at least
+        ``min_excess_px`` wider (1.0 where it is nowhere); None when no point
+        has enough samples on the dark pixels on both sides (at least half
+        of each stretch).
 
     Notes
     -----
-    The width at a sample is :math:`w = 2\\,d\\,z/f_x` mm, with :math:`d`
-    the largest inside distance (distance to the board, px) in the 3 x 3
-    pixels around the projected sample, :math:`z` the sample's depth in the
-    camera and :math:`f_x` the focal length, px. The ratio at sample
+    The width at a sample is :math:`w = 2\\,d` px, with :math:`d` the
+    largest inside distance (distance to the board, px) in the 3 x 3 pixels
+    around the projected sample; samples whose projection lies within a
+    line width of the projection of a part of the curve more than
+    :data:`SELF_SEPARATION_MM` away (the curve crossing itself in this view)
+    do not count. The ratio at sample
     :math:`k` is :math:`\\mathrm{median}(w_{k..n}) /
     \\mathrm{median}(w_{k-m..k-1})`, :math:`m` = ``proximal_mm / step_mm``.
 
@@ -126,7 +139,16 @@ def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: flo
         for dc in (-1, 0, 1):
             local = np.maximum(local, inside[np.clip(r + dr, 0, h - 1), np.clip(c + dc, 0, w - 1)])
     width = np.full(len(S), np.nan)
-    width[on] = 2.0 * local * cam.world_to_cam(S[on])[:, 2] / float(cam.K[0, 0])
+    width[on] = 2.0 * local  # px: neighbouring stretches lie at nearly the same depth
+    # where the projection passes over another part of the curve (a loop's or a coil's crossing, turns lying on
+    # each other), the dark line is both passes: not the tendril's width
+    idx = np.flatnonzero(on)
+    pairs = cKDTree(xy[on]).query_pairs(2.0 * float(np.median(local)) + tol_px, output_type="ndarray")
+    if len(pairs):
+        a, b = idx[pairs[:, 0]], idx[pairs[:, 1]]
+        far = np.abs(a - b) * step_mm > SELF_SEPARATION_MM
+        width[a[far]] = np.nan
+        width[b[far]] = np.nan
     n_d = int(round(min_distal_mm / step_mm))
     n_p = int(round(proximal_mm / step_mm))
     n = len(S)
@@ -154,7 +176,11 @@ def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: flo
           & (med_p[k - n_p] > 0))
     if not ok.any():
         return None
-    return float(np.max(med_d[k[ok]] / med_p[k[ok] - n_p]))
+    d_px, p_px = med_d[k[ok]], med_p[k[ok] - n_p]
+    # the inside distance is quantised (a pixel's steps of the chamfer distance: 0.6 px at a 5 px half width):
+    # a widening counts when the line is at least min_excess_px wider, whatever the ratio
+    wider = d_px - p_px >= min_excess_px
+    return float(np.max(d_px[wider] / p_px[wider])) if wider.any() else 1.0
 
 
 def distal_widening_message(figures: dict, n_views: int, limit: float) -> str | None:
