@@ -42,7 +42,7 @@ __all__ = ["MAX_DISTAL_WIDENING", "STEP_MM", "distal_widening", "distal_widening
 
 #: Default limit of the ratio, in two views or more (``verification: max_distal_widening``; the module's
 #: docstring gives the measurements).
-MAX_DISTAL_WIDENING = 1.2
+MAX_DISTAL_WIDENING = 1.5
 
 #: Two samples farther apart along the curve than this (mm) whose projections lie within a line width of each
 #: other are a crossing of the curve with itself in that view.
