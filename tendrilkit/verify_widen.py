@@ -123,13 +123,13 @@ def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: flo
     >>> import numpy as np
     >>> from tendrilkit.camera import Camera
     >>> from tendrilkit.evidence import view_evidence
-    >>> cam = Camera(K=np.array([[100.0, 0, 100], [0, 100, 50], [0, 0, 1]]), dist=np.zeros(5), R=np.eye(3),
-    ...              t_mm=np.array([0.0, 0.0, 100.0]))
-    >>> img = np.full((100, 200, 3), 220, np.uint8)
-    >>> img[48:53, 20:120] = 40                  # a line 5 px (5 mm) wide ...
-    >>> img[44:57, 120:170] = 40                 # ... going on as a band 13 px wide
-    >>> ev = view_evidence(img, roi=[0, 0, 200, 100], keep_out=None, base_point_xy=[20, 50])
-    >>> X = np.column_stack([np.linspace(-75, 65, 50), np.zeros(50), np.zeros(50)])
+    >>> cam = Camera(K=np.array([[1000.0, 0, 200], [0, 1000, 150], [0, 0, 1]]), t_mm=np.array([0.0, 0.0, 200.0]),
+    ...              width=400, height=300)    # 5 px per mm
+    >>> img = np.full((300, 400, 3), 220, np.uint8)
+    >>> img[148:153, 40:250] = 40                # a line 5 px (1 mm) wide ...
+    >>> img[144:157, 250:330] = 40               # ... going on as a band 13 px wide (a leaf)
+    >>> ev = view_evidence(img, roi=[0, 0, 400, 300], keep_out=None, base_point_xy=[40, 150])
+    >>> X = np.column_stack([np.linspace(-30, 24, 50), np.zeros(50), np.zeros(50)])
     >>> round(distal_widening(X, cam, ev), 1)
     2.3
     """
