@@ -39,7 +39,12 @@ the third view). A curve run onto a shoot only 25 % wider than the
 tendril (seed 9500, frame 2) scores 1.30-1.38: not caught. The site
 phantoms' right curves reach 1.25 in one view (S2, S3: the inside
 distance's pixel steps at a 4-5 px half width), 1.2 in their
-second-worst. The site phantoms stay ``ok`` in every frame.
+second-worst. The site phantoms stay ``ok`` in every frame. Validated once
+on untouched development seeds 9700-9719 (multi-view; 9700-9709 chain): it
+flags one frame reported ``ok`` (a pale coil seen end-on, mean error
+0.37 mm, max 2.02 mm: 1.71 and 1.80 in two views, the coil's last turns
+over each other more than a line width apart), none on seeds 0-19
+(multi-view) and 0-11 (chain).
 """
 
 from __future__ import annotations
