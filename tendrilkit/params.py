@@ -453,6 +453,7 @@ class Verification(_Strict):
     max_world_marker_px: PositiveFloat = 0.5
     min_junction_turn_deg: float = Field(60.0, ge=0, le=180)
     min_junction_line_px: NonNegFloat = 15.0
+    max_distal_widening: PositiveFloat = 1.5
 
 
 class Analysis(_Strict):

@@ -105,6 +105,7 @@ from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_br
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
 from tendrilkit.verify_tip import TIP_PX, on_wide, skeleton_to_curve_px, tip_continuation, tip_wide_fraction, wide_run_px
+from tendrilkit.verify_widen import MAX_DISTAL_WIDENING, distal_widening, distal_widening_message
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "verify_frame", "image_check_messages",
            "VERIFY_COLUMNS_FRAME"]
@@ -274,6 +275,12 @@ class Thresholds:
         the curve may run onto a second tendril where it touches the
         tendril (:mod:`tendrilkit.verify_branch` says how they were chosen).
         In the message only, like ``min_tip_object_px``.
+    max_distal_widening : float
+        Largest ratio of the width of the dark line under a distal stretch
+        of the curve (a point to the tip) to its width just before, in two
+        views or more: a tendril tapers, a leaf or a shoot the curve ran
+        onto is wider (:mod:`tendrilkit.verify_widen` says how it was
+        chosen). In the message only.
     max_world_marker_px : float
         Largest corner reprojection error of the world marker after the
         calibration's joint adjustment, px (0.5 px; also more than 3 times
@@ -310,6 +317,7 @@ class Thresholds:
     max_world_marker_px: float = 0.5
     min_junction_turn_deg: float = 60.0
     min_junction_line_px: float = 15.0
+    max_distal_widening: float = MAX_DISTAL_WIDENING
 
     @classmethod
     def from_params(cls, section) -> "Thresholds":
@@ -371,7 +379,8 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     extra : dict, optional
         Filled with the figures that are not columns of ``frames.csv``
         (``tip_object_px_v<i>``, :func:`tendrilkit.verify_object.tip_object_px`;
-        ``turn_branch_px_v<i>``, :func:`tendrilkit.verify_branch.turn_branch_px`).
+        ``turn_branch_px_v<i>``, :func:`tendrilkit.verify_branch.turn_branch_px`;
+        ``distal_widening_v<i>``, :func:`tendrilkit.verify_widen.distal_widening`).
 
     Returns
     -------
@@ -438,6 +447,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             if extra is not None:
                 extra[f"tip_object_px_v{v + 1}"] = tip_object_px(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO,
                                                                  reach_px=tip_object_reach_px)
+                extra[f"distal_widening_v{v + 1}"] = distal_widening(X, cam, ev, tol_px=tolerance_px)
                 extra[f"turn_branch_px_v{v + 1}"] = turn_branch_px(ev, dense, inside_px, radius_px, sk_dist,
                                                                    wide_ratio=WIDE_RATIO, cov_tol=coverage_tolerance_px,
                                                                    min_turn_deg=junction_turn_deg,
@@ -657,7 +667,8 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     to ``q`` (which may hold ``pwc_r2`` already); the messages are
     :func:`image_check_messages`' and those of the checks whose figures are
     not columns (:func:`tendrilkit.verify_object.tip_object_message`,
-    :func:`tendrilkit.verify_branch.turn_branch_message`).
+    :func:`tendrilkit.verify_branch.turn_branch_message`,
+    :func:`tendrilkit.verify_widen.distal_widening_message`).
 
     Parameters
     ----------
@@ -683,4 +694,5 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     msgs = image_check_messages(q, len(cameras), th)
     m = tip_object_message(extra, len(cameras), th.min_tip_object_px)
     j = turn_branch_message(extra, len(cameras))
-    return msgs + [x for x in (m, j) if x]
+    d = distal_widening_message(extra, len(cameras), th.max_distal_widening)
+    return msgs + [x for x in (m, j, d) if x]
