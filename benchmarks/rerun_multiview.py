@@ -19,10 +19,11 @@ pale``; ``cause`` as :mod:`benchmarks.diagnose_multiview`) and prints the
 issue's figures and the causes split by pale / not pale. Compare two tags
 with ``--compare TAG_BEFORE`` (the frames that changed).
 
-With ``--no-fit`` the piece-wise clothoid is not fitted: the curves are the
-same, a few statuses may differ (the fit's checks). Checked 2026-11-30 on dev
-seeds 0-27 (168 frames) against ``bench_generalize``'s own results: curves
-equal to 5e-5 mm, statuses equal on 162 of 168 frames without the fit.
+With ``--no-fit`` the piece-wise clothoid is not fitted (faster; the curves
+are the same). Checked 2026-11-30 on dev seeds 0-27 (168 frames) against
+``bench_generalize``'s own results: curves equal to 5e-5 mm; statuses equal on
+162 of 168 frames, with or without the fit (the other 6 not explained yet:
+take statuses from ``bench_generalize``).
 
 Seeds 0-9999 only (``bench_generalize``'s rule); this is for development, the
 figures that count are ``bench_generalize``'s.

@@ -35,7 +35,11 @@ Coverage (:func:`adjust_tip`)
     a tip cannot run along the medial axis of a leaf it touches. An
     extension that ends where two views' ROIs end is undone: it ran onto
     something hanging in from outside (a second tendril, a petiole), and
-    the tendril's tip is a free end inside every ROI.
+    the tendril's tip is a free end inside every ROI. Where the extension
+    stops because no two views see on (a leaf over the tendril in every
+    view), it crosses the gap to where every view sees the tendril again
+    (:func:`tendrilkit.mv_acquire.bridge_gap`, at most ``MAX_GAP_MM``) and
+    goes on from there; the nodes in the gap rest on the bending term.
 
 Tracking (:func:`reconstruct_multiview`)
     A frame starts from the previous frame's curve (identity carried in 3D),

@@ -377,20 +377,22 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
                coarse_px: float = 6.0) -> np.ndarray | None:
     """Where the tendril comes out again after a part that fewer than two views see (None: nowhere).
 
-    A tendril under a leaf in two views, or under two leaves, has a gap of
-    tens of millimetres in which no two views see it; past the gap two views
-    see it again. Straight chords from the tip within ``cone_deg`` of its
-    tangent are followed in steps of ``step_mm`` up to ``max_gap_mm``:
+    A tendril under a leaf in every view, or under leaves, has a gap in
+    which no two views see it; past the gap the views see it again. Straight
+    chords from the tip within ``cone_deg`` of its tangent are followed in
+    steps of ``step_mm`` up to ``max_gap_mm``:
 
     - the tip must end where two views or more do not see (covered by
-      something wider than a tendril, or outside their ROIs), not where they
+      something wider than a tendril, or outside their ROIs), not where two
       show the board (a free tip);
-    - a chord ends where a view shows the board on it (the tendril cannot
-      pass there unseen);
+    - a chord ends where two views show the board on it (the tendril cannot
+      pass there unseen; one view may, a pale tendril looking like the board);
     - its first place that two views see within ``coarse_px`` of skeleton
       pixels the curve has not explained is refined on a finer cone; it is
-      the gap's far end if two views then see it within ``ON_PX`` of their
-      skeletons. The nearest such place wins.
+      the gap's far end if every view then sees it within ``ON_PX`` of its
+      skeleton (two views alone agree on ghosts: any pixel of one view's
+      skeleton has an epipolar line that meets the other's somewhere). The
+      nearest such place wins.
 
     Parameters
     ----------
