@@ -35,7 +35,11 @@ Coverage (:func:`adjust_tip`)
     a tip cannot run along the medial axis of a leaf it touches. An
     extension that ends where two views' ROIs end is undone: it ran onto
     something hanging in from outside (a second tendril, a petiole), and
-    the tendril's tip is a free end inside every ROI.
+    the tendril's tip is a free end inside every ROI. Where the extension
+    stops because no two views see on (a leaf over the tendril in every
+    view), it crosses the gap to where every view sees the tendril again
+    (:func:`tendrilkit.mv_acquire.bridge_gap`, at most ``MAX_GAP_MM``) and
+    goes on from there; the nodes in the gap rest on the bending term.
 
 Tracking (:func:`reconstruct_multiview`)
     A frame starts from the previous frame's curve (identity carried in 3D),
@@ -62,7 +66,8 @@ from scipy.linalg import solveh_banded
 from tendrilkit.camera import Camera
 from tendrilkit.exceptions import DegenerateCurveError, TendrilLostError
 from tendrilkit.geometry import arc_length, resample_polyline, section_masks
-from tendrilkit.mv_acquire import ON_PX, TURN_PX, advance, claim, cone_directions, grow_curve, point_costs, runs_out
+from tendrilkit.mv_acquire import (ON_PX, TURN_PX, advance, bridge_gap, claim, cone_directions, grow_curve, point_costs,
+                                  runs_out)
 from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
 from tendrilkit.triangulation import triangulate
 
@@ -74,6 +79,11 @@ __all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "re
 #: A curve shorter than this (mm) that runs out of two views' ROIs is a stem stub, not the tendril: the marks put
 #: the tendril inside every ROI, and it is tens of millimetres long.
 STUB_MM = 20.0
+#: The tip's extension crosses at most this many gaps that no two views see (a tendril under leaves), each
+#: up to ``MAX_GAP_MM`` long; past a gap it must go on along two views for ``BRIDGE_CONFIRM_MM``.
+MAX_BRIDGES = 2
+MAX_GAP_MM = 15.0
+BRIDGE_CONFIRM_MM = 3.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -276,32 +286,59 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     lag = int(round(3.0 / step_mm))
     if np.isfinite(max_length_mm):  # tracking: the tip may have moved far since the last processed frame
         max_extend_mm = max(max_extend_mm, max_length_mm - s_[-1])
-    for _ in range(int(max_extend_mm / step_mm)):
-        if s_[-1] + step_mm * (len(ext) + 1) > max_length_mm:
+    ext_mm = 0.0  # arc length added
+    budget_mm = max_extend_mm  # the extension's end: past a gap, a new extension of max_extend_mm
+    bridges = 0
+    while True:
+        stopped = False  # by the evidence (not by a length limit)
+        while ext_mm + step_mm <= budget_mm + 1e-9:
+            if s_[-1] + ext_mm + step_mm > max_length_mm:
+                break
+            dirs = cone_directions(t, 30.0, 3)
+            P = tip + step_mm * dirs
+            d, seen, near, bg = point_costs(evidence, P, nearest=True)
+            on = seen & (d <= ON_PX) & ~bg.any(axis=0)
+            if claims is not None and s_[-1] + ext_mm + step_mm > prior_mm:
+                for v, c in enumerate(claims):
+                    on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
+            on &= advance(evidence, np.repeat(tip[None], len(P), axis=0), P)
+            ok = on.sum(axis=0) >= 2
+            if not ok.any():
+                stopped = True
+                break
+            cost = np.where(ok, (d * seen).sum(0) / np.maximum(seen.sum(0), 1), np.inf)
+            # bending, as in the acquisition: where the views cannot tell the directions apart (the tangent in
+            # the plane of the camera centres) the tip goes straight on instead of wandering in that plane
+            # (a wandering extension is too long, and the refit buckles it: mm off, on the skeleton in every view)
+            cost = cost + TURN_PX * (np.degrees(np.arccos(np.clip(dirs @ t, -1.0, 1.0))) / 30.0) ** 2
+            i = int(np.argmin(cost))
+            tip = P[i]
+            t = 0.7 * t + 0.3 * dirs[i]
+            t /= np.linalg.norm(t)
+            ext.append(tip)
+            ext_mm += step_mm
+            if len(ext) > lag:
+                claims = claim(evidence, claims, np.asarray(ext[-lag - 2:-lag]))
+        if bridges and len(ext) - bridged_at < BRIDGE_CONFIRM_MM / step_mm:
+            # the far end of the last gap did not lead on along two views: not the tendril coming out again
+            del ext[bridged_at - 1:]
             break
-        dirs = cone_directions(t, 30.0, 3)
-        P = tip + step_mm * dirs
-        d, seen, near, bg = point_costs(evidence, P, nearest=True)
-        on = seen & (d <= ON_PX) & ~bg.any(axis=0)
-        if claims is not None and s_[-1] + step_mm * (len(ext) + 1) > prior_mm:
-            for v, c in enumerate(claims):
-                on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
-        on &= advance(evidence, np.repeat(tip[None], len(P), axis=0), P)
-        ok = on.sum(axis=0) >= 2
-        if not ok.any():
+        if not stopped or bridges == MAX_BRIDGES:
             break
-        cost = np.where(ok, (d * seen).sum(0) / np.maximum(seen.sum(0), 1), np.inf)
-        # bending, as in the acquisition: where the views cannot tell the directions apart (the tangent in
-        # the plane of the camera centres) the tip goes straight on instead of wandering in that plane
-        # (a wandering extension is too long, and the refit buckles it: mm off, on the skeleton in every view)
-        cost = cost + TURN_PX * (np.degrees(np.arccos(np.clip(dirs @ t, -1.0, 1.0))) / 30.0) ** 2
-        i = int(np.argmin(cost))
-        tip = P[i]
-        t = 0.7 * t + 0.3 * dirs[i]
-        t /= np.linalg.norm(t)
+        room = min(MAX_GAP_MM, max_length_mm - s_[-1] - ext_mm)
+        far = bridge_gap(evidence, np.asarray(X + ext, float), t, max_gap_mm=room) if room >= 2.0 else None
+        if far is None:
+            break
+        gap = float(np.linalg.norm(far - tip))
+        t = (far - tip) / gap
+        tip = far
         ext.append(tip)
-        if len(ext) > lag:
-            claims = claim(evidence, claims, np.asarray(ext[-lag - 2:-lag]))
+        ext_mm += gap
+        budget_mm = ext_mm + max_extend_mm
+        bridges += 1
+        bridged_at = len(ext)
+        # past the gap the tip explains new pixels only (the curve up to the gap's near end claims its own)
+        claims = claim(evidence, claims, resample_polyline(np.asarray(X + ext[:-1], float), step=0.25))
     if ext and runs_out(evidence, [np.asarray(X + ext, float)], 2.0)[0] \
             and not runs_out(evidence, [np.asarray(X, float)], 2.0)[0]:
         # the extension ends where two views stop seeing (their ROIs' edge): it ran onto something hanging in

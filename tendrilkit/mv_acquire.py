@@ -34,9 +34,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from tendrilkit.geometry import resample_polyline
 from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
 
-__all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out"]
+__all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap"]
 
 #: A point's distance to a view's skeleton is capped at this (pixels).
 CAP_PX = 10.0
@@ -369,6 +370,91 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     inside = [e for e, c, n in zip(ends, cut, length) if not c and n >= 0.5 * length.max()]
     best = min(inside or ends, key=lambda t: t[1])
     return np.asarray(best[0], float)
+
+
+def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: np.ndarray, *,
+               max_gap_mm: float = 40.0, cone_deg: float = 75.0, step_mm: float = 1.0,
+               coarse_px: float = 6.0) -> np.ndarray | None:
+    """Where the tendril comes out again after a part that fewer than two views see (None: nowhere).
+
+    A tendril under a leaf in every view, or under leaves, has a gap in
+    which no two views see it; past the gap the views see it again. Straight
+    chords from the tip within ``cone_deg`` of its tangent are followed in
+    steps of ``step_mm`` up to ``max_gap_mm``:
+
+    - the tip must end where two views or more do not see (covered by
+      something wider than a tendril, or outside their ROIs), not where two
+      show the board (a free tip);
+    - a chord ends where two views show the board on it (the tendril cannot
+      pass there unseen; one view may, a pale tendril looking like the board);
+    - its first place that two views see within ``coarse_px`` of skeleton
+      pixels the curve has not explained is refined on a finer cone; it is
+      the gap's far end if every view then sees it within ``ON_PX`` of its
+      skeleton (two views alone agree on ghosts: any pixel of one view's
+      skeleton has an epipolar line that meets the other's somewhere). The
+      nearest such place wins.
+
+    Parameters
+    ----------
+    evidence : list of SkeletonEvidence
+    curve_mm : (m, 3) float array
+        The curve so far, base first, its tip last: the skeleton pixels it
+        explains (:func:`claim`) are not a far end.
+    tangent : (3,) float array
+        Direction of the curve at the tip.
+    max_gap_mm, cone_deg, step_mm, coarse_px : float
+
+    Returns
+    -------
+    (3,) float array or None
+        The gap's far end, world mm.
+    """
+    curve = np.asarray(curve_mm, float)
+    tip = curve[-1]
+    t = np.asarray(tangent, float) / max(np.linalg.norm(tangent), 1e-12)
+    # the tip must end in a place two views do not see (not on the board: a free tip ends there)
+    near_dirs = cone_directions(t, 30.0, 2)
+    Q = (tip + near_dirs[:, None, :] * np.array([1.0, 2.0])[None, :, None]).reshape(-1, 3)
+    _, seen_q, _, bg_q = point_costs(evidence, Q, nearest=True)
+    hidden = (~seen_q).sum(axis=0) >= 2
+    if not np.any(hidden & (bg_q.sum(axis=0) < 2)):
+        return None
+    claims = claim(evidence, None, resample_polyline(curve, step=0.25))
+    dirs = cone_directions(t, cone_deg, 8)
+    r = np.arange(step_mm, max_gap_mm + 1e-9, step_mm)
+    P = (tip + dirs[:, None, :] * r[None, :, None]).reshape(-1, 3)
+    d, seen, near, bg = point_costs(evidence, P, nearest=True)
+    new = seen & (d <= coarse_px)
+    for v, c in enumerate(claims):
+        new[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
+    shape = (len(dirs), len(r))
+    hit = (new.sum(axis=0) >= 2).reshape(shape)
+    blocked = (bg.sum(axis=0) >= 2).reshape(shape)
+    # along each chord: the first hit before anything blocks it
+    first_block = np.where(blocked.any(axis=1), blocked.argmax(axis=1), len(r))
+    first_hit = np.where(hit.any(axis=1), hit.argmax(axis=1), len(r))
+    ok = first_hit < first_block
+    if not ok.any():
+        return None
+    best = None
+    for k in np.flatnonzero(ok)[np.argsort(first_hit[ok], kind="stable")][:6]:
+        centre = dirs[k]
+        fine_dirs = cone_directions(centre, np.degrees(np.arctan2(2.0 * step_mm, r[first_hit[k]])), 3)
+        rr = r[first_hit[k]] + np.arange(-1.0, 1.01, 0.25) * step_mm
+        F = (tip + fine_dirs[:, None, :] * rr[None, :, None]).reshape(-1, 3)
+        df, sf, nf, bf = point_costs(evidence, F, nearest=True)
+        on = sf & (df <= ON_PX) & ~bf.any(axis=0)
+        for v, c in enumerate(claims):
+            on[v] &= ~((nf[v] >= 0) & c[np.maximum(nf[v], 0)])
+        good = on.sum(axis=0) == len(evidence)  # every view sees it on its skeleton: not a ghost of two views
+        if not good.any():
+            continue
+        cost = np.where(good, (df * sf).sum(axis=0) / np.maximum(sf.sum(axis=0), 1), np.inf)
+        i = int(np.argmin(cost))
+        gap = float(np.linalg.norm(F[i] - tip))
+        if best is None or gap < best[0] - 1e-9:
+            best = (gap, F[i])
+    return None if best is None else best[1]
 
 
 def runs_out(evidence: list[SkeletonEvidence], curves: list[np.ndarray], step_mm: float) -> np.ndarray:

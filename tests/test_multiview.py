@@ -319,3 +319,28 @@ def test_beam_cell_keeps_the_best_and_the_best_heading_against_it():
     # cell (1,0,0): 4 alone
     assert _one_per_cell_and_way(P, dirs / np.linalg.norm(dirs, axis=1, keepdims=True), 3.0).tolist() == [0, 2, 4]
     assert _one_per_cell_and_way(np.zeros((0, 3)), np.zeros((0, 3)), 3.0).tolist() == []
+
+
+
+def test_bridge_gap_finds_where_a_leaf_hiding_the_tendril_ends():
+    """A leaf lies over 13 mm of the tendril in every view. From the curve up to the leaf's edge the gap's far
+    end is found on the tendril past the leaf (every view sees it again); from the true tip (a free end over the
+    board) there is no gap to cross."""
+    from tendrilkit.mv_acquire import bridge_gap
+
+    s = np.linspace(0.0, 1.0, 2000)
+    X = np.c_[-5 + 70 * s, 5 * np.sin(2 * s), 20 + 3 * s]
+    images, cams, exp = render_tube_views(X, width_px=9, margin_px=40)
+    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
+    c = X[np.searchsorted(arc, 35.0)]
+    for img, cam in zip(images, cams):  # a disc of 6.5 mm radius (in the image) centred on the tendril at 35 mm
+        r_px = float(np.linalg.norm(cam.project(X[np.searchsorted(arc, 41.5)][None]) - cam.project(c[None])))
+        u = cam.project(c[None])[0]
+        cv2.circle(img, (int(round(u[0])), int(round(u[1]))), int(round(r_px)), (30, 60, 30), -1)
+    evs = _evidence(images, cams, exp)
+    k = np.searchsorted(arc, 30.5)  # the curve so far ends where the views stop seeing it (31-39 mm: hidden)
+    far = bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0)
+    assert far is not None
+    d, i = cKDTree(X).query(far)
+    assert d <= 1.0 and 38.0 <= arc[i] <= 42.0, (d, arc[i])
+    assert bridge_gap(evs, X, X[-1] - X[-40], max_gap_mm=15.0) is None
