@@ -12,6 +12,7 @@ and smooth across the curve.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numba import njit
@@ -91,6 +92,11 @@ class SkeletonEvidence:
     seen: np.ndarray
     inside_px: np.ndarray
     camera: Camera
+
+    @cached_property
+    def _grid(self):
+        """:func:`_skeleton_grid` of ``skeleton_xy``: the nearest skeleton pixel of a point without the k-d tree."""
+        return _skeleton_grid(self.skeleton_xy, self.offset_xy, self.seen.shape)
 
 
 def skeleton_evidence(ev: ViewEvidence, camera: Camera) -> SkeletonEvidence:
@@ -172,17 +178,14 @@ def skeleton_distance(ev: SkeletonEvidence, points_xy: np.ndarray, *, outside_px
     """
     p = np.asarray(points_xy, float)
     h, w = ev.seen.shape
-    ok = _inside(p, ev.offset_xy.astype(float), h, w)
-    if ok.all():
-        dd, idx = ev.tree.query(p, distance_upper_bound=outside_px)
-    elif ok.any():
-        dd = np.full(len(p), np.inf)
-        idx = np.full(len(p), len(ev.skeleton_xy))
-        dd[ok], idx[ok] = ev.tree.query(p[ok], distance_upper_bound=outside_px)
-    else:
-        dd, idx = np.full(len(p), np.inf), np.full(len(p), len(ev.skeleton_xy))
+    off = ev.offset_xy.astype(float)
+    ok = _inside(p, off, h, w)
+    start, items, cell = ev._grid
+    idx, tie = _grid_nearest(p, ok, ev.skeleton_xy, off, start, items, cell, float(outside_px))
+    if tie.any():  # two skeleton pixels equally near: the k-d tree's choice, as before the grid
+        idx[tie] = ev.tree.query(p[tie], distance_upper_bound=outside_px)[1]
     d, g, seen, nearest, background, covered = _line_distance(
-        p, ok, dd, idx, ev.offset_xy.astype(float), ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground,
+        p, ok, idx, off, ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground,
         ev.inside_px, float(outside_px), COVER_DEPTH_PX, COVER_PX)
     return (d, g, seen, nearest, background, covered) if index else (d, g, seen)
 
@@ -199,9 +202,9 @@ def _inside(p, off, h, w):
 
 
 @njit(cache=True)
-def _line_distance(p, ok, dd, idx, off, centre, tangent, seen_px, near_fg, inside_px, outside_px, cover_depth_px,
+def _line_distance(p, ok, idx, off, centre, tangent, seen_px, near_fg, inside_px, outside_px, cover_depth_px,
                    cover_px):
-    """:func:`skeleton_distance` from the k-d tree's nearest skeleton pixel of every point on the crop.
+    """:func:`skeleton_distance` from the nearest skeleton pixel ``idx`` (-1: none) of every point on the crop.
 
     Point by point, the arithmetic of the whole-array expressions it replaces, in the same order (bit for bit).
     """
@@ -215,8 +218,8 @@ def _line_distance(p, ok, dd, idx, off, centre, tangent, seen_px, near_fg, insid
     for i in range(n):
         if not ok[i]:
             continue
-        if np.isfinite(dd[i]):
-            j = idx[i]
+        j = idx[i]
+        if j >= 0:
             # distance to the local line piece of the nearest skeleton pixel, beyond its ends to the piece
             d0 = p[i, 0] - centre[j, 0]
             d1 = p[i, 1] - centre[j, 1]
@@ -245,3 +248,86 @@ def _line_distance(p, ok, dd, idx, off, centre, tangent, seen_px, near_fg, insid
         background[i] = s and not near_fg[yi, xi]
         covered[i] = s and inside_px[yi, xi] >= cover_depth_px and d[i] > cover_px
     return d, g, seen, nearest, background, covered
+
+
+#: Side of the cells of :attr:`SkeletonEvidence._grid`, pixels.
+GRID_PX = 4
+
+
+def _skeleton_grid(xy: np.ndarray, off: np.ndarray, shape: tuple[int, int]):
+    """The skeleton pixels ``xy`` (k, 2) bucketed in square cells of :data:`GRID_PX` over the crop.
+
+    Returns ``start`` ((rows, cols + 1) int array: the rows of ``items`` of cell (r, c) are
+    ``start[r, c]:start[r, c + 1]``, flattened row by row), ``items`` (k,) the skeleton pixels' rows sorted by cell
+    then row, and the cell side.
+    """
+    h, w = shape
+    rows, cols = h // GRID_PX + 2, w // GRID_PX + 2
+    cx = np.clip(((xy[:, 0] - off[0]) // GRID_PX).astype(np.int64), 0, cols - 1)
+    cy = np.clip(((xy[:, 1] - off[1]) // GRID_PX).astype(np.int64), 0, rows - 1)
+    key = cy * cols + cx
+    items = np.argsort(key, kind="stable")
+    counts = np.bincount(key, minlength=rows * cols)
+    start = np.zeros(rows * cols + 1, np.int64)
+    start[1:] = np.cumsum(counts)
+    return start, items, np.array([GRID_PX, rows, cols], np.int64)
+
+
+@njit(cache=True)
+def _grid_nearest(p, ok, xy, off, start, items, cell, upper):
+    """Row of ``xy`` nearest every point ``p`` (n, 2) with ``ok`` (-1: none nearer than ``upper``), and ties.
+
+    Exact: the cells are searched in square rings around the point's cell until no cell farther out can hold a
+    pixel as near as the best (squared distances ``dx * dx + dy * dy`` and the strict ``< upper ** 2``
+    of :meth:`scipy.spatial.cKDTree.query`). ``tie``: another pixel is exactly as near (the caller asks the
+    k-d tree, whose choice among equals is its own).
+    """
+    S, rows, cols = cell[0], cell[1], cell[2]
+    n = len(p)
+    out = np.full(n, -1)
+    tie = np.zeros(n, np.bool_)
+    ub2 = upper ** 2.0
+    for i in range(n):
+        if not ok[i]:
+            continue
+        qx, qy = p[i, 0], p[i, 1]
+        ux = qx - off[0]
+        uy = qy - off[1]
+        cx = min(max(int(np.floor(ux / S)), 0), cols - 1)
+        cy = min(max(int(np.floor(uy / S)), 0), rows - 1)
+        best = ub2
+        bi = -1
+        eq = False
+        r = 0
+        while True:
+            for yy in range(max(cy - r, 0), min(cy + r, rows - 1) + 1):
+                edge = yy == cy - r or yy == cy + r
+                step = 1 if edge else 2 * r
+                xx = cx - r
+                while xx <= cx + r:
+                    if 0 <= xx < cols:
+                        k = yy * cols + xx
+                        for m in range(start[k], start[k + 1]):
+                            j = items[m]
+                            dx = qx - xy[j, 0]
+                            dy = qy - xy[j, 1]
+                            d2 = dx * dx + dy * dy
+                            if d2 < best:
+                                best = d2
+                                bi = j
+                                eq = False
+                            elif d2 == best and bi >= 0:
+                                eq = True
+                    if step == 0:
+                        break
+                    xx += step
+            # nearest place outside the searched block of cells
+            gap = min(ux - (cx - r) * S, (cx + r + 1) * S - ux, uy - (cy - r) * S, (cy + r + 1) * S - uy)
+            if cx - r <= 0 and cy - r <= 0 and cx + r >= cols - 1 and cy + r >= rows - 1:
+                break
+            if gap > 0 and gap * gap > best:
+                break
+            r += 1
+        out[i] = bi
+        tie[i] = eq
+    return out, tie
