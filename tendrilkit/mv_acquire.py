@@ -34,7 +34,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
+from numba import njit
+
+from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, skeleton_distance
 
 __all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out"]
 
@@ -163,10 +165,31 @@ def claim(evidence: list[SkeletonEvidence], claims: list[np.ndarray] | None, P_m
     P = np.asarray(P_mm, float).reshape(-1, 3)
     for ev, c in zip(evidence, claims):
         c = c.copy()
-        u = ev.camera.project(P)
-        for idx in ev.tree.query_ball_point(u, radius_px):
-            c[idx] = True
+        mark_near(ev, c, ev.camera.project(P), radius_px)
         out.append(c)
+    return out
+
+
+@njit(cache=True)
+def _nearest_distance(P, Q):
+    """(n,) distance of each point P (n, 3) to the nearest of Q (m, 3), m >= 1.
+
+    ``np.min(np.linalg.norm(P[:, None] - Q[None], axis=2), axis=1)`` without the (n, m, 3) arrays: the squares
+    summed in order as numpy's reduction does, bit for bit.
+    """
+    out = np.empty(len(P))
+    for i in range(len(P)):
+        best = np.inf
+        for j in range(len(Q)):
+            a = P[i, 0] - Q[j, 0]
+            b = P[i, 1] - Q[j, 1]
+            c = P[i, 2] - Q[j, 2]
+            d = np.sqrt(a * a + b * b + c * c)
+            if d < best or np.isnan(d):
+                best = d
+                if np.isnan(d):
+                    break
+        out[i] = best
     return out
 
 
@@ -311,7 +334,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             if len(nodes) > 6:
                 old = np.asarray(nodes[:-5])
                 sel = slice(h * len(local), (h + 1) * len(local))
-                dd = np.min(np.linalg.norm(pts[sel][:, None, :] - old[None], axis=2), axis=1)
+                dd = _nearest_distance(pts[sel], old)
                 cost[sel] += np.where(dd < 1.2, 5.0, 0.0)
         tail = np.where(confirmed, 0, np.array([h[2] for h in hyps])[own] + 1)
         # steps no two views see (keep-out box, occlusion): at most max_unseen_steps in a row; steps the views
@@ -344,11 +367,10 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             P = np.vstack([parents[k][0][-3] + f * (parents[k][0][-2] - parents[k][0][-3]) for k in grown])
             new_claims = {k: [] for k in grown}
             for v, ev in enumerate(evidence):
-                near = ev.tree.query_ball_point(ev.camera.project(P), 4.0)
+                u = ev.camera.project(P)
                 for j, k in enumerate(grown):
                     c = parents[k][4][v].copy()
-                    for lst in near[5 * j:5 * j + 5]:
-                        c[lst] = True
+                    mark_near(ev, c, u[5 * j:5 * j + 5], 4.0)
                     new_claims[k].append(c)
             for k in grown:
                 claims[k] = new_claims[k]

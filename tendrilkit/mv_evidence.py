@@ -22,7 +22,7 @@ from tendrilkit.camera import Camera
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
 
-__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
+__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance", "mark_near", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
 
 #: A place ``COVER_DEPTH_PX`` or more inside a dark region (pixels from the board) and farther than
 #: ``COVER_PX`` from the skeleton is covered in that view (a leaf or the stem in front of or behind the
@@ -331,3 +331,38 @@ def _grid_nearest(p, ok, xy, off, start, items, cell, upper):
         out[i] = bi
         tie[i] = eq
     return out, tie
+
+
+def mark_near(ev: SkeletonEvidence, marked: np.ndarray, points_xy: np.ndarray, radius_px: float) -> None:
+    """Set ``marked`` (k,) bool, one per row of ``ev.skeleton_xy``, True for the skeleton pixels within
+    ``radius_px`` (inclusive) of any of ``points_xy`` (n, 2) full-image pixels (NaN rows ignored), in place.
+
+    The pixels :meth:`scipy.spatial.cKDTree.query_ball_point` of ``ev.tree`` returns (squared distances
+    ``dx * dx + dy * dy <= radius_px ** 2``), from the cells of :attr:`SkeletonEvidence._grid`.
+    """
+    start, items, cell = ev._grid
+    _mark_near(np.asarray(points_xy, float).reshape(-1, 2), ev.skeleton_xy, ev.offset_xy.astype(float), start,
+               items, cell, float(radius_px), marked)
+
+
+@njit(cache=True)
+def _mark_near(p, xy, off, start, items, cell, radius, marked):
+    S, rows, cols = cell[0], cell[1], cell[2]
+    r2 = radius ** 2.0
+    for i in range(len(p)):
+        qx, qy = p[i, 0], p[i, 1]
+        if not (np.isfinite(qx) and np.isfinite(qy)):
+            continue
+        x0 = max(int(np.floor((qx - off[0] - radius) / S)) - 1, 0)
+        x1 = min(int(np.floor((qx - off[0] + radius) / S)) + 1, cols - 1)
+        y0 = max(int(np.floor((qy - off[1] - radius) / S)) - 1, 0)
+        y1 = min(int(np.floor((qy - off[1] + radius) / S)) + 1, rows - 1)
+        for yy in range(y0, y1 + 1):
+            for xx in range(x0, x1 + 1):
+                k = yy * cols + xx
+                for m in range(start[k], start[k + 1]):
+                    j = items[m]
+                    dx = qx - xy[j, 0]
+                    dy = qy - xy[j, 1]
+                    if dx * dx + dy * dy <= r2:
+                        marked[j] = True
