@@ -7,6 +7,13 @@ is not a tendril's centre line: :data:`WIDE_PX`) go into a k-d tree, and
 every pixel gets the mean and the principal direction of its neighbours within 3.5 px, so that the distance of
 a projected point to the skeleton (:func:`skeleton_distance`) is sub-pixel
 and smooth across the curve.
+
+Speed: the fit and the acquisition ask for the nearest skeleton pixel of a few
+hundred thousand points per frame. :func:`skeleton_distance` and
+:func:`mark_near` find them on a grid of :data:`GRID_PX` cells (compiled),
+with the k-d tree's arithmetic (squared distances, its strict and inclusive
+bounds; ties between equally near pixels are left to the k-d tree): the same
+pixels, about 3 times faster than the k-d tree's queries on 37-150 points.
 """
 
 from __future__ import annotations
