@@ -436,7 +436,7 @@ def curve_support(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, tol_px:
         pts = np.round(u[np.all(np.isfinite(u), axis=1)] * 4).astype(np.int32)
         cv2.polylines(drawn, [pts], False, 1, int(2 * tol_px + 1), cv2.LINE_8, 2)
         skel = ev.skeleton.astype(np.uint8)
-        n, lab = cv2.connectedComponents(skel, connectivity=8)
+        lab = ev.skeleton_labels
         near = (drawn > 0) & (skel > 0)
         touched = np.unique(lab[near])
         touched = touched[touched > 0]

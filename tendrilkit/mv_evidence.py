@@ -102,6 +102,11 @@ class SkeletonEvidence:
     camera: Camera
 
     @cached_property
+    def skeleton_labels(self) -> np.ndarray:
+        """(h, w) int32: the 8-connected components of ``skeleton`` (0: none), computed once, when first read."""
+        return cv2.connectedComponents(self.skeleton.astype(np.uint8), connectivity=8)[1]
+
+    @cached_property
     def _grid(self):
         """:func:`_skeleton_grid` of ``skeleton_xy``: the nearest skeleton pixel of a point without the k-d tree."""
         return _skeleton_grid(self.skeleton_xy, self.offset_xy, self.seen.shape)
