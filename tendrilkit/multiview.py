@@ -443,8 +443,8 @@ def curve_support(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, tol_px:
         if len(touched) == 0:
             cov[v] = 0.0 if seen[v].any() else np.nan
             continue
-        comp = np.isin(lab, touched) & ev.seen
-        cov[v] = float(np.count_nonzero(near & ev.seen) / max(np.count_nonzero(comp), 1))
+        comp = int(ev.skeleton_seen_px[touched].sum())  # the seen skeleton pixels of the touched components
+        cov[v] = float(np.count_nonzero(near & ev.seen) / max(comp, 1))
     return prec, cov
 
 

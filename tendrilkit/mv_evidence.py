@@ -107,6 +107,12 @@ class SkeletonEvidence:
         return cv2.connectedComponents(self.skeleton.astype(np.uint8), connectivity=8)[1]
 
     @cached_property
+    def skeleton_seen_px(self) -> np.ndarray:
+        """(n_labels,) int: per component of ``skeleton_labels``, its pixels the view sees (``seen``); computed once."""
+        lab = self.skeleton_labels
+        return np.bincount(lab[self.seen], minlength=int(lab.max()) + 1)
+
+    @cached_property
     def _grid(self):
         """:func:`_skeleton_grid` of ``skeleton_xy``: the nearest skeleton pixel of a point without the k-d tree."""
         return _skeleton_grid(self.skeleton_xy, self.offset_xy, self.seen.shape)
