@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/bench_throughput.py            # everything (a few minutes)
     .venv/bin/python benchmarks/bench_throughput.py sequence   # 1. only
+    .venv/bin/python benchmarks/bench_throughput.py sequence --method multiview  # 1. by another method
     .venv/bin/python benchmarks/bench_throughput.py scaling    # 2. only
 
 1. A 60-frame S3 phantom (three 1080p views, self-crossings), the default
@@ -13,7 +14,8 @@
    ``--workers 1`` runs it) plus writing the results (a JSON file per frame,
    the tables), and the same with ``frames.step: 3`` (skipped frames grabbed,
    not converted to images; what a skipped frame costs, grab() against read(),
-   is printed too). Prints the ratio to decoding (target: at most 4x),
+   is printed too). ``--method chain|multiview`` sets ``reconstruction.method``
+   (default: the experiment file's, i.e. the default method). Prints the ratio to decoding (target: at most 4x),
    frames per second (target: at least 10), the mean cost of every stage, and
    the same figures with the piece-wise clothoid fit at its target (5 ms),
    and how the verification splits between the views' evidence
@@ -158,12 +160,13 @@ def write_results(exp, results, out: Path) -> tuple[float, float]:
 
 
 #: The stages of :func:`tendrilkit.pipeline.reconstruct_frame`'s timings, in the order of the method.
-STAGES = ("segment", "order", "match", "triangulate", "base", "resample", "reprojection", "pwc", "verify")
+STAGES = ("evidence", "segment", "order", "match", "triangulate", "multiview", "base", "resample", "reprojection", "pwc",
+          "verify")
 #: The piece-wise clothoid fit's cost once issue 17's fit is in (about 5 ms, ``bench_pwc.py``), for the projection.
 FIT_TARGET_S = 0.005
 
 
-def sequence(site: str = "S3", n_frames: int = 60) -> None:
+def sequence(site: str = "S3", n_frames: int = 60, method: str | None = None) -> None:
     from tendrilkit.extrinsics import calibrate_experiment
     from tendrilkit.params import load_experiment
     from tendrilkit.phantom import write_phantom_experiment
@@ -171,6 +174,8 @@ def sequence(site: str = "S3", n_frames: int = 60) -> None:
     tmp = Path(tempfile.mkdtemp(prefix="bench_throughput_"))
     print(f"1. {site} phantom, {n_frames} frames: writing the experiment ...", flush=True)
     exp = load_experiment(write_phantom_experiment(site, tmp, n_frames=n_frames, seed=0))
+    if method is not None:
+        exp = exp.model_copy(update={"reconstruction": exp.reconstruction.model_copy(update={"method": method})})
     cameras = calibrate_experiment(exp).cameras
     _warm_up(True)
     frames = list(range(n_frames))
@@ -194,7 +199,8 @@ def sequence(site: str = "S3", n_frames: int = 60) -> None:
                 stages.setdefault(k, []).append(v)
         n_ok = sum(r.status == "ok" for r in results)
         rows.append((step, len(sel), dec_w, dec_c, loop_w, loop_c, wr_w, wr_c, n_ok, stages, ev_c))
-    print(f"   views {len(exp.videos)} x {int(w)} px wide, {exp.points} points, one core "
+    print(f"   reconstruction.method {exp.reconstruction.method}; "
+          f"views {len(exp.videos)} x {int(w)} px wide, {exp.points} points, one core "
           f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
     for step, n, dec_w, dec_c, loop_w, loop_c, wr_w, wr_c, n_ok, stages, ev_c in rows:
         tot_c, tot_w = loop_c + wr_c, loop_w + wr_w
@@ -314,9 +320,18 @@ def scaling() -> None:
 
 def main(argv: list[str]) -> None:
     cv2.setNumThreads(1)
+    method = None
+    if "--method" in argv:
+        i = argv.index("--method")
+        if i + 1 >= len(argv) or argv[i + 1] not in ("chain", "multiview"):
+            raise SystemExit("--method takes chain or multiview")
+        method = argv[i + 1]
+        argv = argv[:i] + argv[i + 2:]
     what = argv[0] if argv else "all"
+    if what not in ("all", "sequence", "scaling"):
+        raise SystemExit(f"unknown part {what!r}: all, sequence or scaling")
     if what in ("all", "sequence"):
-        sequence()
+        sequence(method=method)
     if what in ("all", "scaling"):
         scaling()
 

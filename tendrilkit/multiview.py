@@ -61,6 +61,7 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
+from numba import njit
 from scipy.linalg import solveh_banded
 
 from tendrilkit.camera import Camera
@@ -134,11 +135,74 @@ def base_point_from_marks(base_points_xy: list, cameras: list[Camera], *, max_px
 
 
 def _bending_blocks(n: int) -> np.ndarray:
-    """(D2^T D2) of the second difference on ``n`` nodes as banded upper rows (3, n) (bandwidth 2)."""
-    D = np.zeros((n, n))
-    for i in range(1, n - 1):
-        D[i - 1:i + 2, i - 1:i + 2] += np.outer([1, -2, 1], [1, -2, 1])
-    return np.stack([np.r_[np.zeros(2), np.diagonal(D, 2)], np.r_[0.0, np.diagonal(D, 1)], np.diagonal(D)])
+    """(D2^T D2) of the second difference on ``n`` nodes as banded upper rows (3, n) (bandwidth 2).
+
+    The sums of the ``n - 2`` stencils' outer products ``[1, -2, 1]^T [1, -2, 1]``, written directly (small
+    integers: exact): diagonal 1, 5, 6, ..., 6, 5, 1; first off-diagonal -2, -4, ..., -4, -2; second 1.
+    """
+    diag, off1, off2 = np.zeros(n), np.zeros(n - 1), np.zeros(n - 2)
+    k = np.arange(1, n - 1)  # the stencils' centres
+    np.add.at(diag, k - 1, 1.0)
+    np.add.at(diag, k, 4.0)
+    np.add.at(diag, k + 1, 1.0)
+    np.add.at(off1, k - 1, -2.0)
+    np.add.at(off1, k, -2.0)
+    off2[:] = 1.0
+    return np.stack([np.r_[np.zeros(2), off2], np.r_[0.0, off1], diag])
+
+
+@njit(cache=True)
+def _add_view(Hd, g, d, gd, seen, J, huber_px, cap):
+    """Add one view's Huber-weighted Gauss-Newton terms to ``Hd`` (n, 3, 3) and ``g`` (n, 3), in place.
+
+    Per node: the weight ``w`` (1 within ``huber_px``, ``huber_px / d`` beyond; 0 unseen or beyond ``cap``),
+    the row ``gd^T J`` (3,), ``Hd += w row row^T``, ``g += w d row`` (the arithmetic of the numpy expressions it
+    replaced, in the same order: bit for bit).
+    """
+    row = np.empty(3)
+    for k in range(len(d)):
+        w = 1.0 if d[k] <= huber_px else huber_px / max(d[k], 1e-9)
+        w = w * (1.0 if (seen[k] and d[k] <= cap) else 0.0)
+        for i in range(3):
+            acc = 0.0
+            acc += gd[k, 0] * J[k, 0, i]
+            acc += gd[k, 1] * J[k, 1, i]
+            row[i] = acc
+        wd = w * d[k]
+        for i in range(3):
+            for j in range(3):
+                Hd[k, i, j] += w * (row[i] * row[j])
+            g[k, i] += wd * row[i]
+
+
+@njit(cache=True)
+def _banded_normal(Hd, tt, bend):
+    """The normal matrix as upper banded rows (9, 3n) for ``solveh_banded``: node blocks ``Hd`` (n, 3, 3),
+    between nodes i and i+1 ``-tt[i]`` (n-1, 3, 3), plus bending ``bend`` (3, n) kron I3; the diagonal lifted
+    (see :func:`refine_curve`). Each entry summed in the order of the numpy code it replaced (bit for bit)."""
+    n = Hd.shape[0]
+    N = 3 * n
+    ab = np.zeros((9, N))
+    for i in range(n):
+        for a in range(3):
+            for b in range(a, 3):
+                ab[8 - (b - a), 3 * i + b] += Hd[i, a, b]
+    for i in range(1, n):
+        for a in range(3):
+            for b in range(3):
+                ab[8 - (3 + b - a), 3 * i + b] -= tt[i - 1, a, b]
+    for k in range(3):
+        for c in range(N):
+            ab[8 - 3 * k, c] += bend[2 - k, c // 3]
+    m = ab[8, 0]
+    for c in range(1, N):  # np.max: NaN wins
+        if np.isnan(ab[8, c]) or ab[8, c] > m:
+            m = ab[8, c]
+    lift = 1e-3 * m * 1e-3 + 1e-6
+    for c in range(N):
+        ab[8, c] += lift
+        ab[8, c] *= 1.0 + 1e-3
+    return ab
 
 
 def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm: np.ndarray, segment_mm: float,
@@ -175,17 +239,27 @@ def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm
     N = 3 * n
     bend = _bending_blocks(n) * bend_weight ** 2
     B = np.asarray(base_mm, float)
+    step_h = 1e-3  # mm: the forward differences of the projections (Camera.project_jacobian's step)
     for it in range(iterations):
         cap = max(cap_px[1], cap_px[0] * 0.75 ** it)
         Hd = np.zeros((n, 3, 3))
         g = np.zeros((n, 3))
+        # every view's pixels of the nodes and of the nodes moved by step_h along x, y, z (one projection: the
+        # forward differences of Camera.project_jacobian, bit for bit)
+        S = np.empty((4 * n, 3))
+        S[:n] = X
+        for a in range(3):
+            Xh = X.copy()
+            Xh[:, a] += step_h
+            S[(a + 1) * n:(a + 2) * n] = Xh
+        J = np.empty((n, 2, 3))
         for ev in evidence:
-            u, J = ev.camera.project_jacobian(X, distort=True)
+            U = ev.camera.project(S)
+            u = U[:n]
+            for a in range(3):
+                J[:, :, a] = (U[(a + 1) * n:(a + 2) * n] - u) / step_h
             d, gd, seen = skeleton_distance(ev, u, outside_px=1e3)
-            w = np.where(d <= huber_px, 1.0, huber_px / np.maximum(d, 1e-9)) * (seen & (d <= cap))
-            row = np.einsum("ka,kai->ki", gd, J)
-            Hd += w[:, None, None] * np.einsum("ki,kj->kij", row, row)
-            g += (w * d)[:, None] * row
+            _add_view(Hd, g, d, gd, seen, J, huber_px, cap)
         # base anchor
         Hd[0] += base_weight ** 2 * np.eye(3)
         g[0] += base_weight ** 2 * (X[0] - B)
@@ -200,22 +274,12 @@ def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm
         g[:-1] -= length_weight ** 2 * r[:, None] * t
         g[1:] += length_weight ** 2 * r[:, None] * t
         # banded (upper) normal matrix: bandwidth 8 = 2 nodes of 3 coordinates + 2
-        ab = np.zeros((9, N))
-        for a in range(3):
-            for b in range(a, 3):
-                ab[8 - (b - a), 3 * np.arange(n) + b] += Hd[:, a, b]
-            for b in range(3):  # the length blocks between node i and i+1: -tt
-                off = 3 + b - a
-                ab[8 - off, 3 * np.arange(1, n) + b] -= tt[:, a, b]
-        for k in range(3):  # bending: (D2^T D2) kron I3, node offsets 0, 1, 2 -> scalar offsets 0, 3, 6
-            ab[8 - 3 * k, :] += np.repeat(bend[2 - k], 3)
+        ab = _banded_normal(Hd, tt, bend)
         g += (bend[2][:, None] * X)
         g[:-1] += bend[1][1:, None] * X[1:]
         g[1:] += bend[1][1:, None] * X[:-1]
         g[:-2] += bend[0][2:, None] * X[2:]
         g[2:] += bend[0][2:, None] * X[:-2]
-        ab[8] += 1e-3 * ab[8].max() * 1e-3 + 1e-6
-        ab[8] *= 1.0 + 1e-3
         try:
             step = -solveh_banded(ab, g.ravel(), check_finite=False).reshape(n, 3)
         except np.linalg.LinAlgError:
@@ -409,15 +473,15 @@ def curve_support(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, tol_px:
         pts = np.round(u[np.all(np.isfinite(u), axis=1)] * 4).astype(np.int32)
         cv2.polylines(drawn, [pts], False, 1, int(2 * tol_px + 1), cv2.LINE_8, 2)
         skel = ev.skeleton.astype(np.uint8)
-        n, lab = cv2.connectedComponents(skel, connectivity=8)
+        lab = ev.skeleton_labels
         near = (drawn > 0) & (skel > 0)
         touched = np.unique(lab[near])
         touched = touched[touched > 0]
         if len(touched) == 0:
             cov[v] = 0.0 if seen[v].any() else np.nan
             continue
-        comp = np.isin(lab, touched) & ev.seen
-        cov[v] = float(np.count_nonzero(near & ev.seen) / max(np.count_nonzero(comp), 1))
+        comp = int(ev.skeleton_seen_px[touched].sum())  # the seen skeleton pixels of the touched components
+        cov[v] = float(np.count_nonzero(near & ev.seen) / max(comp, 1))
     return prec, cov
 
 

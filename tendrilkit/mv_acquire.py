@@ -34,8 +34,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from numba import njit
+
 from tendrilkit.geometry import resample_polyline
-from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
+from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, skeleton_distance
 
 __all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap"]
 
@@ -131,14 +133,28 @@ def _local_cone(max_deg: float, rings: int = 4) -> np.ndarray:
     return cone_directions(np.array([0.0, 0.0, 1.0]), max_deg, rings)
 
 
-def _frames(axes: np.ndarray) -> np.ndarray:
-    """Rotations (h, 3, 3) taking +z to each unit axis (h, 3)."""
-    a = axes / np.linalg.norm(axes, axis=1, keepdims=True)
-    ref = np.where(np.abs(a[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    p = np.cross(a, ref)
-    p /= np.linalg.norm(p, axis=1, keepdims=True)
-    q = np.cross(a, p)
-    return np.stack([p, q, a], axis=2)
+@njit(cache=True)
+def _frames(axes):
+    """Rotations (h, 3, 3) taking +z to each unit axis (h, 3) (compiled: numpy's cross products and norms, bit for
+    bit)."""
+    H = axes.shape[0]
+    F = np.empty((H, 3, 3))
+    for h in range(H):
+        n = np.sqrt(axes[h, 0] * axes[h, 0] + axes[h, 1] * axes[h, 1] + axes[h, 2] * axes[h, 2])
+        a0, a1, a2 = axes[h, 0] / n, axes[h, 1] / n, axes[h, 2] / n
+        if abs(a0) < 0.9:
+            b0, b1, b2 = 1.0, 0.0, 0.0
+        else:
+            b0, b1, b2 = 0.0, 1.0, 0.0
+        p0 = a1 * b2 - a2 * b1
+        p1 = a2 * b0 - a0 * b2
+        p2 = a0 * b1 - a1 * b0
+        m = np.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
+        p0, p1, p2 = p0 / m, p1 / m, p2 / m
+        F[h, 0, 0], F[h, 1, 0], F[h, 2, 0] = p0, p1, p2
+        F[h, 0, 1], F[h, 1, 1], F[h, 2, 1] = a1 * p2 - a2 * p1, a2 * p0 - a0 * p2, a0 * p1 - a1 * p0
+        F[h, 0, 2], F[h, 1, 2], F[h, 2, 2] = a0, a1, a2
+    return F
 
 
 def claim(evidence: list[SkeletonEvidence], claims: list[np.ndarray] | None, P_mm: np.ndarray, *,
@@ -164,10 +180,31 @@ def claim(evidence: list[SkeletonEvidence], claims: list[np.ndarray] | None, P_m
     P = np.asarray(P_mm, float).reshape(-1, 3)
     for ev, c in zip(evidence, claims):
         c = c.copy()
-        u = ev.camera.project(P)
-        for idx in ev.tree.query_ball_point(u, radius_px):
-            c[idx] = True
+        mark_near(ev, c, ev.camera.project(P), radius_px)
         out.append(c)
+    return out
+
+
+@njit(cache=True)
+def _nearest_distance(P, Q):
+    """(n,) distance of each point P (n, 3) to the nearest of Q (m, 3), m >= 1.
+
+    ``np.min(np.linalg.norm(P[:, None] - Q[None], axis=2), axis=1)`` without the (n, m, 3) arrays: the squares
+    summed in order as numpy's reduction does, bit for bit.
+    """
+    out = np.empty(len(P))
+    for i in range(len(P)):
+        best = np.inf
+        for j in range(len(Q)):
+            a = P[i, 0] - Q[j, 0]
+            b = P[i, 1] - Q[j, 1]
+            c = P[i, 2] - Q[j, 2]
+            d = np.sqrt(a * a + b * b + c * c)
+            if d < best or np.isnan(d):
+                best = d
+                if np.isnan(d):
+                    break
+        out[i] = best
     return out
 
 
@@ -312,7 +349,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             if len(nodes) > 6:
                 old = np.asarray(nodes[:-5])
                 sel = slice(h * len(local), (h + 1) * len(local))
-                dd = np.min(np.linalg.norm(pts[sel][:, None, :] - old[None], axis=2), axis=1)
+                dd = _nearest_distance(pts[sel], old)
                 cost[sel] += np.where(dd < 1.2, 5.0, 0.0)
         tail = np.where(confirmed, 0, np.array([h[2] for h in hyps])[own] + 1)
         # steps no two views see (keep-out box, occlusion): at most max_unseen_steps in a row; steps the views
@@ -345,11 +382,10 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             P = np.vstack([parents[k][0][-3] + f * (parents[k][0][-2] - parents[k][0][-3]) for k in grown])
             new_claims = {k: [] for k in grown}
             for v, ev in enumerate(evidence):
-                near = ev.tree.query_ball_point(ev.camera.project(P), 4.0)
+                u = ev.camera.project(P)
                 for j, k in enumerate(grown):
                     c = parents[k][4][v].copy()
-                    for lst in near[5 * j:5 * j + 5]:
-                        c[lst] = True
+                    mark_near(ev, c, u[5 * j:5 * j + 5], 4.0)
                     new_claims[k].append(c)
             for k in grown:
                 claims[k] = new_claims[k]

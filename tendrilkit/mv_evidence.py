@@ -7,20 +7,30 @@ is not a tendril's centre line: :data:`WIDE_PX`) go into a k-d tree, and
 every pixel gets the mean and the principal direction of its neighbours within 3.5 px, so that the distance of
 a projected point to the skeleton (:func:`skeleton_distance`) is sub-pixel
 and smooth across the curve.
+
+Speed: the fit and the acquisition ask for the nearest skeleton pixel of a few
+hundred thousand points per frame. :func:`skeleton_distance` and
+:func:`mark_near` find them on a grid of :data:`GRID_PX` cells (compiled),
+with the k-d tree's arithmetic (squared distances, its strict and inclusive
+bounds; ties between equally near pixels are left to the k-d tree): the same
+pixels, about 3 times faster than the k-d tree's queries on 37-150 points.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
+import cv2
 import numpy as np
+from numba import njit
 from scipy.spatial import cKDTree
 
 from tendrilkit.camera import Camera
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
 
-__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
+__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance", "mark_near", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
 
 #: A place ``COVER_DEPTH_PX`` or more inside a dark region (pixels from the board) and farther than
 #: ``COVER_PX`` from the skeleton is covered in that view (a leaf or the stem in front of or behind the
@@ -91,6 +101,22 @@ class SkeletonEvidence:
     inside_px: np.ndarray
     camera: Camera
 
+    @cached_property
+    def skeleton_labels(self) -> np.ndarray:
+        """(h, w) int32: the 8-connected components of ``skeleton`` (0: none), computed once, when first read."""
+        return cv2.connectedComponents(self.skeleton.astype(np.uint8), connectivity=8)[1]
+
+    @cached_property
+    def skeleton_seen_px(self) -> np.ndarray:
+        """(n_labels,) int: per component of ``skeleton_labels``, its pixels the view sees (``seen``); computed once."""
+        lab = self.skeleton_labels
+        return np.bincount(lab[self.seen], minlength=int(lab.max()) + 1)
+
+    @cached_property
+    def _grid(self):
+        """:func:`_skeleton_grid` of ``skeleton_xy``: the nearest skeleton pixel of a point without the k-d tree."""
+        return _skeleton_grid(self.skeleton_xy, self.offset_xy, self.seen.shape)
+
 
 def skeleton_evidence(ev: ViewEvidence, camera: Camera) -> SkeletonEvidence:
     """The multi-view fit's view of :func:`tendrilkit.evidence.view_evidence` (made with ``skeleton=True``).
@@ -123,9 +149,25 @@ def skeleton_evidence(ev: ViewEvidence, camera: Camera) -> SkeletonEvidence:
     tree = cKDTree(xy)
     centre, tangent = _local_lines(xy, tree)
     return SkeletonEvidence(offset_xy=off, foreground=ev.foreground, skeleton=skel, skeleton_xy=xy, tree=tree,
-                            centre_xy=centre, tangent_xy=tangent, near_foreground=ev.distance_px <= 2.0,
+                            centre_xy=centre, tangent_xy=tangent, near_foreground=_near_foreground(ev.foreground),
                             seen=seen, inside_px=ev.inside_px,
                             camera=camera)
+
+
+#: The crop pixels whose 5 x 5 chamfer distance (:attr:`tendrilkit.evidence.ViewEvidence.distance_px`) to the
+#: foreground is at most 2 px: steps of 1 (sides), 1.4 (diagonals) and 1 + 1 (two sides straight on); 2.1969
+#: (a knight's move) is beyond.
+_NEAR_2PX = np.array([[0, 0, 1, 0, 0], [0, 1, 1, 1, 0], [1, 1, 1, 1, 1], [0, 1, 1, 1, 0], [0, 0, 1, 0, 0]], np.uint8)
+
+
+def _near_foreground(foreground: np.ndarray) -> np.ndarray:
+    """(h, w) bool: ``distance_px <= 2.0`` of the evidence, by a dilation (the same pixels: the chamfer distance
+    takes the shortest sum of its steps), without the whole crop's distance transform (the verification reads
+    that distance on boxes around the curve only)."""
+    fg = foreground.view(np.uint8)
+    if not fg.any():  # distance_px is then the crop's diagonal everywhere
+        return np.full(fg.shape, float(np.hypot(*fg.shape)) <= 2.0)
+    return cv2.dilate(fg, _NEAR_2PX) > 0
 
 
 def _local_lines(xy: np.ndarray, tree: cKDTree, radius_px: float = 3.5, k: int = 9):
@@ -170,39 +212,192 @@ def skeleton_distance(ev: SkeletonEvidence, points_xy: np.ndarray, *, outside_px
         farther than ``COVER_PX`` from the skeleton (see :attr:`SkeletonEvidence.inside_px`).
     """
     p = np.asarray(points_xy, float)
-    x = p[:, 0] - ev.offset_xy[0]
-    y = p[:, 1] - ev.offset_xy[1]
     h, w = ev.seen.shape
-    ok = np.isfinite(x) & np.isfinite(y) & (x >= -0.5) & (y >= -0.5) & (x < w - 0.5) & (y < h - 0.5)
-    d = np.full(len(p), float(outside_px))
-    g = np.zeros((len(p), 2))
-    seen = np.zeros(len(p), bool)
-    nearest = np.full(len(p), -1)
-    background = np.zeros(len(p), bool)
-    covered = np.zeros(len(p), bool)
-    if ok.any():
-        dd, idx = ev.tree.query(p[ok], distance_upper_bound=outside_px)
-        near = np.isfinite(dd)
-        # distance to the local line piece of the nearest skeleton pixel, beyond its ends to the piece
-        j = idx[near]
-        diff = p[ok][near] - ev.centre_xy[j]
-        t = ev.tangent_xy[j]
-        nrm = np.column_stack([-t[:, 1], t[:, 0]])
-        dn = np.einsum("ka,ka->k", diff, nrm)
-        dt = np.einsum("ka,ka->k", diff, t)
-        ex = np.maximum(np.abs(dt) - 1.0, 0.0)
-        dl = np.hypot(dn, ex)
-        gl = (dn[:, None] * nrm + (ex * np.sign(dt))[:, None] * t) / np.maximum(dl, 1e-9)[:, None]
-        gl[dl < 1e-9] = nrm[dl < 1e-9]
-        gg = np.zeros((ok.sum(), 2))
-        gg[near] = gl
-        dv = np.full(ok.sum(), float(outside_px))
-        dv[near] = dl
-        d[ok] = dv
-        g[ok] = gg
-        yi, xi = np.rint(y[ok]).astype(int), np.rint(x[ok]).astype(int)
-        seen[ok] = ev.seen[yi, xi]
-        nearest[ok] = np.where(near, idx, -1)
-        background[ok] = seen[ok] & ~ev.near_foreground[yi, xi]
-        covered[ok] = seen[ok] & (ev.inside_px[yi, xi] >= COVER_DEPTH_PX) & (d[ok] > COVER_PX)
+    off = ev.offset_xy.astype(float)
+    ok = _inside(p, off, h, w)
+    start, items, cell = ev._grid
+    idx, tie = _grid_nearest(p, ok, ev.skeleton_xy, off, start, items, cell, float(outside_px))
+    if tie.any():  # two skeleton pixels equally near: the k-d tree's choice, as before the grid
+        idx[tie] = ev.tree.query(p[tie], distance_upper_bound=outside_px)[1]
+    d, g, seen, nearest, background, covered = _line_distance(
+        p, ok, idx, off, ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground,
+        ev.inside_px, float(outside_px), COVER_DEPTH_PX, COVER_PX)
     return (d, g, seen, nearest, background, covered) if index else (d, g, seen)
+
+
+@njit(cache=True)
+def _inside(p, off, h, w):
+    """(n,) bool: the full-image points ``p`` (n, 2) lie on the crop (NaN: no)."""
+    ok = np.zeros(len(p), np.bool_)
+    for i in range(len(p)):
+        x = p[i, 0] - off[0]
+        y = p[i, 1] - off[1]
+        ok[i] = np.isfinite(x) and np.isfinite(y) and x >= -0.5 and y >= -0.5 and x < w - 0.5 and y < h - 0.5
+    return ok
+
+
+@njit(cache=True)
+def _line_distance(p, ok, idx, off, centre, tangent, seen_px, near_fg, inside_px, outside_px, cover_depth_px,
+                   cover_px):
+    """:func:`skeleton_distance` from the nearest skeleton pixel ``idx`` (-1: none) of every point on the crop.
+
+    Point by point, the arithmetic of the whole-array expressions it replaces, in the same order (bit for bit).
+    """
+    n = len(p)
+    d = np.full(n, outside_px)
+    g = np.zeros((n, 2))
+    seen = np.zeros(n, np.bool_)
+    nearest = np.full(n, -1)
+    background = np.zeros(n, np.bool_)
+    covered = np.zeros(n, np.bool_)
+    for i in range(n):
+        if not ok[i]:
+            continue
+        j = idx[i]
+        if j >= 0:
+            # distance to the local line piece of the nearest skeleton pixel, beyond its ends to the piece
+            d0 = p[i, 0] - centre[j, 0]
+            d1 = p[i, 1] - centre[j, 1]
+            t0 = tangent[j, 0]
+            t1 = tangent[j, 1]
+            n0 = -t1
+            n1 = t0
+            dn = d0 * n0 + d1 * n1
+            dt = d0 * t0 + d1 * t1
+            ex = max(abs(dt) - 1.0, 0.0)
+            dl = np.hypot(dn, ex)
+            if dl < 1e-9:
+                g[i, 0] = n0
+                g[i, 1] = n1
+            else:
+                es = ex * np.sign(dt)
+                m = max(dl, 1e-9)
+                g[i, 0] = (dn * n0 + es * t0) / m
+                g[i, 1] = (dn * n1 + es * t1) / m
+            d[i] = dl
+            nearest[i] = j
+        yi = int(np.rint(p[i, 1] - off[1]))
+        xi = int(np.rint(p[i, 0] - off[0]))
+        s = seen_px[yi, xi]
+        seen[i] = s
+        background[i] = s and not near_fg[yi, xi]
+        covered[i] = s and inside_px[yi, xi] >= cover_depth_px and d[i] > cover_px
+    return d, g, seen, nearest, background, covered
+
+
+#: Side of the cells of :attr:`SkeletonEvidence._grid`, pixels.
+GRID_PX = 4
+
+
+def _skeleton_grid(xy: np.ndarray, off: np.ndarray, shape: tuple[int, int]):
+    """The skeleton pixels ``xy`` (k, 2) bucketed in square cells of :data:`GRID_PX` over the crop.
+
+    Returns ``start`` ((rows, cols + 1) int array: the rows of ``items`` of cell (r, c) are
+    ``start[r, c]:start[r, c + 1]``, flattened row by row), ``items`` (k,) the skeleton pixels' rows sorted by cell
+    then row, and the cell side.
+    """
+    h, w = shape
+    rows, cols = h // GRID_PX + 2, w // GRID_PX + 2
+    cx = np.clip(((xy[:, 0] - off[0]) // GRID_PX).astype(np.int64), 0, cols - 1)
+    cy = np.clip(((xy[:, 1] - off[1]) // GRID_PX).astype(np.int64), 0, rows - 1)
+    key = cy * cols + cx
+    items = np.argsort(key, kind="stable")
+    counts = np.bincount(key, minlength=rows * cols)
+    start = np.zeros(rows * cols + 1, np.int64)
+    start[1:] = np.cumsum(counts)
+    return start, items, np.array([GRID_PX, rows, cols], np.int64)
+
+
+@njit(cache=True)
+def _grid_nearest(p, ok, xy, off, start, items, cell, upper):
+    """Row of ``xy`` nearest every point ``p`` (n, 2) with ``ok`` (-1: none nearer than ``upper``), and ties.
+
+    Exact: the cells are searched in square rings around the point's cell until no cell farther out can hold a
+    pixel as near as the best (squared distances ``dx * dx + dy * dy`` and the strict ``< upper ** 2``
+    of :meth:`scipy.spatial.cKDTree.query`). ``tie``: another pixel is exactly as near (the caller asks the
+    k-d tree, whose choice among equals is its own).
+    """
+    S, rows, cols = cell[0], cell[1], cell[2]
+    n = len(p)
+    out = np.full(n, -1)
+    tie = np.zeros(n, np.bool_)
+    ub2 = upper ** 2.0
+    for i in range(n):
+        if not ok[i]:
+            continue
+        qx, qy = p[i, 0], p[i, 1]
+        ux = qx - off[0]
+        uy = qy - off[1]
+        cx = min(max(int(np.floor(ux / S)), 0), cols - 1)
+        cy = min(max(int(np.floor(uy / S)), 0), rows - 1)
+        best = ub2
+        bi = -1
+        eq = False
+        r = 0
+        while True:
+            for yy in range(max(cy - r, 0), min(cy + r, rows - 1) + 1):
+                edge = yy == cy - r or yy == cy + r
+                step = 1 if edge else 2 * r
+                xx = cx - r
+                while xx <= cx + r:
+                    if 0 <= xx < cols:
+                        k = yy * cols + xx
+                        for m in range(start[k], start[k + 1]):
+                            j = items[m]
+                            dx = qx - xy[j, 0]
+                            dy = qy - xy[j, 1]
+                            d2 = dx * dx + dy * dy
+                            if d2 < best:
+                                best = d2
+                                bi = j
+                                eq = False
+                            elif d2 == best and bi >= 0:
+                                eq = True
+                    if step == 0:
+                        break
+                    xx += step
+            # nearest place outside the searched block of cells
+            gap = min(ux - (cx - r) * S, (cx + r + 1) * S - ux, uy - (cy - r) * S, (cy + r + 1) * S - uy)
+            if cx - r <= 0 and cy - r <= 0 and cx + r >= cols - 1 and cy + r >= rows - 1:
+                break
+            if gap > 0 and gap * gap > best:
+                break
+            r += 1
+        out[i] = bi
+        tie[i] = eq
+    return out, tie
+
+
+def mark_near(ev: SkeletonEvidence, marked: np.ndarray, points_xy: np.ndarray, radius_px: float) -> None:
+    """Set ``marked`` (k,) bool, one per row of ``ev.skeleton_xy``, True for the skeleton pixels within
+    ``radius_px`` (inclusive) of any of ``points_xy`` (n, 2) full-image pixels (NaN rows ignored), in place.
+
+    The pixels :meth:`scipy.spatial.cKDTree.query_ball_point` of ``ev.tree`` returns (squared distances
+    ``dx * dx + dy * dy <= radius_px ** 2``), from the cells of :attr:`SkeletonEvidence._grid`.
+    """
+    start, items, cell = ev._grid
+    _mark_near(np.asarray(points_xy, float).reshape(-1, 2), ev.skeleton_xy, ev.offset_xy.astype(float), start,
+               items, cell, float(radius_px), marked)
+
+
+@njit(cache=True)
+def _mark_near(p, xy, off, start, items, cell, radius, marked):
+    S, rows, cols = cell[0], cell[1], cell[2]
+    r2 = radius ** 2.0
+    for i in range(len(p)):
+        qx, qy = p[i, 0], p[i, 1]
+        if not (np.isfinite(qx) and np.isfinite(qy)):
+            continue
+        x0 = max(int(np.floor((qx - off[0] - radius) / S)) - 1, 0)
+        x1 = min(int(np.floor((qx - off[0] + radius) / S)) + 1, cols - 1)
+        y0 = max(int(np.floor((qy - off[1] - radius) / S)) - 1, 0)
+        y1 = min(int(np.floor((qy - off[1] + radius) / S)) + 1, rows - 1)
+        for yy in range(y0, y1 + 1):
+            for xx in range(x0, x1 + 1):
+                k = yy * cols + xx
+                for m in range(start[k], start[k + 1]):
+                    j = items[m]
+                    dx = qx - xy[j, 0]
+                    dy = qy - xy[j, 1]
+                    if dx * dx + dy * dy <= r2:
+                        marked[j] = True
