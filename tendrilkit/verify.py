@@ -488,7 +488,10 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs;
     * branches that run straight on across the curve into another
       unexplained branch (:func:`tendrilkit.verify_crossing.crossing_branches`):
-      a thin line crossing the tendril (a second tendril, a stalk);
+      a thin line crossing the tendril (a second tendril, a stalk), also
+      where its other arm runs out of the ROI (random seed 4, multi-view: a
+      stalk crossing the curve, one arm left out as running out of the ROI,
+      the other counted against right curves, 0.77 coverage);
     * in the components the curve runs on, branches attached neither to the
       curve (a pixel within ``cov_tol + 3`` px of it), nor to the base (a
       pixel at the base mark or the keep-out box,
@@ -561,7 +564,8 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     edge = np.zeros(img.shape, bool)
     edge[fr - r0, fc - c0] = np.minimum(np.minimum(fr, h - 1 - fr), np.minimum(fc, w - 1 - fc)) <= \
         inside[fr, fc] + BORDER_PX
-    img[border_segments(img, edge)] = 0  # only the segments running out of the ROI, not all joined to them
+    out_of_roi = border_segments(img, edge)
+    img[out_of_roi] = 0  # only the segments running out of the ROI, not all joined to them
     nb, blab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
     b = blab[fr - r0, fc - c0]
     size = np.bincount(b, minlength=nb)
@@ -571,6 +575,10 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     if cand.size:  # a thin line crossing the tendril: its arms continue each other across the curve
         branch = np.zeros(len(sk), int)
         branch[free] = b
+        # an arm of it may run out of the ROI (left out above): it still continues the other arm
+        lab_out = cv2.connectedComponents(out_of_roi.astype(np.uint8), connectivity=8, ltype=cv2.CV_32S)[1]
+        bo = lab_out[fr - r0, fc - c0]
+        branch[np.flatnonzero(free)[bo > 0]] = nb + bo[bo > 0]
         tendril[cand[crossing_branches(dense, sk[~near], branch[~near], cand, cov_tol=cov_tol,
                                                 width_px=2.0 * radius_px if np.isfinite(radius_px) else 0.0,
                                                 nearest=(dist[~near], nearest[~near]))]] = False
