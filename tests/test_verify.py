@@ -520,7 +520,7 @@ def test_curve_turning_onto_a_second_tendril_is_caught():
     assert verify_frame(_tendril_mm(), cams, ev, {}, Thresholds()) == []
 
 
-def _leaf_on_stalk(at_frac, axes=(24, 12), stalk_px=75):
+def _leaf_on_stalk(at_frac, axes=(24, 16), stalk_px=75):
     """A leaf touching the tendril at ``at_frac`` (as :func:`_leaf`) and its stalk, a line as thin as the tendril,
     leaving the leaf away from the tendril and ending inside the ROI."""
     def draw(img, cam):
