@@ -104,7 +104,8 @@ from tendrilkit.verify_branch import turn_branch_message, turn_branch_px
 from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
-from tendrilkit.verify_tip import TIP_PX, on_wide, skeleton_to_curve_px, tip_continuation, tip_wide_fraction, wide_run_px
+from tendrilkit.verify_tip import (TIP_HIDDEN_MESSAGES, TIP_PX, joined_to_tip, on_wide, skeleton_to_curve_px,
+                                  tip_continuation, tip_seen_free, tip_wide_fraction, wide_run_px)
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "verify_frame", "image_check_messages",
            "VERIFY_COLUMNS_FRAME"]
@@ -439,7 +440,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                 extra[f"tip_object_px_v{v + 1}"] = tip_object_px(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO,
                                                                  reach_px=tip_object_reach_px)
                 # whether this view can see where the tendril ends: the tip on the tendril's pixels, the tendril's
-                # width known, the look ahead inside the ROI (:func:`_tip_seen_free`)
+                # width known, the look ahead inside the ROI (:func:`tendrilkit.verify_tip.tip_seen_free`)
                 extra[f"tip_seen_v{v + 1}"] = bool(np.isfinite(radius_px) and keep[-1] and d[-1] <= tolerance_px
                                                    and out[f"tip_border_px_v{v + 1}"] > tip_object_reach_px)
                 extra[f"turn_branch_px_v{v + 1}"] = turn_branch_px(ev, dense, inside_px, radius_px, sk_dist,
@@ -501,7 +502,7 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
       there), nor to the base (a
       pixel at the base mark or the keep-out box,
       :func:`tendrilkit.verify_base.at_base_xy`), nor to the projected tip
-      through unexplained skeleton of any width (:func:`_beyond_tip`: the
+      through unexplained skeleton of any width (:func:`tendrilkit.verify_tip.joined_to_tip`: the
       tendril a curve stops short of goes on from its tip, across a leaf it
       passes too): the tendril is one line from the base to the tip, so what
       a curve misses of it leaves the curve, its tip or the base, while a
@@ -587,37 +588,12 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
         # a line leaving the curve where clutter crosses it starts beyond the crossing's wider pixels
         reach = cov_tol + 3.0 + (2.0 * WIDE_RATIO * radius_px if np.isfinite(radius_px) else 0.0)
         at = np.isfinite(tree_cls(dense).query(fxy, distance_upper_bound=reach + 1e-9)[0]) | at_base_xy(ev, fxy)
-        at |= _beyond_tip(sr, sc, near, dense[-1] - off, cov_tol)[free]
+        at |= joined_to_tip(sr, sc, near, dense[-1] - off, cov_tol)[free]
         other = ~np.isin(ev.labels[fr, fc], run_on)
         att = np.bincount(b, weights=(at | other).astype(float), minlength=nb) > 0
         tendril &= att
     n_free = int(size[tendril].sum())
     return float(n_near / max(n_near + n_free, 1))
-
-
-def _beyond_tip(sr: np.ndarray, sc: np.ndarray, near: np.ndarray, tip_rc: np.ndarray, cov_tol: float) -> np.ndarray:
-    """(m,) bool: which skeleton pixels the unexplained skeleton (any width) joins to the projected tip.
-
-    ``sr``, ``sc``: the skeleton pixels' crop rows and columns; ``near``: those
-    the curve explains; ``tip_rc``: the tip's crop ``(x, y)``. The tendril a
-    curve stops short of goes on from its tip, across a leaf or the stem it
-    passes (their pixels wider than the tendril) too.
-    """
-    import cv2
-
-    out = np.zeros(len(sr), bool)
-    un = ~near
-    start = un & (np.hypot(sc - tip_rc[0], sr - tip_rc[1]) <= cov_tol + 3.0)
-    if not start.any():
-        return out
-    ur, uc = sr[un], sc[un]
-    r0, c0 = int(ur.min()) - 1, int(uc.min()) - 1
-    img = np.zeros((int(ur.max()) - r0 + 2, int(uc.max()) - c0 + 2), np.uint8)
-    img[ur - r0, uc - c0] = 1
-    lab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)[1]
-    mine = lab[sr[start] - r0, sc[start] - c0]
-    out[un] = np.isin(lab[ur - r0, uc - c0], mine[mine > 0])
-    return out
 
 
 def _in_views(q: dict, column: str, n_views: int, fails) -> list[tuple[int, float]]:
@@ -739,46 +715,6 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     m = tip_object_message(extra, len(cameras), th.min_tip_object_px)
     j = turn_branch_message(extra, len(cameras))
     msgs = msgs + [x for x in (m, j) if x]
-    free = _tip_seen_free(q, extra, len(cameras), th)
-    if free:  # a view sees the tendril end where the curve ends: the other views' tips at an object do not hide it
+    if tip_seen_free(q, extra, len(cameras), th):  # a view sees the tendril end where the curve ends, in the open
         msgs = [x for x in msgs if not x.startswith(TIP_HIDDEN_MESSAGES)]
     return msgs
-
-
-#: The messages of the checks that say where the tendril ends cannot be seen (or that its skeleton goes on from the
-#: tip, along a leaf the tip rests on too) in two views or more; a view that sees it end in the open
-#: (:func:`_tip_seen_free`) answers them. Not the look ahead (``beyond:``): a thin line met across an object in two
-#: views is the tendril going on (random seed 13: a curve 17 mm short of the tip, one view seeing its tip free).
-TIP_HIDDEN_MESSAGES = ("tip: the tendril goes on beyond the curve's tip", "tip: the curve ends on pixels wider",
-                       "tip: the curve stops at an object")
-
-
-def _tip_seen_free(q: dict, extra: dict, n_views: int, th: Thresholds) -> list[int]:
-    """The views (1-based) that see the tendril end where the curve ends, in the open.
-
-    The tip checks (the tendril's skeleton going on beyond the tip, the tip
-    on pixels wider than the tendril, the tip at an object) fire in two
-    views or more: where the tip rests on a leaf
-    or stops at the stem in those views, where the tendril ends cannot be
-    seen there. A third view can see it: the projected tip on the tendril's
-    pixels, inside the ROI by more than the look ahead, no unexplained
-    skeleton going on from it (``max_tip_continuation_px``), its last 20 px
-    on the tendril's own line (``max_tip_wide_frac``), no pixel wider than
-    the tendril within ``min_tip_object_px`` ahead, no line met across an
-    object (``max_beyond_tip_px``): the tendril ends there, in the open. A
-    curve stopping short of the tendril's tip leaves the rest going on in
-    such a view (or hidden behind an object there too: an object ahead).
-    On random seeds 4 and 9517 (multi-view) right curves (0.08-0.25 mm)
-    whose tip touches a leaf in two views were flagged; the third view sees
-    the tip free (seed 4), or out of the ROI (9517: still flagged).
-    """
-    out = []
-    for v in range(1, n_views + 1):
-        cont, wide = q.get(f"tip_continuation_px_v{v}"), q.get(f"tip_wide_frac_v{v}")
-        beyond = q.get(f"beyond_tip_px_v{v}")
-        if not extra.get(f"tip_seen_v{v}") or cont is None or wide is None or beyond is None:
-            continue
-        if (cont <= th.max_tip_continuation_px and wide <= th.max_tip_wide_frac and beyond <= th.max_beyond_tip_px
-                and extra.get(f"tip_object_px_v{v}") is None):
-            out.append(v)
-    return out

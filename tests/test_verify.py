@@ -577,7 +577,7 @@ def test_a_view_seeing_the_tip_end_in_the_open_answers_the_tip_checks():
     the third view's tip answers the tip checks (random seed 4: right curves flagged); not when the third view
     cannot see the tip (its last samples off the dark pixels, or the look ahead leaving the ROI) or the tendril
     goes on beyond the tip there."""
-    from tendrilkit.verify import _tip_seen_free
+    from tendrilkit.verify_tip import tip_seen_free
 
     th = Thresholds()
     q = {"tip_continuation_px_v1": 78.0, "tip_continuation_px_v2": 24.0, "tip_continuation_px_v3": 1.0,
@@ -585,8 +585,8 @@ def test_a_view_seeing_the_tip_end_in_the_open_answers_the_tip_checks():
          "beyond_tip_px_v1": 0.0, "beyond_tip_px_v2": 0.0, "beyond_tip_px_v3": 0.0}
     extra = {"tip_object_px_v1": 0.0, "tip_object_px_v2": 0.0, "tip_object_px_v3": None,
              "tip_seen_v1": True, "tip_seen_v2": True, "tip_seen_v3": True}
-    assert _tip_seen_free(q, extra, 3, th) == [3]
-    assert _tip_seen_free(q, {**extra, "tip_seen_v3": False}, 3, th) == []
-    assert _tip_seen_free({**q, "tip_continuation_px_v3": 40.0}, extra, 3, th) == []
-    assert _tip_seen_free(q, {**extra, "tip_object_px_v3": 12.0}, 3, th) == []
-    assert _tip_seen_free({**q, "beyond_tip_px_v3": 50.0}, extra, 3, th) == []
+    assert tip_seen_free(q, extra, 3, th) == [3]
+    assert tip_seen_free(q, {**extra, "tip_seen_v3": False}, 3, th) == []
+    assert tip_seen_free({**q, "tip_continuation_px_v3": 40.0}, extra, 3, th) == []
+    assert tip_seen_free(q, {**extra, "tip_object_px_v3": 12.0}, 3, th) == []
+    assert tip_seen_free({**q, "beyond_tip_px_v3": 50.0}, extra, 3, th) == []
