@@ -104,8 +104,8 @@ from tendrilkit.verify_branch import turn_branch_message, turn_branch_px
 from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
-from tendrilkit.verify_tip import (TIP_HIDDEN_MESSAGES, TIP_PX, joined_to_tip, on_wide, skeleton_to_curve_px,
-                                  tip_continuation, tip_seen_free, tip_wide_fraction, wide_run_px)
+from tendrilkit.verify_tip import (TIP_PX, joined_to_tip, on_wide, skeleton_to_curve_px, tip_continuation,
+                                  tip_wide_fraction, wide_run_px)
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "verify_frame", "image_check_messages",
            "VERIFY_COLUMNS_FRAME"]
@@ -439,10 +439,6 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             if extra is not None:
                 extra[f"tip_object_px_v{v + 1}"] = tip_object_px(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO,
                                                                  reach_px=tip_object_reach_px)
-                # whether this view can see where the tendril ends: the tip on the tendril's pixels, the tendril's
-                # width known, the look ahead inside the ROI (:func:`tendrilkit.verify_tip.tip_seen_free`)
-                extra[f"tip_seen_v{v + 1}"] = bool(np.isfinite(radius_px) and keep[-1] and d[-1] <= tolerance_px
-                                                   and out[f"tip_border_px_v{v + 1}"] > tip_object_reach_px)
                 extra[f"turn_branch_px_v{v + 1}"] = turn_branch_px(ev, dense, inside_px, radius_px, sk_dist,
                                                                    wide_ratio=WIDE_RATIO, cov_tol=coverage_tolerance_px,
                                                                    min_turn_deg=junction_turn_deg,
@@ -714,7 +710,4 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     msgs = image_check_messages(q, len(cameras), th)
     m = tip_object_message(extra, len(cameras), th.min_tip_object_px)
     j = turn_branch_message(extra, len(cameras))
-    msgs = msgs + [x for x in (m, j) if x]
-    if tip_seen_free(q, extra, len(cameras), th):  # a view sees the tendril end where the curve ends, in the open
-        msgs = [x for x in msgs if not x.startswith(TIP_HIDDEN_MESSAGES)]
-    return msgs
+    return msgs + [x for x in (m, j) if x]

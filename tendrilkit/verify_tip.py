@@ -13,26 +13,20 @@ tendril (:mod:`tendrilkit.verify` applies both in every view):
   12 mm past the true tip, on the tendril's pixels and covering its skeleton
   in every view.
 
-What the tip checks cannot see, a third view may: :func:`tip_seen_free`
-(a view that sees the tendril end where the curve ends, in the open, answers
-the tip checks failing in the other two). :func:`joined_to_tip` serves the
-coverage: the tendril a curve stops short of goes on from its tip.
+:func:`joined_to_tip` serves the coverage (:mod:`tendrilkit.verify`): the
+tendril a curve stops short of goes on from its tip.
 """
 
 from __future__ import annotations
 
 import heapq
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
 
-if TYPE_CHECKING:
-    from tendrilkit.verify import Thresholds
-
 __all__ = ["TIP_PX", "tip_continuation", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction", "wide_run_px",
-           "joined_to_tip", "TIP_HIDDEN_MESSAGES", "tip_seen_free"]
+           "joined_to_tip"]
 
 #: The curve's tip, in :func:`tip_wide_fraction`: its last this many pixels of projection (px).
 TIP_PX = 20
@@ -176,43 +170,4 @@ def joined_to_tip(sr: np.ndarray, sc: np.ndarray, near: np.ndarray, tip_rc: np.n
     lab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)[1]
     mine = lab[sr[start] - r0, sc[start] - c0]
     out[un] = np.isin(lab[ur - r0, uc - c0], mine[mine > 0])
-    return out
-
-
-#: The messages of the checks that say where the tendril ends cannot be seen (or that its skeleton goes on from the
-#: tip, along a leaf the tip rests on too) in two views or more; a view that sees it end in the open
-#: (:func:`tip_seen_free`) answers them. Not the look ahead (``beyond:``): a thin line met across an object in two
-#: views is the tendril going on (random seed 13: a curve 17 mm short of the tip, one view seeing its tip free).
-TIP_HIDDEN_MESSAGES = ("tip: the tendril goes on beyond the curve's tip", "tip: the curve ends on pixels wider",
-                       "tip: the curve stops at an object")
-
-
-def tip_seen_free(q: dict, extra: dict, n_views: int, th: "Thresholds") -> list[int]:
-    """The views (1-based) that see the tendril end where the curve ends, in the open.
-
-    The tip checks (the tendril's skeleton going on beyond the tip, the tip
-    on pixels wider than the tendril, the tip at an object) fire in two
-    views or more: where the tip rests on a leaf
-    or stops at the stem in those views, where the tendril ends cannot be
-    seen there. A third view can see it: the projected tip on the tendril's
-    pixels, inside the ROI by more than the look ahead, no unexplained
-    skeleton going on from it (``max_tip_continuation_px``), its last 20 px
-    on the tendril's own line (``max_tip_wide_frac``), no pixel wider than
-    the tendril within ``min_tip_object_px`` ahead, no line met across an
-    object (``max_beyond_tip_px``): the tendril ends there, in the open. A
-    curve stopping short of the tendril's tip leaves the rest going on in
-    such a view (or hidden behind an object there too: an object ahead).
-    On random seeds 4 and 9517 (multi-view) right curves (0.08-0.25 mm)
-    whose tip touches a leaf in two views were flagged; the third view sees
-    the tip free (seed 4), or out of the ROI (9517: still flagged).
-    """
-    out = []
-    for v in range(1, n_views + 1):
-        cont, wide = q.get(f"tip_continuation_px_v{v}"), q.get(f"tip_wide_frac_v{v}")
-        beyond = q.get(f"beyond_tip_px_v{v}")
-        if not extra.get(f"tip_seen_v{v}") or cont is None or wide is None or beyond is None:
-            continue
-        if (cont <= th.max_tip_continuation_px and wide <= th.max_tip_wide_frac and beyond <= th.max_beyond_tip_px
-                and extra.get(f"tip_object_px_v{v}") is None):
-            out.append(v)
     return out

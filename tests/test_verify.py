@@ -571,22 +571,3 @@ def test_tendril_leaving_the_keep_out_box_far_from_a_mark_at_its_edge_leaves_the
     q = verify_curve(S[::-1], cams, ev)
     assert q["base_on_tendril_frac_v1"] == 0.0
 
-
-def test_a_view_seeing_the_tip_end_in_the_open_answers_the_tip_checks():
-    """Two views see the tip at a leaf (the tendril may go on, its end hidden), a third sees it end in the open:
-    the third view's tip answers the tip checks (random seed 4: right curves flagged); not when the third view
-    cannot see the tip (its last samples off the dark pixels, or the look ahead leaving the ROI) or the tendril
-    goes on beyond the tip there."""
-    from tendrilkit.verify_tip import tip_seen_free
-
-    th = Thresholds()
-    q = {"tip_continuation_px_v1": 78.0, "tip_continuation_px_v2": 24.0, "tip_continuation_px_v3": 1.0,
-         "tip_wide_frac_v1": 0.8, "tip_wide_frac_v2": 0.6, "tip_wide_frac_v3": 0.0,
-         "beyond_tip_px_v1": 0.0, "beyond_tip_px_v2": 0.0, "beyond_tip_px_v3": 0.0}
-    extra = {"tip_object_px_v1": 0.0, "tip_object_px_v2": 0.0, "tip_object_px_v3": None,
-             "tip_seen_v1": True, "tip_seen_v2": True, "tip_seen_v3": True}
-    assert tip_seen_free(q, extra, 3, th) == [3]
-    assert tip_seen_free(q, {**extra, "tip_seen_v3": False}, 3, th) == []
-    assert tip_seen_free({**q, "tip_continuation_px_v3": 40.0}, extra, 3, th) == []
-    assert tip_seen_free(q, {**extra, "tip_object_px_v3": 12.0}, 3, th) == []
-    assert tip_seen_free({**q, "beyond_tip_px_v3": 50.0}, extra, 3, th) == []
