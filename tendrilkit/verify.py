@@ -98,14 +98,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
-from tendrilkit.verify_base import WIDE_RATIO, at_base_xy, base_on_tendril, near_base
+from tendrilkit.verify_base import WIDE_RATIO, base_on_tendril, near_base
 from tendrilkit.verify_beyond import beyond_tip_px
 from tendrilkit.verify_branch import turn_branch_message, turn_branch_px
 from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
-from tendrilkit.verify_tip import (TIP_PX, joined_to_tip, on_wide, skeleton_to_curve_px, tip_continuation,
-                                  tip_wide_fraction, wide_run_px)
+from tendrilkit.verify_tip import TIP_PX, on_wide, skeleton_to_curve_px, tip_continuation, tip_wide_fraction, wide_run_px
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "verify_frame", "image_check_messages",
            "VERIFY_COLUMNS_FRAME"]
@@ -489,23 +488,7 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs;
     * branches that run straight on across the curve into another
       unexplained branch (:func:`tendrilkit.verify_crossing.crossing_branches`):
-      a thin line crossing the tendril (a second tendril, a stalk);
-    * in the components the curve runs on, branches attached neither to the
-      curve (a pixel within ``cov_tol + 3`` px of it plus the widest thin
-      line, ``2 * WIDE_RATIO`` tendril half widths: a line leaving the curve
-      where clutter crosses it starts beyond the crossing's wider pixels,
-      random seed 9508: a curve 7.9 mm wrong turning onto a second tendril
-      there), nor to the base (a
-      pixel at the base mark or the keep-out box,
-      :func:`tendrilkit.verify_base.at_base_xy`), nor to the projected tip
-      through unexplained skeleton of any width (:func:`tendrilkit.verify_tip.joined_to_tip`: the
-      tendril a curve stops short of goes on from its tip, across a leaf it
-      passes too): the tendril is one line from the base to the tip, so what
-      a curve misses of it leaves the curve, its tip or the base, while a
-      leaf's stalk between the stem and the leaf, or the thin, tapering end
-      of the stem's or a leaf's skeleton, hangs off clutter only. On random
-      seed 9500 (multi-view) such a stalk and the stem's ends left right
-      curves (0.06-0.15 mm) at 71-73 % coverage in two views.
+      a thin line crossing the tendril (a second tendril, a stalk).
 
     The coverage is the explained skeleton over explained plus the
     tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`
@@ -530,7 +513,6 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
     counts = np.bincount(lab[lab > 0], minlength=int(ev.labels.max()) + 1)
     # components the curve runs along for at least 5 % of its on-tendril samples (a crossing's touch is not)
     touched = np.nonzero(counts >= max(3, 0.05 * len(on)))[0]
-    run_on = touched
     # and every component at the base mark, the stem's too (a curve on the stem leaves the tendril unexplained;
     # the stem's own pixels are then left out as clutter, below)
     touched = np.union1d(touched, near_base(ev) if near is None else near)
@@ -579,15 +561,6 @@ def _coverage(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, co
         tendril[cand[crossing_branches(dense, sk[~near], branch[~near], cand, cov_tol=cov_tol,
                                                 width_px=2.0 * radius_px if np.isfinite(radius_px) else 0.0,
                                                 nearest=(dist[~near], nearest[~near]))]] = False
-    if tendril.any():  # in the components the curve runs on: only lines attached to the curve, its tip or the base
-        fxy = sk[free]
-        # a line leaving the curve where clutter crosses it starts beyond the crossing's wider pixels
-        reach = cov_tol + 3.0 + (2.0 * WIDE_RATIO * radius_px if np.isfinite(radius_px) else 0.0)
-        at = np.isfinite(tree_cls(dense).query(fxy, distance_upper_bound=reach + 1e-9)[0]) | at_base_xy(ev, fxy)
-        at |= joined_to_tip(sr, sc, near, dense[-1] - off, cov_tol)[free]
-        other = ~np.isin(ev.labels[fr, fc], run_on)
-        att = np.bincount(b, weights=(at | other).astype(float), minlength=nb) > 0
-        tendril &= att
     n_free = int(size[tendril].sum())
     return float(n_near / max(n_near + n_free, 1))
 

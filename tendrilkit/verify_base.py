@@ -24,7 +24,7 @@ import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
 
-__all__ = ["WIDE_RATIO", "base_reach", "near_base", "at_base_xy", "base_components", "thin_at_base", "base_on_tendril"]
+__all__ = ["WIDE_RATIO", "base_reach", "near_base", "base_components", "thin_at_base", "base_on_tendril"]
 
 #: A line whose width (or a skeleton pixel whose inside distance) exceeds this many times the tendril's is
 #: clutter (a leaf's blob, the stem, a thicker shoot), not the tendril.
@@ -51,7 +51,7 @@ def near_base(ev: ViewEvidence) -> np.ndarray:
     17 px from a mark at the box's left edge, the stem's stub beside the mark
     taken for the only component leaving the base; six right frames, mean
     error 0.06-0.10 mm, flagged at 0 % of their start on it). With the mark
-    at the box's centre the box's rim lies within the reach: nothing changes.
+    at the box's centre the reach covers the rim but for its corners.
     """
     L = ev.labels
     h, w = L.shape
@@ -72,18 +72,6 @@ def near_base(ev: ViewEvidence) -> np.ndarray:
         if r1 > r0 and c1 > c0:
             rim = L[r0:r1, c0:c1]
             out = np.union1d(out, np.unique(rim[rim > 0]))
-    return out
-
-
-def at_base_xy(ev: ViewEvidence, xy: np.ndarray) -> np.ndarray:
-    """(n,) bool: which points ``xy`` ((n, 2), full-image px) lie at the base: within :func:`base_reach` of the
-    base mark or :data:`BOX_RIM_PX` of the keep-out box (as :func:`near_base`'s components)."""
-    xy = np.asarray(xy, float).reshape(-1, 2)
-    out = np.hypot(*(xy - ev.base_point_xy).T) <= base_reach(ev)
-    if ev.keep_out is not None:
-        x, y, bw, bh = np.asarray(ev.keep_out, float)
-        out |= ((xy[:, 0] >= x - BOX_RIM_PX) & (xy[:, 0] <= x + bw + BOX_RIM_PX)
-                & (xy[:, 1] >= y - BOX_RIM_PX) & (xy[:, 1] <= y + bh + BOX_RIM_PX))
     return out
 
 

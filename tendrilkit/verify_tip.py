@@ -12,9 +12,6 @@ tendril (:mod:`tendrilkit.verify` applies both in every view):
   whose tip rests on a leaf) the multi-view curve follows the leaf's middle
   12 mm past the true tip, on the tendril's pixels and covering its skeleton
   in every view.
-
-:func:`joined_to_tip` serves the coverage (:mod:`tendrilkit.verify`): the
-tendril a curve stops short of goes on from its tip.
 """
 
 from __future__ import annotations
@@ -25,8 +22,7 @@ import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
 
-__all__ = ["TIP_PX", "tip_continuation", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction", "wide_run_px",
-           "joined_to_tip"]
+__all__ = ["TIP_PX", "tip_continuation", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction", "wide_run_px"]
 
 #: The curve's tip, in :func:`tip_wide_fraction`: its last this many pixels of projection (px).
 TIP_PX = 20
@@ -146,28 +142,3 @@ def wide_run_px(wide: np.ndarray, on: np.ndarray) -> float:
     d = np.diff(x)
     starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
     return float((ends - starts).max(initial=0))
-
-
-def joined_to_tip(sr: np.ndarray, sc: np.ndarray, near: np.ndarray, tip_rc: np.ndarray, cov_tol: float) -> np.ndarray:
-    """(m,) bool: which skeleton pixels the unexplained skeleton (any width) joins to the projected tip.
-
-    ``sr``, ``sc``: the skeleton pixels' crop rows and columns; ``near``: those
-    the curve explains; ``tip_rc``: the tip's crop ``(x, y)``. The tendril a
-    curve stops short of goes on from its tip, across a leaf or the stem it
-    passes (their pixels wider than the tendril) too.
-    """
-    import cv2
-
-    out = np.zeros(len(sr), bool)
-    un = ~near
-    start = un & (np.hypot(sc - tip_rc[0], sr - tip_rc[1]) <= cov_tol + 3.0)
-    if not start.any():
-        return out
-    ur, uc = sr[un], sc[un]
-    r0, c0 = int(ur.min()) - 1, int(uc.min()) - 1
-    img = np.zeros((int(ur.max()) - r0 + 2, int(uc.max()) - c0 + 2), np.uint8)
-    img[ur - r0, uc - c0] = 1
-    lab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)[1]
-    mine = lab[sr[start] - r0, sc[start] - c0]
-    out[un] = np.isin(lab[ur - r0, uc - c0], mine[mine > 0])
-    return out
