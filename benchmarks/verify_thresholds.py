@@ -135,6 +135,8 @@ def main() -> None:
     # all three criteria (max <= 2 mm, base and tip within 2 mm too) it is not
     all3 = right[(right.max_mm <= 2) & (right.base_mm <= 2) & (right.tip_mm <= 2)]
     print(f"false alarms among frames right on all three criteria: {int((all3.status == 'doubtful').sum())} of {len(all3)}")
+    off = rec[(rec.max_mm > 2) | (rec.base_mm > 2) | (rec.tip_mm > 2)]
+    print(f"ok frames with the max or an end over 2 mm: {int((off.status == 'ok').sum())} of {len(off)}")
     for stem, worst in (("on_tendril_frac", "min"), ("off_tendril_max_px", "max"), ("skeleton_mean_px", "max"),
                         ("coverage_frac", "min"), ("tip_continuation_px", "max"), ("base_on_tendril_frac", "min"),
                         ("base_px", "max"), ("tip_wide_frac", "max"), ("wide_run_px", "max"),
@@ -146,6 +148,8 @@ def main() -> None:
         print(f"{stem:>20} ({worst} over views): right {np.nanpercentile(r, [0, 1, 5, 50, 95, 99, 100]).round(3) if len(r) else '-'}"
               f"  wrong {np.nanpercentile(w, [0, 5, 50, 95, 100]).round(3) if len(w) else '-'}")
     _print_alarm_checks(right[right.status == "doubtful"])
+    print("among frames right on all three criteria: ", end="")
+    _print_alarm_checks(all3[all3.status == "doubtful"])
     silent = t[(t.status == "ok") & (t.mean_mm > 1.5)]
     if len(silent):
         print("silent failures:")

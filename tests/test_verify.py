@@ -518,3 +518,29 @@ def test_curve_turning_onto_a_second_tendril_is_caught():
     # a right curve crossing a thin line square to it: the line's arms leave the curve at the crossing's angle
     cams, ev = _scene(_crossing_line(0.5))
     assert verify_frame(_tendril_mm(), cams, ev, {}, Thresholds()) == []
+
+
+def test_tendril_leaving_the_keep_out_box_far_from_a_mark_at_its_edge_leaves_the_base():
+    """The base mark is a click at the keep-out box: at the box's left edge, the tendril leaving the box's right
+    edge is farther from it than the box's half diagonal, the stem's stub beside the mark is not (random seed
+    9238: right frames flagged at 0 % of their start on the component leaving the base)."""
+    cams = _cameras()
+    T, S = _tendril_mm(), _stem_mm()
+    ev = []
+    for cam in cams:
+        img = np.full((300, 400, 3), 240, np.uint8)
+        for X, width in ((T, 5), (S, 9)):
+            cv2.polylines(img, [np.round(cam.project(X) * 16).astype(np.int32)], False, (30, 30, 30), width,
+                          cv2.LINE_AA, 4)
+        base = cam.project(T[:1])[0]
+        keep_out = [int(base[0]) - 2, int(base[1]) - 8, 26, 16]  # the tendril's first 24 px under it
+        roi = [int(base[0]) - 30, 0, 300, 250]
+        ev.append(view_evidence(img, roi=roi, keep_out=keep_out, base_point_xy=base, opening_radius_px=0,
+                                min_component_px=20))
+    q = verify_curve(T, cams, ev)
+    assert q["base_on_tendril_frac_v1"] == 1.0 and q["base_on_tendril_frac_v2"] == 1.0
+    assert not any(m.startswith("base") for m in image_check_messages(q, 2, Thresholds()))
+    # a curve setting off along the stem is still caught
+    q = verify_curve(S[::-1], cams, ev)
+    assert q["base_on_tendril_frac_v1"] == 0.0
+
