@@ -298,17 +298,17 @@ class Correspondence(_Strict):
 class Reconstruction(_Strict):
     """How the 3D centreline is made (:mod:`tendrilkit.multiview`).
 
-    ``method``: ``chain`` (default: each view segmented and ordered on its
-    own, the 2D curves matched by ``correspondence.method`` and triangulated)
-    or ``multiview`` (one 3D curve from the base fitted to every view's
-    evidence at once, tracked from frame to frame, acquired afresh from the
-    base when tracking is lost); ``chunk_frames`` (multiview): processed
+    ``method``: ``multiview`` (default: one 3D curve from the base fitted to
+    every view's evidence at once, tracked from frame to frame, acquired
+    afresh from the base when tracking is lost) or ``chain`` (each view
+    segmented and ordered on its own, the 2D curves matched by
+    ``correspondence.method`` and triangulated: the paper's method); ``chunk_frames`` (multiview): processed
     frames per chunk: each chunk starts by acquiring the curve, then tracks
     it, so results do not depend on the number of workers; ``segment_mm``
     (multiview): node spacing of the 3D curve, mm.
     """
 
-    method: Literal["chain", "multiview"] = "chain"
+    method: Literal["chain", "multiview"] = "multiview"
     chunk_frames: int = Field(30, ge=1)
     segment_mm: float = Field(default_factory=lambda: stage_default("multiview", "segment_mm"), gt=0.1, le=10.0)
 
