@@ -116,15 +116,35 @@ def on_wide(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray, radiu
     """
     if not (np.isfinite(radius_px) and radius_px > 0) or len(dense_xy) == 0:
         return np.zeros(len(dense_xy), bool)
+    return local_inside_px(ev, dense_xy, inside_px) > wide_ratio * radius_px
+
+
+def local_inside_px(ev: ViewEvidence, xy: np.ndarray, inside_px: np.ndarray) -> np.ndarray:
+    """The largest inside distance in the 3 x 3 pixels around each point (the crop's edge clamped).
+
+    Parameters
+    ----------
+    ev : ViewEvidence
+        The view's evidence (its ROI offset).
+    xy : (n, 2) float array
+        Full-image px.
+    inside_px : (h, w) float32 array
+        Distance of every foreground pixel of the ROI crop to the background, px.
+
+    Returns
+    -------
+    (n,) float32 array
+        px: about the line's half width where a point lies on it (0 off the foreground).
+    """
     h, w = inside_px.shape
     off = ev.roi_offset_xy
-    r = np.rint(dense_xy[:, 1] - off[1]).astype(int)
-    c = np.rint(dense_xy[:, 0] - off[0]).astype(int)
-    local = np.zeros(len(dense_xy), np.float32)
+    r = np.rint(xy[:, 1] - off[1]).astype(int)
+    c = np.rint(xy[:, 0] - off[0]).astype(int)
+    local = np.zeros(len(xy), np.float32)
     for dr in (-1, 0, 1):
         for dc in (-1, 0, 1):
             local = np.maximum(local, inside_px[np.clip(r + dr, 0, h - 1), np.clip(c + dc, 0, w - 1)])
-    return local > wide_ratio * radius_px
+    return local
 
 
 def tip_wide_fraction(wide: np.ndarray, on: np.ndarray, *, tip_px: int = TIP_PX) -> float | None:

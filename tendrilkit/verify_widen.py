@@ -55,8 +55,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
+from tendrilkit.verify_tip import local_inside_px
 
-__all__ = ["MAX_DISTAL_WIDENING", "STEP_MM", "distal_widening", "distal_widening_message"]
+__all__ = ["MAX_DISTAL_WIDENING", "distal_widening", "distal_widening_message"]
 
 #: Default limit of the ratio, in two views or more (``verification: max_distal_widening``; the module's
 #: docstring gives the measurements).
@@ -147,15 +148,7 @@ def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: flo
     on = seen & (sample_distance(ev, xy) <= tol_px)
     if on.sum() < 4:
         return None
-    off = ev.roi_offset_xy
-    h, w = ev.shape
-    r = np.rint(xy[on, 1] - off[1]).astype(int)
-    c = np.rint(xy[on, 0] - off[0]).astype(int)
-    inside = ev.inside_px
-    local = np.zeros(len(r), np.float32)
-    for dr in (-1, 0, 1):
-        for dc in (-1, 0, 1):
-            local = np.maximum(local, inside[np.clip(r + dr, 0, h - 1), np.clip(c + dc, 0, w - 1)])
+    local = local_inside_px(ev, xy[on], ev.inside_px)
     width = np.full(len(S), np.nan)
     width[on] = 2.0 * local  # px: neighbouring stretches lie at nearly the same depth
     # where the projection passes over another part of the curve (a loop's or a coil's crossing, turns lying on
@@ -184,7 +177,7 @@ def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: flo
         if m:
             med_d[k] = 0.5 * (kept[(m - 1) // 2] + kept[m // 2])
     # the median width of every window of n_p samples before k (NaN sorts last)
-    win = np.sort(np.lib.stride_tricks.sliding_window_view(width, n_p), axis=1)[:n - n_p + 1]
+    win = np.sort(np.lib.stride_tricks.sliding_window_view(width, n_p), axis=1)  # n - n_p + 1 windows
     cnt_p = np.isfinite(win).sum(axis=1)
     rows = np.arange(len(win))
     lo, hi = np.maximum(cnt_p - 1, 0) // 2, np.minimum(cnt_p // 2, n_p - 1)

@@ -47,7 +47,9 @@ def test_curve_running_on_along_a_leaf_under_the_tip_is_caught():
     # the limit is the experiment's key: a larger ratio asked for, no message
     assert not any(m.startswith("widening:")
                    for m in verify_frame(wrong, cams, ev, {}, Thresholds(max_distal_widening=50.0)))
-    assert Thresholds.from_params({"max_distal_widening": 1.5}).max_distal_widening == 1.5
+    from tendrilkit.params import Verification
+
+    assert Thresholds.from_params(Verification(max_distal_widening=2.0)).max_distal_widening == 2.0
 
 
 def test_widening_in_one_view_only_is_not_enough():
