@@ -107,12 +107,8 @@ class Camera:
         """Projection matrix ``K [R | t]`` (3, 4) for undistorted pixels."""
         return self.K @ np.hstack([self.R, self.t_mm[:, None]])
 
-    @property
-    def has_distortion(self) -> bool:
-        return self._distorted
-
     @cached_property
-    def _distorted(self) -> bool:  # read by every projection: computed once
+    def has_distortion(self) -> bool:  # read by every projection: computed once
         return bool(np.any(self.dist != 0))
 
     def with_pose(self, R: np.ndarray, t_mm: np.ndarray) -> "Camera":
@@ -131,13 +127,13 @@ class Camera:
         With ``distort=False`` the ideal pinhole pixels (undistorted image).
         """
         Xc = self.world_to_cam(points_world)
-        if distort and self._distorted and self.dist.size > 5:
+        if distort and self.has_distortion and self.dist.size > 5:
             z = Xc[:, 2]
             with np.errstate(divide="ignore", invalid="ignore"):
                 return self._project_opencv(Xc[:, 0] / z, Xc[:, 1] / z)
         # the pinhole and the 5-coefficient model, point by point (compiled: the same arithmetic in the same order
         # as numpy's whole-array expressions, bit for bit, without their per-call cost on short arrays)
-        return _project_brown(Xc, self.K, self.dist, bool(distort and self._distorted))
+        return _project_brown(Xc, self.K, self.dist, bool(distort and self.has_distortion))
 
     def project_jacobian(self, points_world: np.ndarray, *, distort: bool = False, step_mm: float = 1e-3,
                          along: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:

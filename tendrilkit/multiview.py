@@ -472,9 +472,8 @@ def curve_support(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, tol_px:
         drawn = np.zeros(ev.skeleton.shape, np.uint8)
         pts = np.round(u[np.all(np.isfinite(u), axis=1)] * 4).astype(np.int32)
         cv2.polylines(drawn, [pts], False, 1, int(2 * tol_px + 1), cv2.LINE_8, 2)
-        skel = ev.skeleton.astype(np.uint8)
         lab = ev.skeleton_labels
-        near = (drawn > 0) & (skel > 0)
+        near = (drawn > 0) & (lab > 0)  # the skeleton's pixels are the labelled ones
         touched = np.unique(lab[near])
         touched = touched[touched > 0]
         if len(touched) == 0:

@@ -133,7 +133,7 @@ def _local_cone(max_deg: float, rings: int = 4) -> np.ndarray:
     return cone_directions(np.array([0.0, 0.0, 1.0]), max_deg, rings)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _frames(axes):
     """Rotations (h, 3, 3) taking +z to each unit axis (h, 3) (compiled: numpy's cross products and norms, bit for
     bit)."""
