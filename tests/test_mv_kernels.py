@@ -14,7 +14,9 @@ from scipy.spatial import cKDTree
 from tendrilkit.camera import Camera
 from tendrilkit.evidence import view_evidence
 from tendrilkit.mv_acquire import _frames, _nearest_distance
-from tendrilkit.mv_evidence import _near_foreground, mark_near, skeleton_distance, skeleton_evidence
+from tendrilkit.multiview import _add_view, _banded_normal, _bending_blocks
+from tendrilkit.mv_evidence import (COVER_DEPTH_PX, COVER_PX, _near_foreground, mark_near, skeleton_distance,
+                                    skeleton_evidence)
 
 
 @pytest.fixture(scope="module")
@@ -30,6 +32,61 @@ def ev():
                        opening_radius_px=0, min_component_px=10)
     cam = Camera(K=np.array([[400.0, 0, 100], [0, 400.0, 60], [0, 0, 1]]), dist=np.array([-0.1, 0.02, 1e-3, -1e-3, 0.0]))
     return skeleton_evidence(vw, cam)
+
+
+@pytest.fixture(scope="module")
+def ev_blob():
+    """The wavy line running into a filled dark blob (a leaf): deep inside it, far from the skeleton, is covered."""
+    img = np.full((120, 200, 3), 255, np.uint8)
+    x = np.arange(10, 190)
+    y = (60 + 25 * np.sin(x / 17.0)).astype(np.int32)
+    cv2.polylines(img, [np.c_[x, y].astype(np.int32)], False, (20, 20, 20), 3)
+    cv2.ellipse(img, (140, 55), (30, 22), 20.0, 0, 360, (20, 20, 20), -1)
+    vw = view_evidence(img, roi=[5, 2, 190, 116], keep_out=[5, 40, 12, 30], base_point_xy=[12, 60],
+                       opening_radius_px=0, min_component_px=10)
+    cam = Camera(K=np.array([[400.0, 0, 100], [0, 400.0, 60], [0, 0, 1]]), dist=np.array([-0.1, 0.02, 1e-3, -1e-3, 0.0]))
+    return skeleton_evidence(vw, cam)
+
+
+def _skeleton_distance_d79ec45(ev, points_xy, *, outside_px=50.0, index=False):
+    """skeleton_distance as it was at d79ec45 (k-d tree and whole-array numpy), copied unchanged."""
+    p = np.asarray(points_xy, float)
+    x = p[:, 0] - ev.offset_xy[0]
+    y = p[:, 1] - ev.offset_xy[1]
+    h, w = ev.seen.shape
+    ok = np.isfinite(x) & np.isfinite(y) & (x >= -0.5) & (y >= -0.5) & (x < w - 0.5) & (y < h - 0.5)
+    d = np.full(len(p), float(outside_px))
+    g = np.zeros((len(p), 2))
+    seen = np.zeros(len(p), bool)
+    nearest = np.full(len(p), -1)
+    background = np.zeros(len(p), bool)
+    covered = np.zeros(len(p), bool)
+    if ok.any():
+        dd, idx = ev.tree.query(p[ok], distance_upper_bound=outside_px)
+        near = np.isfinite(dd)
+        # distance to the local line piece of the nearest skeleton pixel, beyond its ends to the piece
+        j = idx[near]
+        diff = p[ok][near] - ev.centre_xy[j]
+        t = ev.tangent_xy[j]
+        nrm = np.column_stack([-t[:, 1], t[:, 0]])
+        dn = np.einsum("ka,ka->k", diff, nrm)
+        dt = np.einsum("ka,ka->k", diff, t)
+        ex = np.maximum(np.abs(dt) - 1.0, 0.0)
+        dl = np.hypot(dn, ex)
+        gl = (dn[:, None] * nrm + (ex * np.sign(dt))[:, None] * t) / np.maximum(dl, 1e-9)[:, None]
+        gl[dl < 1e-9] = nrm[dl < 1e-9]
+        gg = np.zeros((ok.sum(), 2))
+        gg[near] = gl
+        dv = np.full(ok.sum(), float(outside_px))
+        dv[near] = dl
+        d[ok] = dv
+        g[ok] = gg
+        yi, xi = np.rint(y[ok]).astype(int), np.rint(x[ok]).astype(int)
+        seen[ok] = ev.seen[yi, xi]
+        nearest[ok] = np.where(near, idx, -1)
+        background[ok] = seen[ok] & ~ev.near_foreground[yi, xi]
+        covered[ok] = seen[ok] & (ev.inside_px[yi, xi] >= COVER_DEPTH_PX) & (d[ok] > COVER_PX)
+    return (d, g, seen, nearest, background, covered) if index else (d, g, seen)
 
 
 def _points(ev, rng, n, spread):
@@ -62,6 +119,34 @@ def test_skeleton_distance_nearest_is_the_kd_trees(ev, spread):
         ex = np.maximum(np.abs(np.einsum("ka,ka->k", diff, t)) - 1.0, 0.0)
         np.testing.assert_array_equal(d[j], np.hypot(dn, ex))
         assert np.all(d[ok & ~j] == outside) and np.all(g[~j] == 0.0)
+
+
+@pytest.mark.parametrize("which", ["ev", "ev_blob"])
+@pytest.mark.parametrize("spread", [0.3, 3.0, 40.0])
+def test_skeleton_distance_is_the_d79ec45_function(which, spread, request):
+    """Every output (d, gradient, seen, nearest, background, covered) is the old k-d tree function's, bit for bit."""
+    ev = request.getfixturevalue(which)
+    rng = np.random.default_rng(5)
+    h, w = ev.seen.shape
+    p = np.concatenate([_points(ev, rng, 300, spread),
+                        ev.offset_xy + rng.uniform(-3.0, 3.0, (300, 2)) + rng.uniform(0, 1, (300, 2)) * [w, h],
+                        ev.offset_xy + rng.integers(0, [w, h], (100, 2)) + 0.5])  # halfway: np.rint's ties
+    p[3] = ev.centre_xy[7]  # on a line piece: d = 0, the gradient is the normal
+    n_covered = 0
+    for outside in (2.0, 10.0, 1e3):
+        want = _skeleton_distance_d79ec45(ev, p, outside_px=outside, index=True)
+        got = skeleton_distance(ev, p, outside_px=outside, index=True)
+        for a, b, name in zip(got, want, ["d", "g", "seen", "nearest", "background", "covered"]):
+            np.testing.assert_array_equal(a, b, err_msg=name)
+            assert a.dtype.kind == b.dtype.kind, name
+        for a, b in zip(skeleton_distance(ev, p, outside_px=outside), want[:3]):
+            np.testing.assert_array_equal(a, b)
+        n_covered += want[5].sum()
+        assert want[2].any() and want[3].max() >= 0 and want[4].any()
+    if which == "ev_blob":
+        assert n_covered > 0  # the blob's inside: the covered check is not vacuous
+    else:
+        assert n_covered == 0
 
 
 def test_mark_near_marks_the_ball_query_pixels(ev):
@@ -122,3 +207,131 @@ def test_acquisition_helpers_are_the_numpy_expressions():
     p = np.cross(a, ref)
     p /= np.linalg.norm(p, axis=1, keepdims=True)
     np.testing.assert_array_equal(F, np.stack([p, np.cross(a, p), a], axis=2))
+
+
+# ---- refine_curve's kernels (multiview.py) against the numpy of d79ec45's refine_curve / _bending_blocks ----
+
+def _bending_blocks_d79ec45(n):
+    D = np.zeros((n, n))
+    for i in range(1, n - 1):
+        D[i - 1:i + 2, i - 1:i + 2] += np.outer([1, -2, 1], [1, -2, 1])
+    return np.stack([np.r_[np.zeros(2), np.diagonal(D, 2)], np.r_[0.0, np.diagonal(D, 1)], np.diagonal(D)])
+
+
+def _add_view_d79ec45(Hd, g, d, gd, seen, J, huber_px, cap):
+    """One view's terms as d79ec45's refine_curve added them (in place)."""
+    w = np.where(d <= huber_px, 1.0, huber_px / np.maximum(d, 1e-9)) * (seen & (d <= cap))
+    row = np.einsum("ka,kai->ki", gd, J)
+    Hd += w[:, None, None] * np.einsum("ki,kj->kij", row, row)
+    g += (w * d)[:, None] * row
+
+
+def _banded_normal_d79ec45(Hd, tt, bend):
+    n = len(Hd)
+    N = 3 * n
+    ab = np.zeros((9, N))
+    for a in range(3):
+        for b in range(a, 3):
+            ab[8 - (b - a), 3 * np.arange(n) + b] += Hd[:, a, b]
+        for b in range(3):  # the length blocks between node i and i+1: -tt
+            off = 3 + b - a
+            ab[8 - off, 3 * np.arange(1, n) + b] -= tt[:, a, b]
+    for k in range(3):  # bending: (D2^T D2) kron I3, node offsets 0, 1, 2 -> scalar offsets 0, 3, 6
+        ab[8 - 3 * k, :] += np.repeat(bend[2 - k], 3)
+    ab[8] += 1e-3 * ab[8].max() * 1e-3 + 1e-6
+    ab[8] *= 1.0 + 1e-3
+    return ab
+
+
+def test_bending_blocks_is_the_d79ec45_sum():
+    for n in range(2, 51):
+        want = _bending_blocks_d79ec45(n)
+        got = _bending_blocks(n)
+        assert got.shape == want.shape == (3, n)
+        np.testing.assert_array_equal(got, want)
+
+
+def _view_inputs(rng, n):
+    """One view's (d, gd, seen, J) as skeleton_distance and the projection's differences give them."""
+    d = np.abs(rng.standard_cauchy(n)) * rng.choice([0.5, 3.0, 30.0], n)
+    d[rng.random(n) < 0.1] = 1e3                    # nothing near: outside_px
+    d[rng.random(n) < 0.1] = 0.0                    # on the line piece
+    d[rng.random(n) < 0.1] = 2.0                    # exactly huber_px
+    d[rng.random(n) < 0.1] = 8.0                    # exactly the cap
+    a = rng.uniform(0, 2 * np.pi, n)
+    gd = np.c_[np.cos(a), np.sin(a)] * (d < 1e3)[:, None]
+    seen = rng.random(n) < 0.8
+    J = rng.normal(0.0, 1.0, (n, 2, 3)) * rng.choice([1.0, 50.0, 400.0], (n, 1, 1))
+    return d, gd, seen, J
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_add_view_is_the_d79ec45_numpy(seed):
+    rng = np.random.default_rng(100 + seed)
+    for n in range(2, 51):
+        Hd0, g0 = rng.normal(0, 10, (n, 3, 3)), rng.normal(0, 10, (n, 3))
+        Hd1, g1, Hd2, g2 = Hd0.copy(), g0.copy(), Hd0.copy(), g0.copy()
+        for _ in range(3):  # views add up in place
+            d, gd, seen, J = _view_inputs(rng, n)
+            for huber_px, cap in ((2.0, 8.0), (1.5, 1e3)):
+                _add_view(Hd1, g1, d, gd, seen, J, huber_px, cap)
+                _add_view_d79ec45(Hd2, g2, d, gd, seen, J, huber_px, cap)
+        np.testing.assert_array_equal(Hd1, Hd2)
+        np.testing.assert_array_equal(g1, g2)
+        assert not np.array_equal(Hd1, Hd0)
+
+
+def test_add_view_with_nan_is_the_d79ec45_numpy():
+    """A node that projects to NaN (behind or at a camera, or NaN itself): skeleton_distance gives d = outside_px,
+    gradient 0, unseen; its J is NaN, and the old numpy's 0 * NaN put NaN in that node's terms."""
+    rng = np.random.default_rng(7)
+    n = 20
+    d, gd, seen, J = _view_inputs(rng, n)
+    bad = np.array([0, 5, 19])
+    d[bad], gd[bad], seen[bad] = 1e3, 0.0, False
+    J[bad] = np.nan
+    J[9, 1, 2] = np.nan  # one NaN difference of a seen node
+    seen[9], d[9] = True, 1.0
+    gd[12] = np.nan      # and a NaN gradient
+    Hd1, g1 = rng.normal(0, 1, (n, 3, 3)), rng.normal(0, 1, (n, 3))
+    Hd2, g2 = Hd1.copy(), g1.copy()
+    _add_view(Hd1, g1, d, gd, seen, J, 2.0, 8.0)
+    _add_view_d79ec45(Hd2, g2, d, gd, seen, J, 2.0, 8.0)
+    np.testing.assert_array_equal(Hd1, Hd2)
+    np.testing.assert_array_equal(g1, g2)
+    assert np.isnan(Hd2[bad]).all() and np.isnan(Hd2[9]).any() and np.isnan(Hd2[12]).any()
+
+
+def _normal_inputs(rng, n):
+    Hd = rng.normal(0, 1, (n, 3, 3)) * rng.choice([1e-3, 1.0, 1e4], (n, 1, 1))
+    Hd = Hd + Hd.transpose(0, 2, 1)
+    t = rng.normal(0, 1, (n - 1, 3))
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    tt = rng.uniform(0.1, 10.0) ** 2 * np.einsum("ki,kj->kij", t, t)
+    bend = _bending_blocks_d79ec45(n) * rng.uniform(0.1, 30.0) ** 2
+    return Hd, tt, bend
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_banded_normal_is_the_d79ec45_numpy(seed):
+    rng = np.random.default_rng(200 + seed)
+    for n in range(2, 51):
+        Hd, tt, bend = _normal_inputs(rng, n)
+        np.testing.assert_array_equal(_banded_normal(Hd, tt, bend), _banded_normal_d79ec45(Hd, tt, bend))
+        # general (not symmetric) blocks and a bending band of any values: every entry's place and order
+        Hd, tt, bend = rng.normal(0, 5, (n, 3, 3)), rng.normal(0, 5, (n - 1, 3, 3)), rng.normal(0, 5, (3, n))
+        np.testing.assert_array_equal(_banded_normal(Hd, tt, bend), _banded_normal_d79ec45(Hd, tt, bend))
+
+
+def test_banded_normal_with_nan_is_the_d79ec45_numpy():
+    """A NaN node block (from _add_view's NaN): the old ab[8].max() was NaN, the whole diagonal NaN."""
+    rng = np.random.default_rng(8)
+    for n, where in ((12, (4, 0, 0)), (12, (0, 1, 2)), (2, (1, 2, 2)), (30, (29, 2, 2))):
+        Hd, tt, bend = _normal_inputs(rng, n)
+        Hd[where] = np.nan
+        want = _banded_normal_d79ec45(Hd, tt, bend)
+        np.testing.assert_array_equal(_banded_normal(Hd, tt, bend), want)
+        assert np.isnan(want).any()
+    Hd, tt, bend = _normal_inputs(rng, 10)
+    tt[3, 0, 1] = np.nan
+    np.testing.assert_array_equal(_banded_normal(Hd, tt, bend), _banded_normal_d79ec45(Hd, tt, bend))
