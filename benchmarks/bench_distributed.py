@@ -9,7 +9,7 @@ Needs ``data/phantoms`` (``python -m tendrilkit phantom --site all --out data/ph
    of 2 processes, LocalCluster of 1 and of 2 single-threaded workers),
    submitted all at once and waited for: wall seconds per task; and the bytes
    every chunk task ships (its pickled arguments: experiment and cameras).
-2. One 60-frame experiment (``params/phantom_S3.yaml``, the default chain
+2. One 60-frame experiment (``params/phantom_S3.yaml``, the default
    method): the frame loop of ``reconstruct`` (calibration reused, no contact
    sheet) with the pool (2 processes), LocalCluster 1 and LocalCluster 2,
    interleaved in rounds (each round runs every mode, the order rotated), so
@@ -206,7 +206,7 @@ def main() -> int:
                 elif tabs != ref:
                     print(f"   MISMATCH: {m} round {r} tables differ from the first run", file=sys.stderr)
                     return 1
-        print(f"\n2. one {n_frames}-frame experiment (S3, chain method), {args.rounds} interleaved rounds, "
+        print(f"\n2. one {n_frames}-frame experiment (S3, default method), {args.rounds} interleaved rounds, "
               f"tables byte-identical across modes: yes")
         print("   a. the frame loop on running executors (start-up excluded: started once above); CPU: the workers' "
               "processes, and the client's (for local:N also the scheduler's and the nannies')")

@@ -58,7 +58,9 @@ def compare_correspondence(experiment_path: str | Path, out_dir: str | Path, *, 
                            fit: bool = False) -> pd.DataFrame:
     """Reconstruct an experiment once per correspondence method and tabulate the figures per frame.
 
-    Each method runs into ``out_dir/<method>/`` (resumable like any run).
+    Each method runs into ``out_dir/<method>/`` (resumable like any run), with
+    ``reconstruction.method: chain`` (the correspondence method is a step of
+    the chain; the multi-view method matches no 2D curves).
 
     Parameters
     ----------
@@ -85,7 +87,7 @@ def compare_correspondence(experiment_path: str | Path, out_dir: str | Path, *, 
     parts = []
     for m in methods:
         run_reconstruct(experiment_path, out / m, workers=workers, progress=False, fit=fit,
-                        overrides={"correspondence": {"method": m}})
+                        overrides={"reconstruction": {"method": "chain"}, "correspondence": {"method": m}})
         f = read_csv(out / m / "frames.csv")
         cols = ["frame", "status"] + [c for c in f.columns if c.startswith("reproj_mean_px_v")]
         t = f[cols].copy()
