@@ -49,10 +49,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 def rerun_scene(folder: Path, cache: Path, *, fit: bool) -> list[dict]:
     """Reconstruct every processed frame of one scene again (multiview), evidence from ``cache``."""
     import tendrilkit.pipeline as pipeline
-    from tendrilkit.exceptions import FrameError
     from tendrilkit.io import open_views, read_cameras
     from tendrilkit.params import load_experiment
     from tendrilkit.phantom import read_ground_truth
+    from tendrilkit.runner import _read_views
 
     exp = load_experiment(folder / "scene" / "experiment.yaml")
     exp = exp.model_copy(update={"reconstruction": exp.reconstruction.model_copy(update={"method": "multiview"})})
@@ -72,14 +72,7 @@ def rerun_scene(folder: Path, cache: Path, *, fit: bool) -> list[dict]:
                 evidence = pickle.loads(path.read_bytes())
                 images, errors = [None] * len(cameras), [None] * len(cameras)
             else:
-                images, errors = [], []
-                for src in sources:
-                    try:
-                        images.append(src.read(f))
-                        errors.append(None)
-                    except FrameError as e:
-                        images.append(None)
-                        errors.append(f"{type(e).__name__}: {e}")
+                images, errors = _read_views(sources, f)  # as the runner reads a frame
                 evidence = original(images, cameras, exp, read_errors=errors)
                 path.write_bytes(pickle.dumps(evidence))
             # the frame's evidence, computed once: the multi-view decisions are what a re-run measures

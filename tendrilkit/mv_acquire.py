@@ -409,7 +409,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
 
 
 def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: np.ndarray, *,
-               max_gap_mm: float = 40.0, cone_deg: float = 75.0, step_mm: float = 1.0,
+               max_gap_mm: float, cone_deg: float = 75.0, step_mm: float = 1.0,
                coarse_px: float = 6.0) -> np.ndarray | None:
     """Where the tendril comes out again after a part that fewer than two views see (None: nowhere).
 

@@ -19,33 +19,32 @@ from tendrilkit.mv_evidence import (COVER_DEPTH_PX, COVER_PX, _near_foreground, 
                                     skeleton_evidence)
 
 
-@pytest.fixture(scope="module")
-def ev():
-    """A view of a dark wavy line, a crossing bar and specks (a skeleton of a few hundred pixels)."""
+def _wavy_view(draw_more) -> object:
+    """The multi-view evidence of a dark wavy line on a white board, with ``draw_more(img)`` drawn on it too."""
     img = np.full((120, 200, 3), 255, np.uint8)
     x = np.arange(10, 190)
     y = (60 + 25 * np.sin(x / 17.0)).astype(np.int32)
     cv2.polylines(img, [np.c_[x, y].astype(np.int32)], False, (20, 20, 20), 3)
-    cv2.line(img, (100, 5), (110, 115), (20, 20, 20), 3)
-    cv2.circle(img, (30, 20), 4, (20, 20, 20), -1)
+    draw_more(img)
     vw = view_evidence(img, roi=[5, 2, 190, 116], keep_out=[5, 40, 12, 30], base_point_xy=[12, 60],
                        opening_radius_px=0, min_component_px=10)
     cam = Camera(K=np.array([[400.0, 0, 100], [0, 400.0, 60], [0, 0, 1]]), dist=np.array([-0.1, 0.02, 1e-3, -1e-3, 0.0]))
     return skeleton_evidence(vw, cam)
+
+
+@pytest.fixture(scope="module")
+def ev():
+    """A view of a dark wavy line, a crossing bar and specks (a skeleton of a few hundred pixels)."""
+    def bar_and_speck(img):
+        cv2.line(img, (100, 5), (110, 115), (20, 20, 20), 3)
+        cv2.circle(img, (30, 20), 4, (20, 20, 20), -1)
+    return _wavy_view(bar_and_speck)
 
 
 @pytest.fixture(scope="module")
 def ev_blob():
     """The wavy line running into a filled dark blob (a leaf): deep inside it, far from the skeleton, is covered."""
-    img = np.full((120, 200, 3), 255, np.uint8)
-    x = np.arange(10, 190)
-    y = (60 + 25 * np.sin(x / 17.0)).astype(np.int32)
-    cv2.polylines(img, [np.c_[x, y].astype(np.int32)], False, (20, 20, 20), 3)
-    cv2.ellipse(img, (140, 55), (30, 22), 20.0, 0, 360, (20, 20, 20), -1)
-    vw = view_evidence(img, roi=[5, 2, 190, 116], keep_out=[5, 40, 12, 30], base_point_xy=[12, 60],
-                       opening_radius_px=0, min_component_px=10)
-    cam = Camera(K=np.array([[400.0, 0, 100], [0, 400.0, 60], [0, 0, 1]]), dist=np.array([-0.1, 0.02, 1e-3, -1e-3, 0.0]))
-    return skeleton_evidence(vw, cam)
+    return _wavy_view(lambda img: cv2.ellipse(img, (140, 55), (30, 22), 20.0, 0, 360, (20, 20, 20), -1))
 
 
 def _skeleton_distance_d79ec45(ev, points_xy, *, outside_px=50.0, index=False):
