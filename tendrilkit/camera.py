@@ -165,13 +165,18 @@ class Camera:
         X = _as_points(points_world, 3, "points_world")
         if distort and along is not None:
             raise ValueError("along is for the pinhole projection (distort=False) only")
-        if distort:
-            u = self.project(X)
-            J = np.empty((len(X), 2, 3))
+        if distort:  # the points and their three shifted copies in one projection
+            n = len(X)
+            S = np.empty((4 * n, 3))
+            S[:n] = X
             for a in range(3):
-                Xh = X.copy()
-                Xh[:, a] += step_mm
-                J[:, :, a] = (self.project(Xh) - u) / step_mm
+                S[(a + 1) * n:(a + 2) * n] = X
+                S[(a + 1) * n:(a + 2) * n, a] += step_mm
+            U = self.project(S)
+            u = U[:n]
+            J = np.empty((n, 2, 3))
+            for a in range(3):
+                J[:, :, a] = (U[(a + 1) * n:(a + 2) * n] - u) / step_mm
             return u, J
         Xc = X @ self.R.T + self.t_mm
         z = Xc[:, 2]

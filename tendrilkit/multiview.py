@@ -239,25 +239,13 @@ def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm
     N = 3 * n
     bend = _bending_blocks(n) * bend_weight ** 2
     B = np.asarray(base_mm, float)
-    step_h = 1e-3  # mm: the forward differences of the projections (Camera.project_jacobian's step)
+    step_h = 1e-3  # mm: the forward differences of the projections (Camera.project_jacobian's default step)
     for it in range(iterations):
         cap = max(cap_px[1], cap_px[0] * 0.75 ** it)
         Hd = np.zeros((n, 3, 3))
         g = np.zeros((n, 3))
-        # every view's pixels of the nodes and of the nodes moved by step_h along x, y, z (one projection: the
-        # forward differences of Camera.project_jacobian, bit for bit)
-        S = np.empty((4 * n, 3))
-        S[:n] = X
-        for a in range(3):
-            Xh = X.copy()
-            Xh[:, a] += step_h
-            S[(a + 1) * n:(a + 2) * n] = Xh
-        J = np.empty((n, 2, 3))
         for ev in evidence:
-            U = ev.camera.project(S)
-            u = U[:n]
-            for a in range(3):
-                J[:, :, a] = (U[(a + 1) * n:(a + 2) * n] - u) / step_h
+            u, J = ev.camera.project_jacobian(X, distort=True, step_mm=step_h)
             d, gd, seen = skeleton_distance(ev, u, outside_px=1e3)
             _add_view(Hd, g, d, gd, seen, J, huber_px, cap)
         # base anchor
