@@ -39,12 +39,16 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
 
 from tendrilkit import limits as L
 from tendrilkit.schema import CURVES, PWC_CURVES, PWC_METRICS, PWC_SEGMENTS
 from tendrilkit.exceptions import DegenerateCurveError, ExperimentError
+
+if TYPE_CHECKING:  # pandas only for the table API (fit_curves, metrics_table): the fit command reads and
+    import pandas as pd  # writes without it (its import is a tenth of the command's time)
 
 __all__ = ["FitSummary", "run_fit", "fit_curves", "fit_frame"]
 
@@ -69,7 +73,36 @@ class FitSummary:
                 f" ({self.n_failed} failed): {self.curves_csv.parent}")
 
 
-def _read_curves(path: Path) -> pd.DataFrame:
+#: Cells pandas reads as missing (``pandas.read_csv``'s default ``na_values``): read as NaN here too.
+_NA_CELLS = frozenset({"", "#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan", "1.#IND", "1.#QNAN",
+                       "<NA>", "N/A", "NA", "NULL", "NaN", "None", "n/a", "nan", "null"})
+
+
+@dataclass(frozen=True, eq=False)
+class _Curves:
+    """A curves.csv's rows as arrays, in file order: ``frame``, ``point`` (m,) int; ``time_s`` (m,) float
+    (NaN where missing); ``xyz_mm`` (m, 3) float."""
+
+    frame: np.ndarray
+    point: np.ndarray
+    time_s: np.ndarray
+    xyz_mm: np.ndarray
+
+
+def _number(cell: str) -> float | None:
+    """The number in a cell (NaN for a missing one), or None for text."""
+    if cell in _NA_CELLS:
+        return np.nan
+    if "_" in cell:  # Python reads 1_000; a CSV reader does not
+        return None
+    try:
+        return float(cell)
+    except ValueError:
+        return None
+
+
+def _read_curves(path: Path) -> _Curves:
+    """Read and check a curves.csv (csv module and numpy: pandas' import alone is a tenth of the fit command's time)."""
     if not path.exists():
         raise ExperimentError(f"{path}: curves file not found")
     if path.is_dir():
@@ -79,49 +112,63 @@ def _read_curves(path: Path) -> pd.DataFrame:
     if path.stat().st_size > MAX_CURVES_BYTES:
         raise ExperimentError(f"{path}: larger than {MAX_CURVES_BYTES // 1_000_000_000} GB; expected a curves.csv "
                               f"(split it by frames)")
+    import csv
+
     try:
-        df = pd.read_csv(path)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as e:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            rows = [r for r in csv.reader(fh) if r]  # blank lines skipped, as pandas does
+    except (csv.Error, UnicodeDecodeError, OSError) as e:
         raise ExperimentError(f"{path}: cannot read as CSV ({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''})") from None
-    missing = [c for c in ("frame", "point", "x_mm", "y_mm", "z_mm") if c not in df.columns]
+    if not rows:
+        raise ExperimentError(f"{path}: cannot read as CSV (no columns in the file)")
+    header, body = rows[0], rows[1:]
+    for i, r in enumerate(body):
+        if len(r) > len(header):
+            raise ExperimentError(f"{path}: cannot read as CSV (expected {len(header)} fields in line {i + 2}, "
+                                  f"saw {len(r)})")
+    missing = [c for c in ("frame", "point", "x_mm", "y_mm", "z_mm") if c not in header]
     if missing:
         raise ExperimentError(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(CURVES.columns)}")
-    if "time_s" not in df.columns:
-        df["time_s"] = np.nan
+    cols = {}
     for c in ("frame", "point", "x_mm", "y_mm", "z_mm", "time_s"):
-        conv = pd.to_numeric(df[c], errors="coerce")
-        text = conv.isna() & df[c].notna()  # a cell that is there but is not a number
-        if text.any():
-            row = int(np.flatnonzero(text.to_numpy())[0])
-            raise ExperimentError(f"{path}: column {c}, row {row + 2} of the file: text where a number is expected")
+        if c not in header:  # time_s only
+            cols[c] = np.full(len(body), np.nan)
+            continue
+        j = header.index(c)
+        values = [_number(r[j]) if j < len(r) else np.nan for r in body]
+        text = [i for i, v in enumerate(values) if v is None]  # a cell that is there but is not a number
+        if text:
+            raise ExperimentError(f"{path}: column {c}, row {text[0] + 2} of the file: text where a number is expected")
+        conv = np.array(values, dtype=float)
         if c in ("frame", "point"):
-            bad = conv.isna() | (conv % 1 != 0) | (conv < 0) | (conv > L.MAX_FRAME)
+            with np.errstate(invalid="ignore"):
+                bad = np.isnan(conv) | (conv % 1 != 0) | (conv < 0) | (conv > L.MAX_FRAME)
             if bad.any():
-                row = int(np.flatnonzero(bad.to_numpy())[0])
+                row = int(np.flatnonzero(bad)[0])
                 raise ExperimentError(f"{path}: column {c}, row {row + 2} of the file: expected an integer 0.."
-                                      f"{L.MAX_FRAME}, got {conv.iloc[row]!r}")
+                                      f"{L.MAX_FRAME}, got {float(conv[row])!r}")
         elif c != "time_s":
-            big = conv.notna() & ~(conv.abs() <= L.MAX_LENGTH_MM)
+            big = ~np.isnan(conv) & ~(np.abs(conv) <= L.MAX_LENGTH_MM)
             if big.any():
-                row = int(np.flatnonzero(big.to_numpy())[0])
-                raise ExperimentError(f"{path}: column {c}, row {row + 2} of the file: {conv.iloc[row]:g} mm; expected "
+                row = int(np.flatnonzero(big)[0])
+                raise ExperimentError(f"{path}: column {c}, row {row + 2} of the file: {conv[row]:g} mm; expected "
                                       f"a finite coordinate within {L.MAX_LENGTH_MM:g} mm")
-        df[c] = conv
-    if df.empty:
+        cols[c] = conv
+    if not body:
         raise ExperimentError(f"{path}: no rows")
-    df["frame"] = df["frame"].astype(int)
-    df["point"] = df["point"].astype(int)
-    dup = df.duplicated(["frame", "point"], keep="first")
-    if dup.any():
-        f, p = (int(x) for x in df.loc[dup, ["frame", "point"]].iloc[0])
-        raise ExperimentError(f"{path}: frame {f}: point {p} is listed twice (the frame given twice?); expected "
-                              f"each frame's points once")
-    counts = df.groupby("frame").size()
+    frame, point = cols["frame"].astype(np.int64), cols["point"].astype(np.int64)
+    key = frame * (L.MAX_FRAME + 1) + point
+    _, first = np.unique(key, return_index=True)
+    if first.size < key.size:  # the first row (in file order) whose frame and point came before
+        dup = int(np.setdiff1d(np.arange(key.size), first)[0])
+        raise ExperimentError(f"{path}: frame {int(frame[dup])}: point {int(point[dup])} is listed twice (the frame "
+                              f"given twice?); expected each frame's points once")
+    frames, counts = np.unique(frame, return_counts=True)
     if counts.max() > L.MAX_POINTS:
-        f = int(counts.idxmax())
+        f = int(frames[np.argmax(counts)])
         raise ExperimentError(f"{path}: frame {f}: {int(counts.max())} points; expected at most {L.MAX_POINTS} per "
                               f"frame (resample the curve)")
-    return df
+    return _Curves(frame, point, cols["time_s"], np.column_stack([cols["x_mm"], cols["y_mm"], cols["z_mm"]]))
 
 
 def fit_frame(points_mm: np.ndarray, options: dict | None = None, *, frame: int = 0,
@@ -169,52 +216,68 @@ def fit_frame(points_mm: np.ndarray, options: dict | None = None, *, frame: int 
 
 def curves_table(frame: int, time_s: float, points_mm: np.ndarray) -> pd.DataFrame:
     """One frame's points as rows of ``curves.csv`` / ``pwc_curves.csv``."""
+    import pandas as pd
+
     n = len(points_mm)
     return pd.DataFrame({"frame": int(frame), "time_s": time_s, "point": np.arange(n),
                          "x_mm": points_mm[:, 0], "y_mm": points_mm[:, 1], "z_mm": points_mm[:, 2]})
 
 
 def metrics_table(rows: list[dict]) -> pd.DataFrame:
+    import pandas as pd
+
     mets = pd.DataFrame(rows, columns=list(PWC_METRICS.columns))
     for c in PWC_METRICS.of_kind("Int"):
         mets[c] = mets[c].astype("Int64")
     return mets
 
 
-def fit_curves(curves: pd.DataFrame, options: dict | None = None) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
-    """Fit every frame of a curves table; returns ``(pwc_curves, segments, metrics)`` tables.
+def _fit_arrays(frame: np.ndarray, point: np.ndarray, time_s: np.ndarray, xyz_mm: np.ndarray,
+                options: dict | None) -> tuple[dict, list[dict], list[dict]]:
+    """Fit every frame of a curves table given as arrays (rows in any order).
 
-    The frames are cut from the sorted table's arrays and the fitted curves gathered
-    into one table at the end (a table per frame cost about as much as a tenth of a fit).
+    The frames are cut from the arrays sorted by frame and point and the fitted curves gathered
+    at the end (a table per frame cost about as much as a tenth of a fit). Returns
+    ``(pwc_curves columns, segment rows, metric rows)``.
     """
-    c = curves.sort_values(["frame", "point"])
-    frames = c["frame"].to_numpy()
-    xyz = c[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
-    times = c["time_s"].to_numpy(float)
+    order = np.lexsort((point, frame))
+    frames, xyz, times = frame[order], xyz_mm[order], time_s[order]
     starts = np.flatnonzero(np.r_[True, frames[1:] != frames[:-1]]) if frames.size else np.zeros(0, int)
     ends = np.r_[starts[1:], frames.size]
     out_frames, out_times, out_points, seg_rows, met_rows = [], [], [], [], []
     for a, b in zip(starts, ends):
-        frame = int(frames[a])
+        f = int(frames[a])
         t_s = float(times[a]) if np.any(~np.isnan(times[a:b])) else np.nan
-        fitted, segs, row = fit_frame(xyz[a:b], options, frame=frame, time_s=t_s)
+        fitted, segs, row = fit_frame(xyz[a:b], options, frame=f, time_s=t_s)
         met_rows.append(row)
         seg_rows.extend(segs)
         if fitted is not None:
-            out_frames.append(frame)
+            out_frames.append(f)
             out_times.append(t_s)
             out_points.append(fitted)
-    if out_points:
-        counts = [len(p) for p in out_points]
-        pts = np.concatenate(out_points)
-        pwc = pd.DataFrame({"frame": np.repeat(np.array(out_frames, dtype=np.int64), counts),
-                            "time_s": np.repeat(np.array(out_times, dtype=float), counts),
-                            "point": np.concatenate([np.arange(n) for n in counts]),
-                            "x_mm": pts[:, 0], "y_mm": pts[:, 1], "z_mm": pts[:, 2]})
-    else:
-        pwc = pd.DataFrame(columns=list(PWC_CURVES.columns))
+    counts = [len(p) for p in out_points]
+    pts = np.concatenate(out_points) if out_points else np.zeros((0, 3))
+    pwc = {"frame": np.repeat(np.array(out_frames, dtype=np.int64), counts),
+           "time_s": np.repeat(np.array(out_times, dtype=float), counts),
+           "point": np.concatenate([np.arange(n) for n in counts]) if counts else np.zeros(0, np.int64),
+           "x_mm": pts[:, 0], "y_mm": pts[:, 1], "z_mm": pts[:, 2]}
+    return pwc, seg_rows, met_rows
+
+
+def fit_curves(curves: pd.DataFrame, options: dict | None = None) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """Fit every frame of a curves table; returns ``(pwc_curves, segments, metrics)`` tables."""
+    import pandas as pd
+
+    pwc, seg_rows, met_rows = _fit_arrays(curves["frame"].to_numpy(), curves["point"].to_numpy(),
+                                          curves["time_s"].to_numpy(float),
+                                          curves[["x_mm", "y_mm", "z_mm"]].to_numpy(float), options)
+    pwc = pd.DataFrame(pwc) if len(pwc["frame"]) else pd.DataFrame(columns=list(PWC_CURVES.columns))
     segs = pd.DataFrame(seg_rows, columns=list(PWC_SEGMENTS.columns))
     return pwc, segs, metrics_table(met_rows)
+
+
+def _row_columns(rows: list[dict], table) -> dict:
+    return {c: [r[c] for r in rows] for c in table.columns}
 
 
 def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None) -> FitSummary:
@@ -241,13 +304,14 @@ def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None) -> 
     """
     t0 = time.perf_counter()
     curves_csv, out_dir = Path(curves_csv), Path(out_dir)
-    from tendrilkit.io import check_writable_dir, write_result
+    from tendrilkit.io import check_writable_dir, write_columns
 
-    curves = _read_curves(curves_csv)
+    c = _read_curves(curves_csv)
     check_writable_dir(out_dir)
-    pwc, segs, mets = fit_curves(curves, options)
+    pwc, seg_rows, met_rows = _fit_arrays(c.frame, c.point, c.time_s, c.xyz_mm, options)
     paths = (out_dir / "pwc_curves.csv", out_dir / "pwc_segments.csv", out_dir / "pwc_metrics.csv")
-    for df, p, table in zip((pwc, segs, mets), paths, (PWC_CURVES, PWC_SEGMENTS, PWC_METRICS)):
-        write_result(df, p, table)
-    ok = int((mets["status"] == "ok").sum())
-    return FitSummary(len(mets), ok, len(mets) - ok, time.perf_counter() - t0, *paths)
+    tables = (pwc, _row_columns(seg_rows, PWC_SEGMENTS), _row_columns(met_rows, PWC_METRICS))
+    for columns, p, table in zip(tables, paths, (PWC_CURVES, PWC_SEGMENTS, PWC_METRICS)):
+        write_columns(columns, p, table)
+    ok = sum(r["status"] == "ok" for r in met_rows)
+    return FitSummary(len(met_rows), ok, len(met_rows) - ok, time.perf_counter() - t0, *paths)

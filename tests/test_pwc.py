@@ -579,3 +579,24 @@ def test_auto_searches_again_when_residuals_exceed_the_noise():
     assert not F._missed((None, None, sse_at(0.8), 0.9999), 0.999, sigma, n)
     assert F._missed((None, None, sse_at(1.2 * F.RETRY_NOISE_RATIO), 0.9999), 0.999, sigma, n)
     assert F._missed((None, None, sse_at(0.5), 0.99), 0.999, sigma, n)
+
+
+def test_retry_yardstick_is_the_noise_or_a_fraction_of_what_the_target_allows():
+    """Noisy points: their noise; a smoothed curve (noise ~0): RETRY_ALLOWANCE_FRACTION of the rms the target R^2
+    allows, so that a fit leaving 0.01 mm on a smooth 150 mm curve is not searched again, one leaving 0.1 mm is."""
+    import tendrilkit.pwc.fit as F
+    from tendrilkit.frenet import noise_sigma_mm
+
+    tc = random_pwc_curve(3)
+    P = tc.points_mm
+    assert F._retry_yardstick_mm(P, P, 0.999) == noise_sigma_mm(P)
+    smooth = tc.dense_mm[::10]
+    sst = np.sum((smooth - smooth.mean(axis=0)) ** 2)
+    allowed = np.sqrt(0.001 * sst / (3 * len(smooth)))
+    assert noise_sigma_mm(smooth) < 0.01 * allowed
+    y = F._retry_yardstick_mm(smooth, smooth, 0.999)
+    assert y == pytest.approx(F.RETRY_ALLOWANCE_FRACTION * allowed)
+    n = len(smooth)
+    sse_at = lambda rms: rms ** 2 * 3 * n  # noqa: E731
+    assert not F._missed((None, None, sse_at(0.01), 0.99999), 0.999, y, n)
+    assert F._missed((None, None, sse_at(0.1), 0.99999), 0.999, y, n)
