@@ -18,14 +18,15 @@ frame goes (CPU per stage, measured in a second pass).
 times the fit on every frame of a reconstruction's ``curves.csv`` (what the pipeline's ``pwc`` stage
 fits; e.g. ``reconstruct params/phantom_S3.yaml``'s) beside the benchmark's ground-truth curves, with
 what makes a frame dearer: how many searches a fit ran (the first, and the retries of ``retries``,
-which run when the rms residual exceeds ``RETRY_NOISE_RATIO`` of the noise estimated from the points),
+which run when the rms residual exceeds ``RETRY_NOISE_RATIO`` of the noise estimated from the points,
+counted as at least ``RETRY_ALLOWANCE_FRACTION`` of the rms residual the target R2 allows),
 the candidates evaluated, the segments, and that rms-to-noise ratio. Then stops.
 
     .venv/bin/python benchmarks/bench_pwc.py --command-csv RUN/curves.csv   # issue 17's fit-command figure
 
 times ``python -m tendrilkit fit`` on that CSV (issue 17 means a reconstruction's curves of 100 frames),
 process start included, ``--rounds`` runs (wall and CPU, like ``time``), and then where one such run's CPU
-goes, part by part in a fresh process (imports: numpy, pandas, numba, tendrilkit; numba's set-up at its
+goes, part by part in a fresh process (imports: numpy, numba, tendrilkit (no pandas); numba's set-up at its
 first compiled call; reading the CSV; the first fit, which loads numba's caches; the other fits; writing
 the tables). Then stops.
 
@@ -75,14 +76,15 @@ def main() -> None:
     ap.add_argument("--curves-csv", type=Path, help="a reconstruction's curves.csv: its frames against the benchmark's")
     ap.add_argument("--command-csv", type=Path, help="time the fit command on this curves.csv, and its parts")
     args = ap.parse_args()
-    if args.command_csv is not None:
+    if args.command_csv is not None and args.baseline is None:
         _fit_command(args.command_csv.resolve(), args.rounds)
         return
     if args.curves_csv is not None:
         _pipeline_curves(args.curves_csv, args.curves)
         return
     if args.baseline is not None:
-        _compare(args.baseline.resolve(), args.curves, args.frames, args.rounds)
+        _compare(args.baseline.resolve(), args.curves, args.frames, args.rounds,
+                 args.command_csv.resolve() if args.command_csv is not None else None)
         _compare_accuracy(args.baseline.resolve(), args.curves, args.frames, args.extra)
         return
 
@@ -183,8 +185,6 @@ import sys, time
 c = time.process_time(); t = {{}}
 import numpy as np
 t["imports: numpy"] = time.process_time() - c; c = time.process_time()
-import pandas
-t["imports: pandas"] = time.process_time() - c; c = time.process_time()
 import numba
 t["imports: numba"] = time.process_time() - c; c = time.process_time()
 import tendrilkit.cli, tendrilkit.fitting as F, tendrilkit.io as io, tendrilkit.pwc, tendrilkit.schema as S
@@ -194,18 +194,20 @@ from tendrilkit.pwc.laws import _pwl_step_means
 u = np.linspace(0.0, 1.0, 5)
 _pwl_step_means(u, u[[0, 4]], u[:2])  # numba's set-up at its first compiled call (registries, scipy.linalg)
 t["numba set-up (first compiled call)"] = time.process_time() - c; c = time.process_time()
-curves = F._read_curves(Path({csv!r}))
-t["reading the CSV (pandas, checks)"] = time.process_time() - c; c = time.process_time()
-first = curves[curves["frame"] == curves["frame"].min()]
-F.fit_curves(first)
+cv = F._read_curves(Path({csv!r}))
+t["reading the CSV (csv module, checks)"] = time.process_time() - c; c = time.process_time()
+one = cv.frame == cv.frame.min()
+F._fit_arrays(cv.frame[one], cv.point[one], cv.time_s[one], cv.xyz_mm[one], None)
 t["first frame's fit (numba's cache loads included)"] = time.process_time() - c; c = time.process_time()
-pwc, segs, mets = F.fit_curves(curves)
-n = mets.shape[0]
+pwc, segs, mets = F._fit_arrays(cv.frame, cv.point, cv.time_s, cv.xyz_mm, None)
+n = len(mets)
 t[f"all {{n}} fits again (the first's cache loads apart: its own CPU is in here)"] = time.process_time() - c
 c = time.process_time()
-for df, name, table in zip((pwc, segs, mets), ("a", "b", "c"), (S.PWC_CURVES, S.PWC_SEGMENTS, S.PWC_METRICS)):
-    io.write_result(df, Path({out!r}) / name, table)
+tables = (pwc, F._row_columns(segs, S.PWC_SEGMENTS), F._row_columns(mets, S.PWC_METRICS))
+for cols, name, table in zip(tables, ("a", "b", "c"), (S.PWC_CURVES, S.PWC_SEGMENTS, S.PWC_METRICS)):
+    io.write_columns(cols, Path({out!r}) / name, table)
 t["writing the three tables"] = time.process_time() - c
+t["pandas imported (0 = no)"] = float("pandas" in sys.modules)
 for k, v in t.items():
     print(f"{{v:.3f}} {{k}}")
 """
@@ -262,7 +264,8 @@ def _search_figures(curves: list) -> dict:
         return res
 
     fit_piecewise_clothoid(curves[0])  # numba's caches
-    out = {k: [] for k in ("cpu_ms", "searches", "candidates", "segments", "noise_ratio")}
+    out = {k: [] for k in ("cpu_ms", "searches", "candidates", "segments", "noise_ratio",
+                                "yardstick_ratio")}
     F._auto_search = counted
     try:
         for P in curves:
@@ -274,6 +277,8 @@ def _search_figures(curves: list) -> dict:
             out["candidates"].append(sum(len(r["candidates"]) for r in searches))
             out["segments"].append(f.n_segments_kappa + f.n_segments_tau)
             out["noise_ratio"].append(np.sqrt(searches[0]["best"][2] / (3 * f.s_mm.size)) / noise_sigma_mm(P))
+            out["yardstick_ratio"].append(np.sqrt(searches[0]["best"][2] / (3 * f.s_mm.size))
+                                          / F._retry_yardstick_mm(P, f.data_mm, 0.999))
     finally:
         F._auto_search = inner
     return {k: np.array(v, float) for k, v in out.items()}
@@ -283,7 +288,7 @@ def _pipeline_curves(curves_csv: Path, n_curves: int) -> None:
     """A reconstruction's curves against the benchmark's ground-truth curves: what makes its frames dearer."""
     import pandas as pd
 
-    from tendrilkit.pwc.fit import RETRY_NOISE_RATIO
+    from tendrilkit.pwc.fit import RETRY_ALLOWANCE_FRACTION, RETRY_NOISE_RATIO
 
     d = pd.read_csv(curves_csv).sort_values(["frame", "point"])
     run = [g[["x_mm", "y_mm", "z_mm"]].to_numpy(float) for _, g in d.groupby("frame")]
@@ -295,7 +300,9 @@ def _pipeline_curves(curves_csv: Path, n_curves: int) -> None:
               f"mean {f['cpu_ms'].mean():.1f} max {f['cpu_ms'].max():.1f} ms; searches per fit {f['searches'].mean():.2f} "
               f"(retried {100 * np.mean(f['searches'] > 1):.0f} %); candidates per fit {f['candidates'].mean():.1f}; "
               f"segments (kappa + tau) {f['segments'].mean():.1f}; first search's rms / noise estimate median "
-              f"{np.median(f['noise_ratio']):.2f} (retry above {RETRY_NOISE_RATIO})")
+              f"{np.median(f['noise_ratio']):.2f}, / the retry's yardstick (noise, at least "
+              f"{RETRY_ALLOWANCE_FRACTION} of the rms the target R2 allows) median "
+              f"{np.median(f['yardstick_ratio']):.2f} (retry above {RETRY_NOISE_RATIO})")
         _print_refinements(f"  {name}: the refinements by kind", curves)
 
 
@@ -390,8 +397,12 @@ print(json.dumps([wall, cpu]))
 """
 
 
-def _compare(baseline: Path, n_curves: int, n_frames: int, rounds: int) -> None:
-    """Old (``baseline``) against this checkout, alternately in fresh processes, on the same load."""
+def _compare(baseline: Path, n_curves: int, n_frames: int, rounds: int, command_csv: Path | None = None) -> None:
+    """Old (``baseline``) against this checkout, alternately in fresh processes, on the same load.
+
+    The fit command runs on the ground-truth curves' CSV and, with ``command_csv`` (``--command-csv``: a
+    reconstruction's curves, issue 17's case), on that one too.
+    """
     import json
 
     import pandas as pd
@@ -427,24 +438,32 @@ def _compare(baseline: Path, n_curves: int, n_frames: int, rounds: int) -> None:
                                       "x_mm": P[:, 0], "y_mm": P[:, 1], "z_mm": P[:, 2]}))
         csv = Path(tmp) / "curves.csv"
         pd.concat(rows).to_csv(csv, index=False)
-        cmd = {k: ([], []) for k in sides}
-        for run in range(rounds + 1):  # the first pair may fill numba's caches: not counted
-            for name, cwd in sides.items():
-                t, c0 = time.perf_counter(), os.times()
-                subprocess.run([sys.executable, "-m", "tendrilkit", "fit", str(csv), "--out", str(Path(tmp) / name)],
-                               cwd=cwd, capture_output=True, text=True, check=True)
-                c1 = os.times()
-                if run:
-                    cmd[name][0].append(time.perf_counter() - t)
-                    cmd[name][1].append((c1.children_user - c0.children_user) + (c1.children_system - c0.children_system))
-        m = {k: (np.median(w), np.median(c)) for k, (w, c) in cmd.items()}
-        same = all((Path(tmp) / "old" / f).read_bytes() == (Path(tmp) / "new" / f).read_bytes()
-                   for f in ("pwc_curves.csv", "pwc_segments.csv", "pwc_metrics.csv"))
-        print(f"fit command, {n_frames} frames, process start included, median of {rounds} alternate runs: "
-              f"old {m['old'][0]:.2f} s wall {m['old'][1]:.2f} s CPU; new {m['new'][0]:.2f} s wall "
-              f"{m['new'][1]:.2f} s CPU (target <= 2 s); new/old wall {m['new'][0] / m['old'][0]:.2f}, "
-              f"CPU {m['new'][1] / m['old'][1]:.2f}; result files {'identical' if same else 'DIFFERENT'} "
-              f"(load average {os.getloadavg()[0]:.1f})")
+        for what, path in ((f"the benchmark's {n_frames} ground-truth curves", csv),
+                           (f"{command_csv}", command_csv)):
+            if path is not None:
+                _compare_command(sides, path, Path(tmp), what, rounds)
+
+
+def _compare_command(sides: dict, csv: Path, tmp: Path, what: str, rounds: int) -> None:
+    """The fit command of both sides on ``csv``, alternately, process start included."""
+    cmd = {k: ([], []) for k in sides}
+    for run in range(rounds + 1):  # the first pair may fill numba's caches: not counted
+        for name, cwd in sides.items():
+            t, c0 = time.perf_counter(), os.times()
+            subprocess.run([sys.executable, "-m", "tendrilkit", "fit", str(csv), "--out", str(tmp / name)],
+                           cwd=cwd, capture_output=True, text=True, check=True)
+            c1 = os.times()
+            if run:
+                cmd[name][0].append(time.perf_counter() - t)
+                cmd[name][1].append((c1.children_user - c0.children_user) + (c1.children_system - c0.children_system))
+    m = {k: (np.median(w), np.median(c)) for k, (w, c) in cmd.items()}
+    same = all((tmp / "old" / f).read_bytes() == (tmp / "new" / f).read_bytes()
+               for f in ("pwc_curves.csv", "pwc_segments.csv", "pwc_metrics.csv"))
+    print(f"fit command on {what}, process start included, median of {rounds} alternate runs: "
+          f"old {m['old'][0]:.2f} s wall {m['old'][1]:.2f} s CPU; new {m['new'][0]:.2f} s wall "
+          f"{m['new'][1]:.2f} s CPU (target <= 2 s); new/old wall {m['new'][0] / m['old'][0]:.2f}, "
+          f"CPU {m['new'][1] / m['old'][1]:.2f}; result files {'identical' if same else 'DIFFERENT'} "
+          f"(load average {os.getloadavg()[0]:.1f})")
 
 
 _ACCURACY = """
