@@ -73,15 +73,16 @@ def _all_searches(P: np.ndarray, dense_mm: np.ndarray) -> dict:
     c = time.process_time()
     prep = _prepare(P, None, "l2", None, n)
     memo: dict = {}
-    found = [F._auto_search(prep, lookahead=1, memo=memo, **SEARCH)]
+    search = {**SEARCH, "precision_mm": F.BIC_PRECISION_FRACTION * F._allowed_rms_mm(prep.data, TARGET_R2)}  # as the fit
+    found = [F._auto_search(prep, lookahead=1, memo=memo, **search)]
     cpu = [time.process_time() - c]
     c = time.process_time()
-    found.append(F._auto_search(prep, lookahead=2, memo=memo, **SEARCH))
+    found.append(F._auto_search(prep, lookahead=2, memo=memo, **search))
     cpu.append(time.process_time() - c)
     L_s = prep.fr.smoothing_length_mm
     if L_s > 8 * (prep.s[-1] / (prep.s.size - 1)):  # as fit_piecewise_clothoid
         c = time.process_time()
-        found.append(F._auto_search(_prepare(P, 0.5 * L_s, "l2", None, n), lookahead=1, memo={}, **SEARCH))
+        found.append(F._auto_search(_prepare(P, 0.5 * L_s, "l2", None, n), lookahead=1, memo={}, **search))
         cpu.append(time.process_time() - c)
     first = _points(found[0])
     e = np.sum((first - prep.data) ** 2, axis=1)

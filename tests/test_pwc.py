@@ -600,3 +600,23 @@ def test_retry_yardstick_is_the_noise_or_a_fraction_of_what_the_target_allows():
     sse_at = lambda rms: rms ** 2 * 3 * n  # noqa: E731
     assert not F._missed((None, None, sse_at(0.01), 0.99999), 0.999, y, n)
     assert F._missed((None, None, sse_at(0.1), 0.99999), 0.999, y, n)
+
+
+def test_bic_counts_residuals_down_to_the_precision_asked_for(monkeypatch):
+    """A smooth curve with ripples far below the rms the target R^2 allows (as a reconstruction's curves): with
+    BIC's SSE floored at BIC_PRECISION_FRACTION of that rms, the search stops at the true 2 + 2 segments instead
+    of chasing the ripples with more; noisy points never reach the floor and fit exactly as without it."""
+    import tendrilkit.pwc.fit as F
+
+    tc = random_pwc_curve(3)
+    rippled = tc.dense_mm[::100].copy()
+    rippled[:, 2] += 0.01 * np.sin(np.linspace(0, 12 * np.pi, len(rippled)))
+    floored, noisy = fit_piecewise_clothoid(rippled), fit_piecewise_clothoid(tc.points_mm)
+    monkeypatch.setattr(F, "BIC_PRECISION_FRACTION", 0.0)
+    chased, noisy0 = fit_piecewise_clothoid(rippled), fit_piecewise_clothoid(tc.points_mm)
+    assert (floored.n_segments_kappa, floored.n_segments_tau) == (2, 2)
+    assert chased.n_segments_kappa + chased.n_segments_tau > 4
+    assert len(floored.candidates) < len(chased.candidates)
+    assert floored.scores.rmse_mm < 0.02 * F._allowed_rms_mm(floored.data_mm, 0.999)
+    assert np.array_equal(noisy.points_mm, noisy0.points_mm)
+    assert np.array_equal(noisy.candidates, noisy0.candidates)

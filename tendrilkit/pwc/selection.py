@@ -55,7 +55,7 @@ def _preferred(x, y, target_r2, criterion):
 
 
 def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead, insertions,
-                 quick_iterations, max_candidates, memo=None):
+                 quick_iterations, max_candidates, memo=None, precision_mm=0.0):
     """The automatic selection of :func:`fit_piecewise_clothoid` on prepared signals.
 
     ``memo``: a dict shared by the searches of one ``prep`` (a retry with more lookahead
@@ -96,13 +96,14 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
     path_k, path_t, laws_k, laws_t = memo[key]
     n = s.size
     sst = float(np.sum((prep.data - prep.data.mean(axis=0)) ** 2))
+    sse_floor = 3 * n * precision_mm ** 2  # residuals below the precision asked for explain nothing more
     rows: list[list[float]] = []
     quick = (quick_iterations, 1e-4)
 
     def scored(lk, lt, sse, row=None):
         """(lk, lt, sse, r2, bic, row index), recorded in the candidates table."""
         r2 = 1.0 - sse / sst
-        bic = _bic(sse, n, lk.n_segments, lt.n_segments)
+        bic = _bic(max(sse, sse_floor), n, lk.n_segments, lt.n_segments)
         entry = [lk.n_segments, lt.n_segments, r2, sse, bic, 0.0]
         if row is None:
             rows.append(entry)
