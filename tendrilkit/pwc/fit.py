@@ -323,8 +323,8 @@ def _retry_yardstick_mm(points_mm, data_mm, target_r2):
 #: added segments to follow the reconstruction's ripples, up to ``max_candidates``. At 1/50 (about
 #: 0.013 mm rms on the site phantoms' tendrils) the site phantoms' fits come closer to the truth
 #: (median mean distance 0.0366 -> 0.0353 mm, no frame worse by 0.01 mm; 1.3 segments fewer, 37 %
-#: less CPU); at 1/25 four frames were worse by up to 0.03 mm. Noisy points (the seeded curves'
-#: 0.15 mm) never reach the floor: their fits are unchanged.
+#: less CPU); at 1/40 one frame was worse by 0.011 mm, at 1/25 (a quarter of the frames) four by up
+#: to 0.03 mm. Noisy points (the seeded curves' 0.15 mm) never reach the floor: their fits are unchanged.
 BIC_PRECISION_FRACTION = 0.02
 
 
