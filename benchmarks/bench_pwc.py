@@ -188,6 +188,7 @@ t["imports: numpy"] = time.process_time() - c; c = time.process_time()
 import numba
 t["imports: numba"] = time.process_time() - c; c = time.process_time()
 import tendrilkit.cli, tendrilkit.fitting as F, tendrilkit.io as io, tendrilkit.pwc, tendrilkit.schema as S
+from tendrilkit.io.columns import write_columns
 t["imports: tendrilkit"] = time.process_time() - c; c = time.process_time()
 from pathlib import Path
 from tendrilkit.pwc.laws import _pwl_step_means
@@ -205,7 +206,7 @@ t[f"all {{n}} fits again (the first's cache loads apart: its own CPU is in here)
 c = time.process_time()
 tables = (pwc, F._row_columns(segs, S.PWC_SEGMENTS), F._row_columns(mets, S.PWC_METRICS))
 for cols, name, table in zip(tables, ("a", "b", "c"), (S.PWC_CURVES, S.PWC_SEGMENTS, S.PWC_METRICS)):
-    io.write_columns(cols, Path({out!r}) / name, table)
+    write_columns(cols, Path({out!r}) / name, table)
 t["writing the three tables"] = time.process_time() - c
 t["pandas imported (0 = no)"] = float("pandas" in sys.modules)
 for k, v in t.items():

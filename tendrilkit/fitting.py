@@ -304,7 +304,8 @@ def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None) -> 
     """
     t0 = time.perf_counter()
     curves_csv, out_dir = Path(curves_csv), Path(out_dir)
-    from tendrilkit.io import check_writable_dir, write_columns
+    from tendrilkit.io import check_writable_dir
+    from tendrilkit.io.columns import write_columns
 
     c = _read_curves(curves_csv)
     check_writable_dir(out_dir)

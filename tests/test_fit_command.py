@@ -139,3 +139,46 @@ def test_fit_command_uses_one_blas_thread_unless_told(env, numpy_first, expected
     out = subprocess.run([sys.executable, "-c", code], cwd=REPO, env={**base, **env}, capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == str(expected)
+
+
+def test_the_fit_commands_writer_writes_what_pandas_writes(tmp_path):
+    """io.columns.write_columns (the fit command's, no pandas) gives the bytes of io.write_result: floats at every
+    magnitude, missing time and integers, a failed frame, a message that needs quoting."""
+    from tendrilkit import fitting as F
+    from tendrilkit.io import write_result
+    from tendrilkit.io.columns import write_columns
+    from tendrilkit.schema import PWC_CURVES
+
+    rows = []
+    for f, (seed, scale) in enumerate(((0, 1e-7), (1, 1e12))):
+        P = random_pwc_curve(seed).points_mm[:120] * [scale, 1.0, 1.0]
+        rows.append(pd.DataFrame({"frame": 10 * f, "time_s": np.nan if f else 2.5, "point": np.arange(len(P)),
+                                  "x_mm": P[:, 0], "y_mm": P[:, 1], "z_mm": P[:, 2]}))
+    rows.append(pd.DataFrame({"frame": 99, "time_s": 9.0, "point": np.arange(20), "x_mm": 1.0, "y_mm": 2.0,
+                              "z_mm": 3.0}))
+    df = pd.concat(rows)
+    pwc, segs, mets = F._fit_arrays(df["frame"].to_numpy(), df["point"].to_numpy(), df["time_s"].to_numpy(float),
+                                    df[["x_mm", "y_mm", "z_mm"]].to_numpy(float), None)
+    mets[0]["message"] = 'a, "quoted" message\nover two lines'
+    assert [m["status"] for m in mets] == ["ok", "ok", "failed"]
+    frames = (pd.DataFrame(pwc), pd.DataFrame(segs, columns=list(PWC_SEGMENTS.columns)), F.metrics_table(mets))
+    columns = (pwc, F._row_columns(segs, PWC_SEGMENTS), F._row_columns(mets, PWC_METRICS))
+    for i, (frame, cols, table) in enumerate(zip(frames, columns, (PWC_CURVES, PWC_SEGMENTS, PWC_METRICS))):
+        write_result(frame, tmp_path / f"pandas{i}.csv", table)
+        write_columns(cols, tmp_path / f"columns{i}.csv", table)
+        assert (tmp_path / f"pandas{i}.csv").read_bytes() == (tmp_path / f"columns{i}.csv").read_bytes(), table.name
+    with pytest.raises(ValueError, match="columns differ"):
+        write_columns({"frame": [0]}, tmp_path / "bad.csv", PWC_CURVES)
+
+
+def test_fit_command_imports_no_pandas(tmp_path):
+    csv = tmp_path / "curves.csv"
+    write_curves(csv, seeds=(3,), degenerate=False)
+    code = ("import sys, runpy; sys.argv = ['tendrilkit', 'fit', sys.argv[1], '--out', sys.argv[2]]\n"
+            "try:\n    runpy.run_module('tendrilkit', run_name='__main__')\nexcept SystemExit as e:\n"
+            "    assert e.code == 0, e.code\nprint('pandas' in sys.modules)")
+    r = subprocess.run([sys.executable, "-c", code, str(csv), str(tmp_path / "out")], capture_output=True,
+                       text=True, cwd=REPO)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip().splitlines()[-1] == "False"
+    assert (tmp_path / "out" / "pwc_metrics.csv").read_text().count("\n") == 2

@@ -369,12 +369,13 @@ def test_fit_on_a_full_disk_exits_74(tmp_path, capsys, monkeypatch):
     csv = tmp_path / "curves.csv"
     _curve(0).to_csv(csv, index=False)
 
-    import csv as csv_module
+    import tendrilkit.io.columns
 
     def full(*a, **kw):
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(csv_module, "writer", full)  # the fit command writes with the csv module, not pandas
+    # the fit command writes with the csv module (io.columns), not pandas
+    monkeypatch.setattr(tendrilkit.io.columns.csv, "writer", full)
     code = cli.main(["fit", str(csv), "--out", str(tmp_path / "out")])
     line = _one_line(capsys.readouterr().err)
     assert code == 74 and "No space left on device" in line and "pwc_curves.csv" in line

@@ -29,7 +29,7 @@ from tendrilkit.exceptions import ExperimentError, FrameReadError, OutputWriteEr
 from tendrilkit.schema import FRAMES_HEAD, RESULT_TABLES, Table, frames_table
 
 if TYPE_CHECKING:  # cv2, the camera (numba) and pandas are imported where frames, cameras or tables are
-    import cv2  # read: the fit command reads and writes its tables without them (write_columns), and its
+    import cv2  # read: the fit command reads and writes its tables without them (io.columns), and its
     import pandas as pd  # start-up is part of its time
 
     from tendrilkit.camera import Camera
@@ -266,54 +266,6 @@ def write_csv(df: pd.DataFrame, path: str | Path, *, float_format: str | None = 
     """
     with atomic_path(path) as tmp:
         df.to_csv(tmp, index=False, float_format=float_format, lineterminator="\n")
-
-
-def write_columns(columns: dict, path: str | Path, table: Table) -> None:
-    """Write a result table given as columns, atomically, the same bytes as :func:`write_result` (no pandas).
-
-    Parameters
-    ----------
-    columns : dict of column name -> (m,) array or list
-        Exactly ``table.columns``, in that order, all of one length. By the
-        column's kind (:mod:`tendrilkit.schema`): ``int`` integers; ``Int``
-        integers or NaN (missing: empty); ``float`` floats, NaN empty, others
-        in the shortest text that reads back as the same double (numpy's,
-        as pandas writes them); ``str`` text (quoted as the ``csv`` module
-        does when needed).
-    path : path of the CSV file
-    table : :class:`tendrilkit.schema.Table`
-
-    Raises
-    ------
-    ValueError
-        When the columns differ from the schema's, or their lengths differ.
-    """
-    _check_columns(tuple(map(str, columns)), table)
-    cells = []
-    for name, kind in zip(table.columns, table.kinds):
-        v = columns[name]
-        if kind == "float":
-            a = np.asarray(v, dtype=float)
-            text = a.astype(str).astype(object)
-            text[np.isnan(a)] = ""
-        elif kind == "Int":
-            a = np.asarray(v, dtype=float)
-            text = np.array(["" if np.isnan(x) else str(int(x)) for x in a], dtype=object)
-        elif kind in ("int", "bool"):
-            text = np.asarray(v).astype(str).astype(object)
-        else:
-            text = np.array(["" if x is None or (isinstance(x, float) and np.isnan(x)) else str(x) for x in v],
-                            dtype=object)
-        cells.append(text)
-    if len({len(c) for c in cells}) > 1:
-        raise ValueError(f"{table.name}: columns of different lengths {[len(c) for c in cells]}")
-    import csv
-
-    with atomic_path(path) as tmp:
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            w = csv.writer(fh, lineterminator="\n")
-            w.writerow(table.columns)
-            w.writerows(zip(*cells))
 
 
 def _check_columns(got: tuple[str, ...], table: Table) -> None:
