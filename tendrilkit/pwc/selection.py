@@ -62,6 +62,8 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
     repeats the first search's steps until it turns elsewhere): refinements and score
     tests already computed from the same laws are looked up, not redone (the same bits), and
     so are the penalty paths with their laws and the evaluations of the starts.
+    ``precision_mm``: BIC counts an SSE down to this rms (mm) only (the candidates table's
+    BIC column too); 0: every SSE as it is.
     """
     memo = {} if memo is None else memo
 
