@@ -140,12 +140,12 @@ def main(argv: list[str] | None = None) -> int:
     import cv2
 
     cv2.setNumThreads(1)
-    scenes = sorted((d for d in a.out.glob("random-*") if (d / "result-multiview" / "frames.csv").is_file()),
-                    key=lambda d: int(d.name.split("-")[1]))
+    scenes = sorted((d for d in a.out.glob("*-*") if (d / "result-multiview" / "frames.csv").is_file()),
+                    key=lambda d: (d.name.rsplit("-", 1)[0], int(d.name.rsplit("-", 1)[1])))
     if a.seeds:
         start, stop = (int(x) for x in a.seeds.split(":"))
-        scenes = [d for d in scenes if start <= int(d.name.split("-")[1]) < stop]
-    if any(int(d.name.split("-")[1]) >= 10000 for d in scenes):
+        scenes = [d for d in scenes if start <= int(d.name.rsplit("-", 1)[1]) < stop]
+    if any(int(d.name.rsplit("-", 1)[1]) >= 10000 for d in scenes):
         p.error("seeds 10000 and above are reserved for the final benchmark")
     if not scenes:
         p.error(f"no scene with result-multiview/frames.csv in {a.out}")
