@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/rerun_multiview.py OUT TAG [--seeds 0:28] [--no-fit]
 
 ``OUT`` is the ``--out`` folder of ``benchmarks/bench_generalize.py --method
-multiview`` (its scenes and ``result-multiview/cameras.json``). Every processed
+multiview`` (its scenes, of any ``--scene`` kind, and ``result-multiview/cameras.json``). Every processed
 frame is reconstructed again with this checkout's :mod:`tendrilkit.multiview`
 and :mod:`tendrilkit.mv_acquire` (tracking from the previous frame as the run
 does: the chunks of ``reconstruction.chunk_frames``, the previous curve if it
