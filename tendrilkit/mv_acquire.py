@@ -15,16 +15,11 @@ the base point (triangulated from the marks) by a beam search,
    views see it (then the evidence a few steps further on the same direction
    counts); bending and coming back within 1.2 mm of itself are penalised;
 3. the ``beam`` best hypotheses (score = sum of step costs minus a reward per
-   step, tips apart from each other or heading opposite ways) go on, none a
-   near copy of a better one (its tip on the other's last steps, or the
-   other's tip on its own, heading the same way: the same path a little
-   ahead, behind or beside), so that the beam holds paths that differ in 3D
-   (the branches of a crossing, the turns of a coil) instead of variants of
-   one; a hypothesis with no acceptable step ends; the best-scoring one (the
-   longest curve that the views explain) is the tendril, among those whose
-   tip the views see (a curve that ends where two views' ROIs end has run
-   onto something hanging in from outside: a second tendril, a petiole)
-   unless none is half as long.
+   step, tips apart from each other or heading opposite ways) go on; a hypothesis with no acceptable
+   step ends; the best-scoring one (the longest curve that the views explain)
+   is the tendril, among those whose tip the views see (a curve that ends
+   where two views' ROIs end has run onto something hanging in from outside:
+   a second tendril, a petiole) unless none is half as long.
 
 A view in which a place lies deep inside a dark region wider than a tendril
 (a leaf or the stem over it, :data:`tendrilkit.mv_evidence.COVER_DEPTH_PX`) neither
@@ -273,78 +268,6 @@ def _one_per_cell_and_way(P_mm: np.ndarray, dirs: np.ndarray, cell_mm: float) ->
     return np.sort(np.r_[first, against[second]])
 
 
-#: A beam candidate whose tip lies within ``COPY_MM`` of a better kept one's last ``COPY_STEPS`` steps (or whose
-#: last steps the kept one's tip lies on), heading the same way, is a near copy of it (the same path a little ahead,
-#: behind or beside) and is not kept. 0.7 mm: a third of a step; measured on dev seeds 0-27 (168 frames) against
-#: 1.0 and 1.5 mm (2026-11-30, benchmarks/rerun_multiview.py): all three 39.9 / 39.9 / 38.7 %, ok frames with max
-#: or an end over 2 mm 4 / 5 / 11 (36.3 % and 9 without).
-COPY_MM = 0.7
-COPY_STEPS = 4
-
-
-@njit(cache=True)
-def _segment_distance(p, Q, n):
-    """Distance of the point p (3,) to the polyline of Q's first n rows (n >= 2)."""
-    best = np.inf
-    for k in range(n - 1):
-        ab0, ab1, ab2 = Q[k + 1, 0] - Q[k, 0], Q[k + 1, 1] - Q[k, 1], Q[k + 1, 2] - Q[k, 2]
-        ap0, ap1, ap2 = p[0] - Q[k, 0], p[1] - Q[k, 1], p[2] - Q[k, 2]
-        den = ab0 * ab0 + ab1 * ab1 + ab2 * ab2
-        t = (ap0 * ab0 + ap1 * ab1 + ap2 * ab2) / max(den, 1e-12)
-        t = min(max(t, 0.0), 1.0)
-        e0, e1, e2 = ap0 - t * ab0, ap1 - t * ab1, ap2 - t * ab2
-        d = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-        if d < best:
-            best = d
-    return best
-
-
-@njit(cache=True)
-def _select_diverse(order, own, pts, dirs, tails, n_tail, beam, per_parent_max, radius_mm, diverse):
-    """Greedy choice of the beam among candidates sorted best first (rows of ``order``).
-
-    A candidate is skipped when its parent has ``per_parent_max`` children kept already, or (``diverse``) when it
-    is a near copy of a kept one: the two paths (the parent's last ``n_tail`` nodes ``tails`` (H, K, 3), then the
-    candidate's tip) head the same way (within 90 degrees) and either tip lies within ``radius_mm`` of the other
-    path: the same path a little ahead, behind or beside.
-    """
-    K = tails.shape[1]
-    paths = np.empty((beam, K + 1, 3))
-    n_path = np.zeros(beam, np.int64)
-    kept = np.empty(beam, np.int64)
-    count = np.zeros(tails.shape[0], np.int64)
-    m = 0
-    for i in order:
-        h = own[i]
-        if count[h] >= per_parent_max:
-            continue
-        n = n_tail[h]
-        P = np.empty((n + 1, 3))
-        P[:n] = tails[h, K - n:]
-        P[n] = pts[i]
-        copy = False
-        if diverse:
-            for j in range(m):
-                dj = dirs[kept[j]]
-                if dirs[i, 0] * dj[0] + dirs[i, 1] * dj[1] + dirs[i, 2] * dj[2] <= 0.0:
-                    continue
-                nj = n_path[j]
-                if (_segment_distance(P[n], paths[j], nj) < radius_mm
-                        or _segment_distance(paths[j, nj - 1], P, n + 1) < radius_mm):
-                    copy = True
-                    break
-        if copy:
-            continue
-        paths[m, :n + 1] = P
-        n_path[m] = n + 1
-        kept[m] = i
-        count[h] += 1
-        m += 1
-        if m == beam:
-            break
-    return kept[:m]
-
-
 def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm: float = 2.0, beam: int = 8,
                n_seeds: int = 6, cone_deg: float = 40.0, max_length_mm: float = 400.0,
                max_unseen_steps: int = 6) -> np.ndarray:
@@ -440,17 +363,16 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         idx = np.flatnonzero(ok)
         idx = idx[np.argsort(score[idx], kind="stable")]
         # diversity: per cell of 1.5 steps the best hypothesis and the best heading against it, at most two
-        # children per parent, and no near copy of a better kept path (COPY_MM), so that the branches of a
-        # crossing both stay in the beam
+        # children per parent, so that the branches of a crossing both stay in the beam
         idx = idx[_one_per_cell_and_way(pts[idx], dirs[idx], 1.5 * step_mm)]
-        tails = np.zeros((len(hyps), COPY_STEPS, 3))
-        n_tail = np.zeros(len(hyps), np.int64)
-        for h, hyp in enumerate(hyps):
-            t_ = hyp[0][-COPY_STEPS:]
-            n_tail[h] = len(t_)
-            tails[h, COPY_STEPS - len(t_):] = t_
-        idx = _select_diverse(idx.astype(np.int64), own.astype(np.int64), pts, dirs, tails, n_tail, beam, 2,
-                              COPY_MM, True)
+        kept, per_parent = [], np.zeros(len(hyps), int)
+        for i in idx:
+            if per_parent[own[i]] < 2:
+                kept.append(i)
+                per_parent[own[i]] += 1
+                if len(kept) == beam:
+                    break
+        idx = np.asarray(kept, int)
         # claim what each kept hypothesis explained two steps back (all at once: one projection per view)
         parents = [hyps[own[i]] for i in idx]
         grown = [k for k, h in enumerate(parents) if len(h[0]) >= 3]

@@ -344,33 +344,3 @@ def test_bridge_gap_finds_where_a_leaf_hiding_the_tendril_ends():
     d, i = cKDTree(X).query(far)
     assert d <= 1.0 and 38.0 <= arc[i] <= 42.0, (d, arc[i])
     assert bridge_gap(evs, X, X[-1] - X[-40], max_gap_mm=15.0) is None
-
-
-def test_beam_keeps_hypotheses_that_differ_in_3d_not_near_copies():
-    """The beam's greedy choice (candidates best first): a candidate whose tip lies on a kept one's last steps,
-    or whose last steps the kept one's tip lies on, heading the same way, is the same path a little behind or
-    ahead and is skipped; another branch, or a pass heading the other way, is kept; at most two per parent."""
-    from tendrilkit.mv_acquire import _select_diverse
-
-    x, y = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
-    line = np.array([[0.0, 0, 0], [2, 0, 0], [4, 0, 0], [6, 0, 0]])
-    tails = np.stack([line, line - [2.0, 0, 0], line[[0, 0, 0, 0]] + [[0, 0, 0], [0, 2, 0], [0, 4, 0], [0, 6, 0]],
-                      line[::-1] + [4.0, 0.3, 0]])
-    n_tail = np.array([4, 4, 4, 4])
-    # 0: parent 0 on to x = 8 (best); 1: parent 1, the same line 2 mm behind; 2: parent 2, a branch along y;
-    # 3: parent 3 at x = 2..8 heading -x (the other pass of a coil); 4: parent 0 again, beside its sibling 0
-    pts = np.array([[8.0, 0, 0], [6.1, 0.2, 0], [0, 8, 0], [2.0, 0.3, 0], [7.9, 0.5, 0]])
-    dirs = np.array([x, x, y, -x, x])
-    own = np.array([0, 1, 2, 3, 0])
-    order = np.arange(5)
-    kept = _select_diverse(order, own, pts, dirs, tails, n_tail, 8, 2, 1.5, True)
-    assert kept.tolist() == [0, 2, 3]
-    # without the 3D test: every candidate (at most two per parent), and the beam's width
-    assert _select_diverse(order, own, pts, dirs, tails, n_tail, 8, 2, 1.5, False).tolist() == [0, 1, 2, 3, 4]
-    assert _select_diverse(order, own, pts, dirs, tails, n_tail, 8, 1, 1.5, False).tolist() == [0, 1, 2, 3]
-    assert _select_diverse(order, own, pts, dirs, tails, n_tail, 2, 2, 1.5, True).tolist() == [0, 2]
-    # the first steps: a parent with one node (the base)
-    kept = _select_diverse(np.arange(2), np.array([0, 0]), np.array([[2.0, 0, 0], [1.9, 0.4, 0]]),
-                           np.array([x, x]), np.zeros((1, 4, 3)), np.array([1]), 8, 2, 1.5, True)
-    assert kept.tolist() == [0]
-
