@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/rerun_multiview.py OUT TAG [--seeds 0:28] [--no-fit]
 
 ``OUT`` is the ``--out`` folder of ``benchmarks/bench_generalize.py --method
-multiview`` (its scenes and ``result-multiview/cameras.json``). Every processed
+multiview`` (its scenes, of any ``--scene`` kind, and ``result-multiview/cameras.json``). Every processed
 frame is reconstructed again with this checkout's :mod:`tendrilkit.multiview`
 and :mod:`tendrilkit.mv_acquire` (tracking from the previous frame as the run
 does: the chunks of ``reconstruction.chunk_frames``, the previous curve if it
@@ -140,12 +140,12 @@ def main(argv: list[str] | None = None) -> int:
     import cv2
 
     cv2.setNumThreads(1)
-    scenes = sorted((d for d in a.out.glob("random-*") if (d / "result-multiview" / "frames.csv").is_file()),
-                    key=lambda d: int(d.name.split("-")[1]))
+    scenes = sorted((d for d in a.out.glob("*-*") if (d / "result-multiview" / "frames.csv").is_file()),
+                    key=lambda d: (d.name.rsplit("-", 1)[0], int(d.name.rsplit("-", 1)[1])))
     if a.seeds:
         start, stop = (int(x) for x in a.seeds.split(":"))
-        scenes = [d for d in scenes if start <= int(d.name.split("-")[1]) < stop]
-    if any(int(d.name.split("-")[1]) >= 10000 for d in scenes):
+        scenes = [d for d in scenes if start <= int(d.name.rsplit("-", 1)[1]) < stop]
+    if any(int(d.name.rsplit("-", 1)[1]) >= 10000 for d in scenes):
         p.error("seeds 10000 and above are reserved for the final benchmark")
     if not scenes:
         p.error(f"no scene with result-multiview/frames.csv in {a.out}")

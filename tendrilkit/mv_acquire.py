@@ -28,6 +28,15 @@ sees nor contradicts it there: that part rests on the other views.
 A stem stub between the ROI's edge and the keep-out box, or a leaf, ends
 after a few millimetres and loses against the tendril; a crossing in one view
 is decided by the others.
+
+Tried and not kept (2026-11-30, ``benchmarks/rerun_multiview.py``, the same
+harness on both sides): dropping from the beam the near copies of a better
+hypothesis (a tip within 0.7-1.5 mm of its last four steps, heading the same
+way) gained on dev seeds 0-27 (all three criteria 36.3 -> 39.9 % of 168
+frames) but not on coil seeds 9510-9523 (29 -> 28 of 84 frames) nor on the
+validation seeds 9900-9939 (34.6 -> 31.7 % of 240); fitting the best three
+hypotheses that differ in 3D and keeping the one with the best precision x
+coverage on every view: 36.3 -> 35.7 % on dev seeds 0-27.
 """
 
 from __future__ import annotations
