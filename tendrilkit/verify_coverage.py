@@ -141,5 +141,90 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
         tendril[cand[crossing_branches(dense, sk[~near], branch[~near], cand, cov_tol=cov_tol,
                                                 width_px=2.0 * radius_px if np.isfinite(radius_px) else 0.0,
                                                 nearest=(dist[~near], nearest[~near]))]] = False
+    cand = np.nonzero(tendril)[0]
+    if cand.size and np.isfinite(radius_px) and radius_px > 0:  # the far end of wider clutter joined to the tendril
+        branch = np.zeros(len(sk), int)
+        branch[free] = b
+        at_tip = near & (nearest >= len(dense) - 1 - (cov_tol + 3.0))  # explained at the curve's tip
+        tendril[cand[_behind_clutter(sk, sr, sc, near, thin, branch, cand, ev.labels[sr, sc], at_tip,
+                                     reach_px=WIDE_REACH * 2.0 * radius_px)]] = False
     n_free = int(size[tendril].sum())
     return float(n_near / max(n_near + n_free, 1))
+
+
+#: A missed part of the tendril is reached from the skeleton the curve explains over the tendril's thin line,
+#: or across clutter wider than it for at most this many tendril widths (where it crosses a shoot or a petiole).
+WIDE_REACH = 4.0
+
+
+def _behind_clutter(sk: np.ndarray, sr: np.ndarray, sc: np.ndarray, near: np.ndarray, thin: np.ndarray,
+                    branch: np.ndarray, cand: np.ndarray, comp: np.ndarray, at_tip: np.ndarray, *,
+                    reach_px: float) -> np.ndarray:
+    """Which of the unexplained branches ``cand`` lie beyond wider clutter only: in a dark component where the curve
+    explains skeleton, but reached from that skeleton over more than ``reach_px`` of wider skeleton pixels.
+
+    A thin line at the far end of a shoot or the stem joined to the tendril's
+    pixels (the shoot's tapering tip, a twig of it) is the shoot's; the
+    tendril's own missed part (beyond the tip, a skipped loop) joins the
+    explained skeleton over thin pixels, or across a crossing a few widths
+    long; where the curve stops at an object the tendril passes behind (a
+    leaf), its rest is reached from the curve's tip across the object,
+    whatever its width. Branches in components without explained skeleton
+    (beyond a break, :func:`tendrilkit.verify_crossing.across_gaps`) are kept.
+
+    Parameters
+    ----------
+    sk : (m, 2) float array
+        Skeleton pixels, full-image px; ``sr``, ``sc`` their row and column in the ROI crop.
+    near, thin : (m,) bool arrays
+        Explained by the curve; as thin as the tendril.
+    branch : (m,) int array
+        The unexplained thin branch of every pixel (0: none).
+    cand : (k,) int array
+        The branches to judge.
+    comp : (m,) int array
+        Every pixel's dark component.
+    at_tip : (m,) bool array
+        Explained pixels at the curve's tip.
+
+    Returns
+    -------
+    (k,) bool array
+        True where the branch lies beyond wider clutter only.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    out = np.zeros(len(cand), bool)
+    if not near.any():
+        return out
+    index = -np.ones((int(sr.max()) + 2, int(sc.max()) + 2), int)
+    index[sr, sc] = np.arange(len(sk))
+    rows, cols, cost = [], [], []
+    step = ~thin & ~near  # a step onto a wider skeleton pixel costs its length, elsewhere (almost) nothing
+    for dr, dc in ((0, 1), (1, -1), (1, 0), (1, 1)):
+        j = index[np.clip(sr + dr, 0, None), np.clip(sc + dc, 0, None)]
+        ok = (j >= 0) & (sr + dr >= 0) & (sc + dc >= 0)
+        i, j = np.nonzero(ok)[0], j[ok]
+        length = float(np.hypot(dr, dc))
+        c = np.where(step[i] | step[j], length, 1e-6)
+        rows += [i, j]
+        cols += [j, i]
+        cost += [c, c]
+    n = len(sk)
+    graph = coo_matrix((np.concatenate(cost), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
+    reach = dijkstra(graph, indices=np.nonzero(near)[0], min_only=True)
+    if at_tip.any():  # from the tip, not along the curve: over unexplained pixels only
+        off_curve = ~near | at_tip
+        g = graph.tocoo()
+        keep = off_curve[g.row] & off_curve[g.col]
+        tip_graph = coo_matrix((g.data[keep], (g.row[keep], g.col[keep])), shape=(n, n)).tocsr()
+        tip = dijkstra(tip_graph, indices=np.nonzero(at_tip)[0], min_only=True)
+    else:
+        tip = np.full(n, np.inf)
+    explained = np.unique(comp[near])
+    for k, c in enumerate(cand):
+        member = branch == c
+        out[k] = (bool(np.isin(comp[member], explained).any()) and not bool((reach[member] <= reach_px).any())
+                  and not bool(np.isfinite(tip[member]).any()))
+    return out
