@@ -175,10 +175,11 @@ class Thresholds:
         frames): the 149 frames right on all three accuracy criteria score
         0 px in their second-worst view, but six whose tip rests on a leaf
         (25-75 px, flagged by the tip's wide pixels too); every frame at
-        4-20 px there has its tip 4.6-139 mm off. The former limit, 20 px,
-        let a pale coil stopping about 100 mm short (development seed 863,
-        13.5 px) and curves 13-18 mm short (seed 8, 14-17 px) through to
-        the other checks.
+        3.4-20 px there has its tip 4.6-139 mm off. The former limit, 20 px,
+        let curves 24-25 mm short of the tip through (development seed 863,
+        a pale coil: two frames reported ``ok`` at 13.5 and 14.9 px, now
+        flagged) and left curves 14-18 mm short (seed 8, 14-17 px) to the
+        other checks.
     min_tip_border_px : float
         The projected tip's distance to the ROI's border, px
         (``tip_border_px_v<i>``; negative outside), in two views or more
