@@ -545,25 +545,6 @@ def test_tendril_leaving_the_keep_out_box_far_from_a_mark_at_its_edge_leaves_the
     assert q["base_on_tendril_frac_v1"] == 0.0
 
 
-def test_coverage_short_in_one_view_counts_only_where_the_tendril_goes_on_from_the_tip():
-    th = Thresholds()
-    q = {"views_checked": 3, "coverage_frac_v1": 0.55, "coverage_frac_v2": 0.97, "coverage_frac_v3": 1.0,
-         "tip_continuation_px_v1": 0.0, "beyond_tip_px_v1": 0.0}
-    # thin clutter touching the tendril's pixels in one view (apart from it in 3D): not the tendril
-    assert not any(m.startswith("coverage:") for m in image_check_messages(q, 3, th))
-    # the missed skeleton hangs from the curve's tip there (the tendril going on), or goes on across an object
-    for key, value in (("tip_continuation_px_v1", 18.0), ("beyond_tip_px_v1", 153.0)):
-        msgs = image_check_messages({**q, key: value}, 3, th)
-        assert "coverage: view 1 curve explains 55 % of the tendril's skeleton (limit 75 %), going on from its tip" in msgs
-    # a spur's length at the tip is not the tendril going on
-    assert not any(m.startswith("coverage:") for m in image_check_messages({**q, "tip_continuation_px_v1": 3.0}, 3, th))
-    # short in two views: both count, whatever the tip
-    two = {**q, "coverage_frac_v2": 0.7}
-    msgs = [m for m in image_check_messages(two, 3, th) if m.startswith("coverage:")]
-    assert msgs == ["coverage: view 1 curve explains 55 % of the tendril's skeleton (limit 75 %)",
-                    "coverage: view 2 curve explains 70 % of the tendril's skeleton (limit 75 %)"]
-
-
 def test_tip_continuation_longer_than_a_spur_in_two_views_is_a_shrunk_curve():
     th = Thresholds()
     q = {"views_checked": 3, "tip_continuation_px_v1": 13.5, "tip_continuation_px_v2": 14.9,
