@@ -178,8 +178,9 @@ class Thresholds:
         Right frames: 0-3 px (the skeleton's end spur). Re-verified on the
         multi-view curves of development seeds 0-39 and 9500-9537 (456
         frames): the 149 frames right on all three accuracy criteria score
-        0 px in their second-worst view, but six whose tip rests on a leaf
-        (25-75 px, flagged by the tip's wide pixels too); every frame at
+        0 px in their second-worst view, but six whose tip lies at a leaf
+        (25-75 px; seed 9517's tip resting on one, seed 4's at an occluding
+        leaf; all flagged by the tip-at-an-object check too); every frame at
         3.4-20 px there has its tip 4.6-139 mm off. The former limit, 20 px,
         let curves 24-25 mm short of the tip through (development seed 863,
         a pale coil: two frames reported ``ok`` at 13.5 and 14.9 px, now
