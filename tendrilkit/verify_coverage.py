@@ -81,12 +81,7 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
       right neighbours were doubtful) disagrees with their length and is
       flagged, while frame 3 (1.1 mm mean, its tip 14 mm short: only view 2
       shows 21 px of it going on) becomes ``ok``, flagged before only
-      through the shoot; 9531 frame 1 (right) is ``ok``. On development
-      seeds 0-39: four frames of seed 32 (0.73-0.74 in one view, a shoot's
-      end) become ``ok``, three right on all three criteria, one 0.49 mm
-      (mean) with its tip 3.2 mm off. On the untouched validation seeds
-      9940-9979 (re-verified offline, 240 frames): one right frame (seed
-      9975 frame 0, 0.74 in one view) becomes ``ok``, nothing else changes.
+      through the shoot. On development seeds 0-39 nothing changes.
 
     The coverage is the explained skeleton over explained plus the
     tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`
