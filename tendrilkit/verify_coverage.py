@@ -68,20 +68,7 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
     * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs;
     * branches that run straight on across the curve into another
       unexplained branch (:func:`tendrilkit.verify_crossing.crossing_branches`):
-      a thin line crossing the tendril (a second tendril, a stalk);
-    * branches reached from the explained skeleton only across more than
-      :data:`WIDE_REACH` tendril widths of wider skeleton, and not from the
-      curve's tip (:func:`_behind_clutter`): the thin end of a shoot joined
-      to the tendril through clutter crossing both. On the multi-view
-      curves of development seed 9500 (a shoot 25 % wider than the tendril,
-      joined to it by a second shoot crossing both in two views) three
-      frames right on all three accuracy criteria scored 0.71-0.73 in two
-      views (0.96-0.98 without those branches); with them ``ok``, the frame
-      that ran onto the shoot (3.6 mm mean error, reported ``ok`` because its
-      right neighbours were doubtful) disagrees with their length and is
-      flagged, while frame 3 (1.1 mm mean, its tip 14 mm short: only view 2
-      shows 21 px of it going on) becomes ``ok``, flagged before only
-      through the shoot. On development seeds 0-39 nothing changes.
+      a thin line crossing the tendril (a second tendril, a stalk).
 
     The coverage is the explained skeleton over explained plus the
     tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`
