@@ -435,7 +435,7 @@ class Verification(_Strict):
     max_skeleton_mean_px: PositiveFloat = 1.0
     coverage_tolerance_px: PositiveFloat = 4.0
     min_coverage_frac: float = Field(0.75, ge=0, le=1)
-    max_tip_continuation_px: PositiveFloat = 20.0
+    max_tip_continuation_px: PositiveFloat = 8.0
     min_base_on_tendril_frac: float = Field(0.5, ge=0, le=1)
     max_base_px: PositiveFloat = 25.0
     min_tip_border_px: NonNegFloat = 5.0

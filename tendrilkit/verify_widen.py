@@ -197,10 +197,10 @@ def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: flo
 def distal_widening_message(figures: dict, n_views: int, limit: float) -> str | None:
     """The message of the distal widening check (None: passed).
 
-    ``figures``: ``distal_widening_v<i>`` (1-based views; None: not measured).
+    ``figures``: ``distal_widening_ratio_v<i>`` (1-based views; None: not measured).
     Fails when the ratio exceeds ``limit`` in two views or more.
     """
-    values = [(v, figures.get(f"distal_widening_v{v}")) for v in range(1, n_views + 1)]
+    values = [(v, figures.get(f"distal_widening_ratio_v{v}")) for v in range(1, n_views + 1)]
     wide = [(v, x) for v, x in values if x is not None and x > limit]
     if len(wide) < 2:
         return None

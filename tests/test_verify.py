@@ -6,7 +6,7 @@ import pytest
 
 from tendrilkit.camera import Camera
 from tendrilkit.evidence import view_evidence
-from tendrilkit.verify import Thresholds, image_check_messages, verify_curve, verify_frame
+from tendrilkit.verify import Thresholds, image_check_messages, verify_curve, verify_frame, view_columns
 from tendrilkit.verify_temporal import temporal_checks
 from tendrilkit.verify_base import base_components
 
@@ -95,7 +95,7 @@ def test_shrunk_curve_is_caught_at_the_tip(scene):
     assert q["tip_continuation_px_v1"] > 80 and q["coverage_frac_v1"] < 0.7
     msgs = image_check_messages(q, 2, Thresholds())
     assert f"tip: the tendril goes on beyond the curve's tip in view 1 ({q['tip_continuation_px_v1']:.0f} px), " \
-           f"view 2 ({q['tip_continuation_px_v2']:.0f} px) (limit 20 px)" in msgs
+           f"view 2 ({q['tip_continuation_px_v2']:.0f} px) (limit {Thresholds().max_tip_continuation_px:g} px)" in msgs
     assert any(m.startswith("coverage: view 1") for m in msgs)
     # one view only (clutter at the tip in that view) is not enough
     one = {**q, "tip_continuation_px_v2": 0.0}
@@ -543,4 +543,30 @@ def test_tendril_leaving_the_keep_out_box_far_from_a_mark_at_its_edge_leaves_the
     # a curve setting off along the stem is still caught
     q = verify_curve(S[::-1], cams, ev)
     assert q["base_on_tendril_frac_v1"] == 0.0
+
+
+def test_tip_continuation_longer_than_a_spur_in_two_views_is_a_shrunk_curve():
+    th = Thresholds()
+    q = {"views_checked": 3, "tip_continuation_px_v1": 13.5, "tip_continuation_px_v2": 14.9,
+         "tip_continuation_px_v3": 0.0}
+    assert any(m.startswith("tip: the tendril goes on beyond the curve's tip in view 1 (14 px), view 2 (15 px)")
+               for m in image_check_messages(q, 3, th))
+    spurs = {**q, "tip_continuation_px_v1": 3.0, "tip_continuation_px_v2": 2.0}  # the skeleton's end spurs
+    assert not any(m.startswith("tip:") for m in image_check_messages(spurs, 3, th))
+
+
+def test_every_checks_figure_is_a_frames_column(scene):
+    cams, ev = scene
+    cols = view_columns(2)
+    for stem in ("tip_object_px", "turn_branch_px", "distal_widening_ratio"):
+        assert [f"{stem}_v1", f"{stem}_v2"] == [c for c in cols if c.startswith(stem)]
+    assert cols[-6:] == ["tip_object_px_v1", "tip_object_px_v2", "turn_branch_px_v1", "turn_branch_px_v2",
+                         "distal_widening_ratio_v1", "distal_widening_ratio_v2"]  # added at the table's end
+    q = verify_curve(_tendril_mm(), cams, ev)
+    assert set(cols) <= set(q)
+    assert q["distal_widening_ratio_v1"] is not None and q["distal_widening_ratio_v1"] <= Thresholds().max_distal_widening
+    assert q["turn_branch_px_v1"] is None  # a right curve turns off no line
+    from tendrilkit.schema import frames_table
+
+    assert frames_table(2).columns[-6:] == tuple(cols[-6:])
 

@@ -54,9 +54,9 @@ def test_curve_running_on_along_a_leaf_under_the_tip_is_caught():
 
 def test_widening_in_one_view_only_is_not_enough():
     """In one view the tendril's last part may pass in front of a leaf: two views are needed."""
-    assert distal_widening_message({"distal_widening_v1": 3.0, "distal_widening_v2": 1.0}, 2, 1.2) is None
-    assert distal_widening_message({"distal_widening_v1": 3.0, "distal_widening_v2": None}, 2, 1.2) is None
-    m = distal_widening_message({"distal_widening_v1": 3.0, "distal_widening_v2": 1.3}, 2, 1.2)
+    assert distal_widening_message({"distal_widening_ratio_v1": 3.0, "distal_widening_ratio_v2": 1.0}, 2, 1.2) is None
+    assert distal_widening_message({"distal_widening_ratio_v1": 3.0, "distal_widening_ratio_v2": None}, 2, 1.2) is None
+    m = distal_widening_message({"distal_widening_ratio_v1": 3.0, "distal_widening_ratio_v2": 1.3}, 2, 1.2)
     assert m.startswith("widening:") and "view 1 (3.00 x)" in m and "view 2 (1.30 x)" in m
 
 

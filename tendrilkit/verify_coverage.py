@@ -1,0 +1,145 @@
+"""The coverage check's figure: how much of the tendril's skeleton, from the base outward, the curve explains.
+
+:func:`coverage_frac` is ``coverage_frac_v<i>`` of :mod:`tendrilkit.verify`
+(per view); :func:`tendril_radius_px` the tendril's half width in a view,
+which the coverage and the other checks use to tell the tendril's thin line
+from clutter wider than it. What counts as the tendril's skeleton (lines
+crossing the curve, segments running out of the ROI, pieces beyond a break)
+is :mod:`tendrilkit.verify_crossing`'s reading.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tendrilkit.evidence import ViewEvidence
+from tendrilkit.verify_base import WIDE_RATIO, near_base
+from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
+
+__all__ = ["coverage_frac", "tendril_radius_px", "BORDER_PX", "MIN_BRANCH_PX"]
+
+#: A branch of unexplained skeleton whose line reaches within this distance of the ROI's border (px: the
+#: skeleton pixel's distance to the border less its inside distance) comes from outside the region the
+#: tendril moves in (stem, shoot, stalk): not a part of the tendril.
+BORDER_PX = 2
+
+#: Branches of unexplained thin skeleton shorter than this (px) are the skeleton's spurs (at a leaf's rim,
+#: at a crossing), not a part of the tendril the curve missed.
+MIN_BRANCH_PX = 8
+
+
+def tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, cov_tol: float) -> float:
+    """The tendril's half width in this view, px: median inside distance of the skeleton pixels along the curve.
+
+    NaN when the curve explains no skeleton pixel. Clutter crossing the
+    tendril widens it only at the crossings; the median is the tendril's.
+    """
+    from scipy.spatial import cKDTree
+
+    sk = ev.skeleton_xy
+    if sk is None or len(sk) == 0 or len(dense) == 0:
+        return float("nan")
+    dist, _ = cKDTree(dense).query(sk, distance_upper_bound=cov_tol + 1e-9)
+    near = sk[np.isfinite(dist)]
+    if len(near) == 0:
+        return float("nan")
+    off = ev.roi_offset_xy
+    return float(np.median(inside[(near[:, 1] - off[1]).astype(int), (near[:, 0] - off[0]).astype(int)]))
+
+
+def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float, tree_cls,
+              inside: np.ndarray, radius_px: float, *, near: np.ndarray | None = None) -> float:
+    """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
+
+    Counted are the skeleton pixels of the components the curve runs along,
+    of those at the base mark and of those whose thin skeleton ends within a
+    break of theirs (:func:`tendrilkit.verify_crossing.across_gaps`). Those
+    the curve explains (within ``cov_tol``) count for it; of the others only the tendril's count
+    against it, i.e. not clutter that joined the tendril's pixels:
+
+    * pixels wider than the tendril (inside distance above :data:`WIDE_RATIO`
+      times the tendril's, :func:`tendril_radius_px`): a leaf's blob, the
+      stem, a thicker shoot, not the tendril's thin line;
+    * segments between junctions of the remaining pixels that reach the
+      ROI's border (:func:`tendrilkit.verify_crossing.border_segments`): the
+      stem, a shoot or a second tendril come from outside the region the
+      tendril moves in, the tendril does not (a missed part of it crossing
+      such a line keeps its own segments);
+    * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs;
+    * branches that run straight on across the curve into another
+      unexplained branch (:func:`tendrilkit.verify_crossing.crossing_branches`):
+      a thin line crossing the tendril (a second tendril, a stalk).
+
+    The coverage is the explained skeleton over explained plus the
+    tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`
+    of ``ev`` when the caller has it.
+    """
+    on = dense[d <= tol]
+    if len(on) == 0 or len(ev.skeleton_xy) == 0:
+        return 0.0
+    off = ev.roi_offset_xy
+    h, w = ev.shape
+    # the component under every on-tendril sample (the nearest foreground pixel within the tolerance)
+    r = np.clip(np.rint(on[:, 1] - off[1]).astype(int), 0, h - 1)
+    c = np.clip(np.rint(on[:, 0] - off[0]).astype(int), 0, w - 1)
+    lab = ev.labels[r, c]
+    if np.any(lab == 0):  # samples beside the mask: look around them
+        miss = np.nonzero(lab == 0)[0]
+        rad = int(np.ceil(tol))
+        for i in miss:
+            win = ev.labels[max(r[i] - rad, 0):r[i] + rad + 1, max(c[i] - rad, 0):c[i] + rad + 1]
+            nz = win[win > 0]
+            lab[i] = int(np.bincount(nz).argmax()) if nz.size else 0
+    counts = np.bincount(lab[lab > 0], minlength=int(ev.labels.max()) + 1)
+    # components the curve runs along for at least 5 % of its on-tendril samples (a crossing's touch is not)
+    touched = np.nonzero(counts >= max(3, 0.05 * len(on)))[0]
+    # and every component at the base mark, the stem's too (a curve on the stem leaves the tendril unexplained;
+    # the stem's own pixels are then left out as clutter, below)
+    touched = np.union1d(touched, near_base(ev) if near is None else near)
+    if touched.size == 0:
+        return 0.0
+    sk = ev.skeleton_xy
+    sr = (sk[:, 1] - off[1]).astype(int)
+    sc = (sk[:, 0] - off[0]).astype(int)
+    # the tendril's thin line, not a leaf's blob or a thicker stem (no radius: every skeleton pixel)
+    thin_px = WIDE_RATIO * radius_px if np.isfinite(radius_px) and radius_px > 0 else np.inf
+    thin = inside[sr, sc] <= thin_px
+    touched = across_gaps(ev.labels, sk, sr, sc, thin, touched, dense)
+    mine = np.isin(ev.labels[sr, sc], touched)
+    sk, sr, sc, thin = sk[mine], sr[mine], sc[mine], thin[mine]
+    if len(sk) == 0:
+        return 0.0
+    # one query serves the coverage (within cov_tol) and the crossing arms (attached within cov_tol + 3)
+    dist, nearest = tree_cls(dense).query(sk, distance_upper_bound=cov_tol + 3.0 + 1e-9)
+    near = dist < cov_tol + 1e-9
+    n_near = int(near.sum())
+    free = ~near & thin
+    if not free.any():
+        return 1.0 if n_near else 0.0
+    import cv2
+
+    fr, fc = sr[free], sc[free]
+    # labelled on the free pixels' box (starting on an even row and column: the labelling's 2 x 2 blocks and
+    # raster order, hence the labels, are those of the whole crop)
+    r0, c0 = int(fr.min()) & ~1, int(fc.min()) & ~1
+    img = np.zeros((int(fr.max()) + 1 - r0, int(fc.max()) + 1 - c0), np.uint8)
+    img[fr - r0, fc - c0] = 1
+    # a skeleton stops about its line's half width short of where the line leaves the crop
+    edge = np.zeros(img.shape, bool)
+    edge[fr - r0, fc - c0] = np.minimum(np.minimum(fr, h - 1 - fr), np.minimum(fc, w - 1 - fc)) <= \
+        inside[fr, fc] + BORDER_PX
+    img[border_segments(img, edge)] = 0  # only the segments running out of the ROI, not all joined to them
+    nb, blab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
+    b = blab[fr - r0, fc - c0]
+    size = np.bincount(b, minlength=nb)
+    tendril = size >= MIN_BRANCH_PX
+    tendril[0] = False
+    cand = np.nonzero(tendril)[0]
+    if cand.size:  # a thin line crossing the tendril: its arms continue each other across the curve
+        branch = np.zeros(len(sk), int)
+        branch[free] = b
+        tendril[cand[crossing_branches(dense, sk[~near], branch[~near], cand, cov_tol=cov_tol,
+                                                width_px=2.0 * radius_px if np.isfinite(radius_px) else 0.0,
+                                                nearest=(dist[~near], nearest[~near]))]] = False
+    n_free = int(size[tendril].sum())
+    return float(n_near / max(n_near + n_free, 1))
