@@ -1,7 +1,7 @@
 """Generalisation benchmark: today's method on random scenes like real recordings.
 
     .venv/bin/python benchmarks/bench_generalize.py --seeds 0:40 [--frames 6] [--workers 2]
-        [--scene random] [--method chain|multiview] [--out DIR]
+        [--scene random|PRESET|A+B+C,...] [--method chain|multiview] [--out DIR]
 
 For every seed: writes the random scene (``python -m tendrilkit phantom
 --scene random --seed N``, :mod:`tendrilkit.phantom.scenes`), reconstructs it with
@@ -130,8 +130,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--frames", type=int, default=6)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--scene", default="random",
-                   help="random, a preset of tendrilkit.phantom.scenes.PRESETS, several separated by commas, "
-                        "or 'alone' (every single-factor preset)")
+                   help="random, a preset of tendrilkit.phantom.scenes.PRESETS, presets joined by '+' (switched on "
+                        "together in one scene, e.g. coil+over_stem+tip_leaf), several of these separated by commas "
+                        "(each run separately), or 'alone' (every single-factor preset)")
     p.add_argument("--out", default=None, help="keep scenes, results and tables here")
     p.add_argument("--method", default=None, choices=["chain", "multiview"],
                    help="reconstruction.method (default: the experiment file's)")
@@ -143,15 +144,17 @@ def main(argv: list[str] | None = None) -> int:
 
     t0 = time.perf_counter()
     tables, errors, cpu = [], [], 0.0
-    from tendrilkit.phantom.scenes import GROUPS, PRESETS
+    from tendrilkit.phantom.scenes import GROUPS, PRESETS, scene_parts
 
     if a.scene == "alone":
         scenes = [s for s in PRESETS if s not in ("random", *GROUPS)]
     else:
         scenes = a.scene.split(",")
-    bad = [s for s in scenes if s not in PRESETS]
-    if bad:
-        p.error(f"--scene: unknown {', '.join(bad)}; expected random, alone or {', '.join(PRESETS)}")
+    for s in scenes:
+        try:
+            scene_parts(s)
+        except ValueError as e:
+            p.error(f"--scene: {e}; or 'alone'")
     jobs = [(scene, s) for scene in scenes for s in range(start, stop)]
     with ProcessPoolExecutor(max_workers=a.workers) as pool:
         futs = [pool.submit(one_scene, s, scene, a.frames, str(out), a.method) for scene, s in jobs]

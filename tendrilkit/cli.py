@@ -198,8 +198,9 @@ def build_parser() -> argparse.ArgumentParser:
     ph.add_argument("--site", choices=["S1", "S2", "S3", "S4", "all"], default=None,
                     help="a site phantom (the demo's four experiments)")
     ph.add_argument("--scene", default=None, metavar="NAME",
-                    help="a random scene like a real recording: 'random' (factors drawn from --seed) or a preset "
-                         "switching one factor (see README: Random scenes)")
+                    help="a random scene like a real recording: 'random' (factors drawn from --seed), a preset "
+                         "switching one factor, or presets joined by '+' switched on together, e.g. "
+                         "coil+over_stem+tip_leaf (see README: Random scenes)")
     ph.add_argument("--out", required=True, help="output folder")
     ph.add_argument("--frames", type=int, default=None, help="sequence length (default: the phantom's default)")
     ph.add_argument("--seed", type=int, default=0)

@@ -617,3 +617,17 @@ def test_rig_spread_is_floored_at_the_detector_noise():
     sigma, cov = _single_covariance(single, WORLD_ID, L)
     assert sigma == pytest.approx(np.sqrt(np.mean([corner_sigma_px(o[WORLD_ID]) ** 2 for o in exact.values()])))
     assert np.all(np.isfinite(cov)) and np.all(rig_uncertainty_px(single, P, world_id=WORLD_ID, length_mm=L) > 0.1)
+
+
+def test_rig_flag_bounds_a_view_by_two_sigmas_plus_a_floor():
+    """A view is flagged when 2 x its spread + 0.05 px exceeds 0.5 px (bench_calibration.py scenes, dev seeds
+    3000-3039 and 4000-4039: the true error never exceeded that bound; 2 x spread alone, by up to 0.03 px
+    where the spread is under 0.15 px). Site phantom S2's largest spread (0.188 px, true 0.21 px) is not
+    flagged; 0.23 px is; an unconstrained view is; a view not assessed is not."""
+    from tendrilkit.calibration import RIG_FLOOR_PX, RIG_LIMIT_PX, RIG_LIMIT_SIGMAS
+    from tendrilkit.calibration.rig import _pins_too_loosely, _rig_bound_px
+
+    assert (RIG_LIMIT_PX, RIG_LIMIT_SIGMAS, RIG_FLOOR_PX) == (0.5, 2.0, 0.05)
+    assert _rig_bound_px(0.03) == pytest.approx(0.11)
+    assert not _pins_too_loosely(0.1883) and not _pins_too_loosely(0.225)
+    assert _pins_too_loosely(0.23) and _pins_too_loosely(np.inf) and not _pins_too_loosely(np.nan)

@@ -358,3 +358,91 @@ def test_world_marker_is_found_in_every_view_of_scenes_that_had_it_covered():
                                   tubes=ph.tubes, plates=ph.plates, cards=ph.cards) is None
         for v, cam in enumerate(ph.cameras):
             assert WORLD_MARKER_ID in detect_markers(S.render_scene_view(ph, 0, v), "DICT_ARUCO_ORIGINAL", camera=cam)
+
+
+def test_the_world_marker_may_be_covered_by_the_tendril_after_the_frames_that_calibrate():
+    """Only the first CALIBRATION_FRAMES frames (calibration.average_frames' default) calibrate: the tendril
+    over the world marker in a later frame is a harder world, in one of those frames a broken one."""
+    from tendrilkit.params import Calibration
+    from tendrilkit.phantom.scenes.markers import CALIBRATION_FRAMES, world_marker_cover
+
+    assert Calibration().average_frames == CALIBRATION_FRAMES
+    ph = S.make_scene(0, scene="clean", n_frames=1)
+    sc, cams, radius = ph.scene, ph.cameras, ph.radius_mm
+    n = ph.curves_mm.shape[1]
+    over = np.stack([np.linspace(-15, 15, n), np.linspace(-15, 15, n), np.full(n, 3.0)], axis=1)
+    for f, expected in ((CALIBRATION_FRAMES, None), (CALIBRATION_FRAMES - 1, "the tendril in views 1, 2, 3")):
+        curves = np.repeat(ph.curves_mm[:1], CALIBRATION_FRAMES + 2, axis=0)
+        curves[f] = over
+        assert world_marker_cover(sc, cams, curves, radius) == expected, f
+        assert world_marker_cover(sc, cams, curves, radius, calibration_frames=len(curves)) is not None
+
+
+def test_presets_combine_with_plus():
+    """``a+b+c`` switches the factors of every part on a clean scene; the rest is drawn as a preset draws it."""
+    from tendrilkit.phantom.scenes import scene_parts
+
+    f = draw_factors(3, "coil+over_stem+tip_leaf")
+    assert f == {**draw_factors(3, "clean"), "shape": "coil", "over_stem": True, "tip_leaf": True}
+    assert active_factors(f) == ["shape=coil", "over_stem", "tip_leaf"]
+    g = draw_factors(5, "time+pale+jpeg")
+    assert g == {**draw_factors(5, "clean"), "look": "pale", "sway": True, "leave_view": True, "jpeg": True}
+    assert draw_factors(5, "sway") == draw_factors(5, "sway+sway")
+    assert scene_parts("random") == ("random",) and scene_parts("coil+sparse") == ("coil", "sparse")
+    for bad, match in (("coil+loop", "one shape, got coil and loop"), ("sparse+fps30", "one sampling"),
+                       ("pale+brown", "one look"), ("random+coil", "cannot be combined"),
+                       ("clean+coil", "cannot be combined"), ("coil+bogus", "scene: expected one of"),
+                       ("+".join(BOOLEAN_FACTORS), "at most 80 characters")):
+        with pytest.raises(ValueError, match=match):
+            draw_factors(0, bad)
+
+
+def test_cli_rejects_a_combination_that_cannot_hold(tmp_path, capsys):
+    assert main(["phantom", "--scene", "coil+hook", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "one shape, got coil and hook" in err and "Traceback" not in err
+
+
+@pytest.mark.slow
+def test_a_combined_scene_has_every_factor(tmp_path, capsys):
+    """``phantom --scene coil+over_stem+tip_leaf`` writes a scene with the three factors realised."""
+    import json
+
+    assert main(["phantom", "--scene", "coil+over_stem+tip_leaf", "--seed", "5", "--frames", "3",
+                 "--out", str(tmp_path / "s")]) == 0
+    meta = json.loads((tmp_path / "s" / "ground_truth" / "gt_meta.json").read_text())
+    assert meta["scene"] == "coil+over_stem+tip_leaf" and meta["scene_version"] == S.SCENE_VERSION
+    assert meta["active_factors"] == ["shape=coil", "over_stem", "tip_leaf"]
+    r = meta["realised"]
+    assert 4.0 <= r["shape"]["coil_radius_mm"] <= 10.0
+    assert "over_stem" in r and len(r["tip_leaf"]["touching_frames"]) >= 2
+    assert meta["name"] == "scene-coil+over_stem+tip_leaf-seed5"
+    from tendrilkit.params import load_experiment
+
+    assert load_experiment(tmp_path / "s" / "experiment.yaml").name == meta["name"]
+
+
+@pytest.mark.slow
+def test_every_marker_is_drawn_where_the_ground_truth_records_it():
+    """Dev seed 64 had marker 1023, the one id of DICT_ARUCO_ORIGINAL that looks the same turned by half a
+    turn: the detector gave its corners in the other order, 177-213 px from the recorded ones. No scene
+    places such an id now; in every view of several dev scenes (64; 38, a glancing card; 65, small markers;
+    7, 21) every marker found lies within 1 px of its recorded corners, and the world marker is found."""
+    from tendrilkit.calibration import detect_markers
+    from tendrilkit.phantom.design import WORLD_MARKER_ID
+    from tendrilkit.phantom.scene import ambiguous_marker_ids
+    from tendrilkit.phantom.scenes.markers import card_corners_mm
+
+    assert ambiguous_marker_ids() == frozenset({1023})
+    for seed in (64, 38, 65, 7, 21):
+        ph = S.make_scene(seed, n_frames=1)
+        recorded = {m.id: m.corners_mm() for m in ph.scene.markers} | {c["id"]: card_corners_mm(c) for c in ph.cards}
+        assert not set(recorded) & ambiguous_marker_ids(), seed
+        assert len(recorded) == len(ph.scene.markers) + len(ph.cards), seed  # no id twice
+        for v, cam in enumerate(ph.cameras):
+            found = detect_markers(S.render_scene_view(ph, 0, v), "DICT_ARUCO_ORIGINAL", camera=cam)
+            assert WORLD_MARKER_ID in found, (seed, v)
+            for mid, corners_xy in found.items():
+                assert mid in recorded, (seed, v, mid)
+                err = np.linalg.norm(corners_xy - cam.project(recorded[mid]), axis=1).max()
+                assert err < 1.0, (seed, v, mid, err)

@@ -62,6 +62,7 @@ from tendrilkit.calibration.markers import REFINE_METHODS, average_detections, d
 from tendrilkit.calibration.poses import marker_pose
 from tendrilkit.calibration.rig import (
     MIN_BASELINE_FRACTION,
+    RIG_FLOOR_PX,
     RIG_LIMIT_PX,
     RIG_LIMIT_SIGMAS,
     assess_rig,
@@ -76,6 +77,7 @@ from tendrilkit.calibration.rig import (
 
 __all__ = [
     "MIN_BASELINE_FRACTION",
+    "RIG_FLOOR_PX",
     "RIG_LIMIT_PX",
     "RIG_LIMIT_SIGMAS",
     "assess_rig",

@@ -8,6 +8,7 @@ and the generator draws the next design.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -16,9 +17,31 @@ import numpy as np
 
 from tendrilkit.camera import Camera
 from tendrilkit.geometry import arc_length, marker_corners
-from tendrilkit.phantom.design import (_CLEAR_PX, _NODE_RADIUS_MM, _STEM_RADIUS_MM, SITES, WORLD_MARKER_ID,
-                                       WORLD_MARKER_MM, Design)
+from tendrilkit.phantom.design import (_CLEAR_PX, _NODE_RADIUS_MM, _STEM_RADIUS_MM, DICTIONARY, SITES,
+                                       WORLD_MARKER_ID, WORLD_MARKER_MM, Design)
 from tendrilkit.phantom.projection import _mm_per_px, _project_poly, _project_safe
+
+@functools.cache
+def ambiguous_marker_ids(dictionary: str = DICTIONARY) -> frozenset[int]:
+    """Ids of ``dictionary`` whose cells look the same turned by 90 or 180 degrees.
+
+    A detector cannot tell which corner of such a marker is its first: it
+    reports the corners in one of the turns, and a generator that records
+    them in the marker's own order is 100+ px off (marker 1023 of
+    ``DICT_ARUCO_ORIGINAL``, symmetric under a half turn, the only one of
+    its 1024). No phantom places them.
+
+    >>> sorted(ambiguous_marker_ids())
+    [1023]
+    """
+    dic = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, dictionary))
+    out = set()
+    for mid in range(len(dic.bytesList)):
+        bits = cv2.aruco.generateImageMarker(dic, mid, dic.markerSize + 2, borderBits=1) > 127
+        if any(np.array_equal(bits, np.rot90(bits, k)) for k in (1, 2, 3)):
+            out.add(mid)
+    return frozenset(out)
+
 
 @dataclass(frozen=True, eq=False)
 class MarkerSpec:
@@ -156,12 +179,16 @@ def _quiet_scale(marker_cells: int = 7) -> float:
 
 
 def build_scene(design: Design, cams: list[Camera], curves: np.ndarray, seed: int, attempt: int,
-                 diameter_mm: float) -> Scene:
+                diameter_mm: float, *, world_frames: int | None = None) -> Scene:
     """Stem, tape, leaves and markers around the tendril's swept region ``curves`` (k, n, 3).
 
     Collisions are tested on half-resolution masks of every view: each element
     (dilated by ``_CLEAR_PX``) against the tendril swept over ``curves``
     (widened by ``_CLEAR_PX``) and against the elements placed before it.
+    ``world_frames`` (keyword-only): the world marker is tested against the
+    tendril of the first ``world_frames`` frames only (the frames that
+    calibrate: the tendril may pass over it later); None (the site phantoms):
+    every frame. No marker gets an id of :func:`ambiguous_marker_ids`.
     Raises :class:`Reject` when the stem is in the way or there is no room.
     """
     rng = np.random.default_rng([int(seed), SITES.index(design.site), int(attempt), 23])
@@ -185,10 +212,22 @@ def build_scene(design: Design, cams: list[Camera], curves: np.ndarray, seed: in
         swept.append(m)
         distal.append(md)
     static = [np.zeros_like(s) for s in swept]
+    swept_world = swept
+    if world_frames is not None:  # the tendril of the frames that calibrate, drawn as above
+        swept_world = []
+        for cam in cams:
+            m = np.zeros(_mask_shape(cam), np.uint8)
+            for c in sub[:world_frames]:
+                xy = _project_safe(cam, c) * _HALF
+                w = diameter_mm / _mm_per_px(cam, c.mean(axis=0)) * _HALF
+                th = max(1, int(round(w + 2 * _CLEAR_PX * _HALF)))
+                cv2.polylines(m, [np.round(xy * 16).astype(np.int32)], False, 1, thickness=th,
+                              lineType=cv2.LINE_8, shift=4)
+            swept_world.append(m)
 
-    def clear_of(masks: list[np.ndarray], others: list[np.ndarray] | None) -> bool:
+    def clear_of(masks: list[np.ndarray], others: list[np.ndarray] | None, tendril: list | None = None) -> bool:
         for v, m in enumerate(masks):
-            if np.any(m & swept[v]):
+            if np.any(m & (swept if tendril is None else tendril)[v]):
                 return False
             if others is not None and np.any(m & others[v]):
                 return False
@@ -264,23 +303,23 @@ def build_scene(design: Design, cams: list[Camera], curves: np.ndarray, seed: in
     markers = [world]
     qs = _quiet_scale()
 
-    def marker_ok(mk: MarkerSpec, check_static: bool) -> list[np.ndarray] | None:
+    def marker_ok(mk: MarkerSpec, check_static: bool, tendril: list | None = None) -> list[np.ndarray] | None:
         poly = _square_poly(mk, qs)
         masks = []
         for cam in cams:
             if not np.all(cam.in_image(_project_safe(cam, poly), margin_px=30.0)):
                 return None
             masks.append(_poly_mask(cam, poly, dilate_px=_CLEAR_PX))
-        if not clear_of(masks, static if check_static else None):
+        if not clear_of(masks, static if check_static else None, tendril):
             return None
         return masks
 
-    wm = marker_ok(world, False)
+    wm = marker_ok(world, False, swept_world)
     if wm is None:
         raise Reject("the world marker is hidden by the tendril")
     static = [s | m for s, m in zip(static, wm)]
     n_markers = int(rng.integers(3, 6))
-    used = {WORLD_MARKER_ID}
+    used = {WORLD_MARKER_ID} | ambiguous_marker_ids()  # drawn all the same: the draws stay the seed's
     cands = []
     for _ in range(120):
         mid = int(rng.integers(0, 1024))

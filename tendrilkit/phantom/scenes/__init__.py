@@ -21,9 +21,9 @@ Every seed makes a scene: when the seed's 40 attempts fail, further rounds
 """
 
 from tendrilkit.phantom.scenes.factors import (BOOLEAN_FACTORS, GROUPS, LOOKS, PRESETS, SAMPLINGS, SHAPES,
-                                               active_factors, draw_factors)
+                                               active_factors, draw_factors, scene_parts)
 from tendrilkit.phantom.scenes.make import DEFAULT_SCENE_FRAMES, SCENE_VERSION, ScenePhantom, make_scene
 from tendrilkit.phantom.scenes.render import render_scene_view
 
 __all__ = ["BOOLEAN_FACTORS", "DEFAULT_SCENE_FRAMES", "GROUPS", "LOOKS", "PRESETS", "SAMPLINGS", "SCENE_VERSION", "SHAPES",
-           "ScenePhantom", "active_factors", "draw_factors", "make_scene", "render_scene_view"]
+           "ScenePhantom", "active_factors", "draw_factors", "make_scene", "render_scene_view", "scene_parts"]

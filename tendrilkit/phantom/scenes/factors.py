@@ -57,7 +57,10 @@ The three last factors were added after the first benchmark (scene version
 ``random`` draws every factor from the seed; a preset named after a factor
 (or after a categorical value, e.g. ``coil`` or ``sparse``) switches that
 factor alone on a clean scene; ``clean`` switches none; group presets
-(``contact``, ``clutter``, ``imaging``, ``time``) switch a group.
+(``contact``, ``clutter``, ``imaging``, ``time``) switch a group. Presets
+joined by ``+`` (e.g. ``coil+over_stem+tip_leaf``) switch all of theirs
+together on a clean scene, the rest drawn from the seed as a preset draws
+it (:func:`scene_parts`); at most one shape, one sampling and one look.
 """
 
 from __future__ import annotations
@@ -83,6 +86,50 @@ PRESETS = (("random", "clean") + SHAPES + tuple(s for s in SAMPLINGS if s != "ti
            + tuple(x for x in LOOKS if x != "default") + BOOLEAN_FACTORS + tuple(GROUPS))
 
 
+def scene_parts(scene: str) -> tuple[str, ...]:
+    """The presets a scene name switches on together: ``"coil+over_stem"`` -> ``("coil", "over_stem")``.
+
+    Parameters
+    ----------
+    scene : str
+        ``random``, a preset of :data:`PRESETS`, or presets (other than
+        ``random`` and ``clean``) joined by ``+``.
+
+    Returns
+    -------
+    tuple of str
+        One name for ``random`` or a single preset.
+
+    Raises
+    ------
+    ValueError
+        An unknown name, ``random``/``clean`` in a combination, two
+        shapes (samplings, looks) that cannot both hold, or a combination
+        over 80 characters.
+
+    Examples
+    --------
+    >>> scene_parts("coil+over_stem+tip_leaf")
+    ('coil', 'over_stem', 'tip_leaf')
+    """
+    parts = tuple(str(scene).split("+"))
+    bad = [p for p in parts if p not in PRESETS]
+    if bad:
+        raise ValueError(f"scene: expected one of {', '.join(PRESETS)} (or several joined by '+'), got "
+                         f"{scene!r} ({', '.join(repr(b) for b in bad)} unknown)")
+    if len(parts) == 1:
+        return parts
+    if len(scene) > 80:  # the experiment's name, scene-<scene>-seed<N>, is a folder name of at most 100
+        raise ValueError(f"scene: expected at most 80 characters, got {len(scene)} in {scene!r}")
+    if {"random", "clean"} & set(parts):
+        raise ValueError(f"scene: 'random' and 'clean' cannot be combined with '+', got {scene!r}")
+    for kind, values in (("shape", SHAPES), ("sampling", SAMPLINGS), ("look", LOOKS)):
+        chosen = sorted({p for p in parts if p in values})
+        if len(chosen) > 1:
+            raise ValueError(f"scene: a scene has one {kind}, got {' and '.join(chosen)} in {scene!r}")
+    return parts
+
+
 def draw_factors(seed: int, scene: str = "random") -> dict:
     """The factors of scene ``scene`` with seed ``seed``.
 
@@ -90,22 +137,22 @@ def draw_factors(seed: int, scene: str = "random") -> dict:
     ----------
     seed : int
     scene : str
-        ``random`` or a preset (:data:`PRESETS`).
+        ``random``, a preset (:data:`PRESETS`) or presets joined by ``+``
+        (:func:`scene_parts`).
 
     Returns
     -------
     dict
         ``shape``, ``sampling``, ``look`` (str) and every name of
-        :data:`BOOLEAN_FACTORS` (bool). For presets other than a shape the
+        :data:`BOOLEAN_FACTORS` (bool). When no preset names a shape, the
         shape is drawn from ``slight, hook, loop`` (a clean tendril).
 
     Raises
     ------
     ValueError
-        Unknown scene name.
+        Unknown scene name, or a combination that cannot hold (:func:`scene_parts`).
     """
-    if scene not in PRESETS:
-        raise ValueError(f"scene: expected one of {', '.join(PRESETS)}, got {scene!r}")
+    parts = scene_parts(scene)
     rng = np.random.default_rng([int(seed), 1111])
     # always draw the same stream, whatever the preset
     shape_r = SHAPES[int(rng.integers(len(SHAPES)))]
@@ -116,17 +163,18 @@ def draw_factors(seed: int, scene: str = "random") -> dict:
     if scene == "random":
         return {"shape": shape_r, "sampling": sampling_r, "look": look_r, **flags_r}
     out = {"shape": shape_clean, "sampling": "timelapse", "look": "default", **{k: False for k in BOOLEAN_FACTORS}}
-    if scene in SHAPES:
-        out["shape"] = scene
-    elif scene in SAMPLINGS:
-        out["sampling"] = scene
-    elif scene in LOOKS:
-        out["look"] = scene
-    elif scene in BOOLEAN_FACTORS:
-        out[scene] = True
-    elif scene in GROUPS:
-        for k in GROUPS[scene]:
-            out[k] = True
+    for part in parts:
+        if part in SHAPES:
+            out["shape"] = part
+        elif part in SAMPLINGS:
+            out["sampling"] = part
+        elif part in LOOKS:
+            out["look"] = part
+        elif part in BOOLEAN_FACTORS:
+            out[part] = True
+        elif part in GROUPS:
+            for k in GROUPS[part]:
+                out[k] = True
     return out
 
 

@@ -14,7 +14,11 @@ view; a placement that fails raises :class:`~tendrilkit.phantom.scenes.clutter._
 
 :func:`world_marker_cover`: once every object of a scene is placed, what
 lies over the world marker's paper in a view (the calibration needs it in
-every view: a user does not tape it under the stem).
+every view: a user does not tape it under the stem) in the frames that
+calibrate (:data:`CALIBRATION_FRAMES`; the tendril may pass over it later).
+
+No marker gets an id whose corners a detector cannot order
+(:func:`tendrilkit.phantom.scene.ambiguous_marker_ids`).
 """
 
 from __future__ import annotations
@@ -28,9 +32,13 @@ from scipy.spatial import cKDTree
 from tendrilkit.camera import Camera
 from tendrilkit.phantom.design import WORLD_MARKER_ID
 from tendrilkit.phantom.projection import _pixel_to_board, _project_safe
-from tendrilkit.phantom.scene import MarkerSpec, Scene, _poly_mask, _quiet_scale, _rect_poly, _square_poly, _tube_mask
+from tendrilkit.phantom.scene import (MarkerSpec, Scene, _poly_mask, _quiet_scale, _rect_poly, _square_poly, _tube_mask,
+                                      ambiguous_marker_ids)
 from tendrilkit.phantom.scenes.clutter import _Retry
 
+#: Video frames the calibration reads (``calibration.average_frames``' default; a scene's experiment file
+#: keeps it): the world marker must be clear of the tendril in these frames, not later ones.
+CALIBRATION_FRAMES = 5
 
 
 def _redo_markers(scene: Scene, cams: list, curves: np.ndarray, rng) -> tuple[Scene, dict]:
@@ -62,7 +70,7 @@ def _redo_markers(scene: Scene, cams: list, curves: np.ndarray, rng) -> tuple[Sc
                        [0.0, t * cam.height]])[edge]
         c = _pixel_to_board(cam, xy[None])[0]
         mk = MarkerSpec(int(rng.integers(0, 1024)), c, float(rng.uniform(20.0, 32.0)), float(rng.uniform(-25, 25)))
-        if mk.id in {m.id for m in markers}:
+        if mk.id in {m.id for m in markers} | ambiguous_marker_ids():
             continue
         r = 0.5 * mk.length_mm * qs * math.sqrt(2)
         if any(np.linalg.norm(c - o.centre_mm) < r + 0.5 * o.length_mm * qs * math.sqrt(2) + 3 for o in markers):
@@ -140,7 +148,7 @@ def place_card(scene: Scene, cams: list, curves: np.ndarray, avoid_mm: list, rng
         ``incidence_deg`` per view, ``corners_mm`` (4, 3).
     """
     qs = _quiet_scale()
-    used = {m.id for m in scene.markers}
+    used = {m.id for m in scene.markers} | ambiguous_marker_ids()
     tendril = curves[:, ::8].reshape(-1, 3)
     centre_xy = np.mean([c.center_world[:2] for c in cams], axis=0)
     for _ in range(60):
@@ -194,7 +202,8 @@ def place_card(scene: Scene, cams: list, curves: np.ndarray, avoid_mm: list, rng
 
 
 def world_marker_cover(scene: Scene, cams: list, curves: np.ndarray, radius: np.ndarray, *, board_tubes: list = (),
-                       tubes: list = (), plates: list = (), cards: list = ()) -> str | None:
+                       tubes: list = (), plates: list = (), cards: list = (),
+                       calibration_frames: int = CALIBRATION_FRAMES) -> str | None:
     """What covers the world marker's paper in a view, or None when it is clear in every view.
 
     The world marker defines the world frame: the calibration must find it
@@ -203,8 +212,8 @@ def world_marker_cover(scene: Scene, cams: list, curves: np.ndarray, radius: np.
     :func:`tendrilkit.phantom.scene.build_scene`, against the marker's paper
     square (its quiet zone included): the taped stem and its node, the tape
     strips, side shoots on the board, objects in space (second tendril,
-    shoots, petioles, leaves), marker cards, and the tendril swept over every
-    frame. Leaves lying on the board are not: the marker's paper is drawn
+    shoots, petioles, leaves), marker cards, and the tendril swept over the
+    frames that calibrate. Leaves lying on the board are not: the marker's paper is drawn
     over them, and so is every other marker's (placed clear of it).
 
     Parameters
@@ -219,6 +228,9 @@ def world_marker_cover(scene: Scene, cams: list, curves: np.ndarray, radius: np.
         The tendril's radius per sample, mm.
     board_tubes, tubes, plates, cards : lists, keyword-only
         As :class:`~tendrilkit.phantom.scenes.make.ScenePhantom` holds them.
+    calibration_frames : int, keyword-only
+        The tendril is tested in its first ``calibration_frames`` frames
+        (default :data:`CALIBRATION_FRAMES`): the others do not calibrate.
 
     Returns
     -------
@@ -240,7 +252,7 @@ def world_marker_cover(scene: Scene, cams: list, curves: np.ndarray, radius: np.
         objects += [("an object in space", lambda b=b: _tube_mask(cam, b["pts"], b["radius"])) for b in tubes]
         objects += [("a leaf in space", lambda p=p: _poly_mask(cam, p["poly"])) for p in plates]
         objects += [("a marker card", lambda c=c: _poly_mask(cam, card_corners_mm(c, _quiet_scale()))) for c in cards]
-        objects += [("the tendril", lambda: _swept_mask(cam, curves, radius))]
+        objects += [("the tendril", lambda: _swept_mask(cam, curves[:calibration_frames], radius))]
         for name, mask in objects:
             if v + 1 not in hits.get(name, []) and np.any(mask() & wm):
                 hits.setdefault(name, []).append(v + 1)
