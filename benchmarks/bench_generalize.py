@@ -138,13 +138,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="reconstruction.method (default: the experiment file's)")
     a = p.parse_args(argv)
     start, stop = (int(x) for x in a.seeds.split(":"))
-    out = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="bench_generalize_"))
-    out.mkdir(parents=True, exist_ok=True)
+    from tendrilkit.phantom.scenes import GROUPS, PRESETS, scene_parts
     from tendrilkit.scoring import summarise_scores
 
-    t0 = time.perf_counter()
-    tables, errors, cpu = [], [], 0.0
-    from tendrilkit.phantom.scenes import GROUPS, PRESETS, scene_parts
 
     if a.scene == "alone":
         scenes = [s for s in PRESETS if s not in ("random", *GROUPS)]
@@ -154,7 +150,11 @@ def main(argv: list[str] | None = None) -> int:
         try:
             scene_parts(s)
         except ValueError as e:
-            p.error(f"--scene: {e}; or 'alone'")
+            p.error(f"--scene: {str(e).removeprefix('scene: ')}; or 'alone'")
+    out = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="bench_generalize_"))
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    tables, errors, cpu = [], [], 0.0
     jobs = [(scene, s) for scene in scenes for s in range(start, stop)]
     with ProcessPoolExecutor(max_workers=a.workers) as pool:
         futs = [pool.submit(one_scene, s, scene, a.frames, str(out), a.method) for scene, s in jobs]

@@ -631,3 +631,15 @@ def test_rig_flag_bounds_a_view_by_two_sigmas_plus_a_floor():
     assert _rig_bound_px(0.03) == pytest.approx(0.11)
     assert not _pins_too_loosely(0.1883) and not _pins_too_loosely(0.225)
     assert _pins_too_loosely(0.23) and _pins_too_loosely(np.inf) and not _pins_too_loosely(np.nan)
+
+
+def test_detect_markers_leaves_out_a_marker_symmetric_under_a_turn():
+    """Marker 1023 of DICT_ARUCO_ORIGINAL looks the same turned by half a turn: its corners' order is unknown,
+    so detection leaves it out with a warning and keeps the other marker of the image."""
+    dic = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_ARUCO_ORIGINAL)
+    img = np.full((400, 700), 255, np.uint8)
+    img[100:300, 100:300] = cv2.aruco.generateImageMarker(dic, 1023, 200)
+    img[100:300, 400:600] = cv2.aruco.generateImageMarker(dic, 7, 200)
+    with pytest.warns(UserWarning, match=r"\[1023\].*left out"):
+        found = detect_markers(img, "DICT_ARUCO_ORIGINAL", refine="subpix")
+    assert sorted(found) == [7]

@@ -429,15 +429,15 @@ def test_every_marker_is_drawn_where_the_ground_truth_records_it():
     places such an id now; in every view of several dev scenes (64; 38, a glancing card; 65, small markers;
     7, 21) every marker found lies within 1 px of its recorded corners, and the world marker is found."""
     from tendrilkit.calibration import detect_markers
-    from tendrilkit.phantom.design import WORLD_MARKER_ID
-    from tendrilkit.phantom.scene import ambiguous_marker_ids
+    from tendrilkit.phantom.design import DICTIONARY, WORLD_MARKER_ID
+    from tendrilkit.calibration.markers import ambiguous_marker_ids
     from tendrilkit.phantom.scenes.markers import card_corners_mm
 
-    assert ambiguous_marker_ids() == frozenset({1023})
+    assert ambiguous_marker_ids(DICTIONARY) == frozenset({1023})
     for seed in (64, 38, 65, 7, 21):
         ph = S.make_scene(seed, n_frames=1)
         recorded = {m.id: m.corners_mm() for m in ph.scene.markers} | {c["id"]: card_corners_mm(c) for c in ph.cards}
-        assert not set(recorded) & ambiguous_marker_ids(), seed
+        assert not set(recorded) & ambiguous_marker_ids(DICTIONARY), seed
         assert len(recorded) == len(ph.scene.markers) + len(ph.cards), seed  # no id twice
         for v, cam in enumerate(ph.cameras):
             found = detect_markers(S.render_scene_view(ph, 0, v), "DICT_ARUCO_ORIGINAL", camera=cam)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import warnings
 
 import cv2
@@ -10,8 +11,8 @@ import numpy as np
 from tendrilkit.camera import Camera
 from tendrilkit.geometry import marker_corners
 
-__all__ = ["CORNER_SIGMA_PX", "REFINE_METHODS", "average_detections", "corner_sigma_px", "corner_weight",
-           "detect_markers"]
+__all__ = ["CORNER_SIGMA_PX", "REFINE_METHODS", "ambiguous_marker_ids", "average_detections", "corner_sigma_px",
+           "corner_weight", "detect_markers"]
 
 #: Corner refinement methods of :func:`detect_markers`.
 REFINE_METHODS = ("grid", "edges", "subpix", "contour", "apriltag", "none")
@@ -22,6 +23,28 @@ def _dictionary(name: str):
     if not isinstance(name, str) or not name.startswith("DICT_") or not hasattr(cv2.aruco, name):
         raise ValueError(f"dictionary: expected a cv2.aruco predefined dictionary name such as DICT_ARUCO_ORIGINAL, got {name!r}")
     return cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, name))
+
+
+@functools.cache
+def ambiguous_marker_ids(dictionary: str) -> frozenset[int]:
+    """Ids of ``dictionary`` whose cells look the same turned by 90 or 180 degrees.
+
+    A detector cannot tell which corner of such a marker is its first: it
+    reports the corners in one of the turns, 100+ px from where a pose
+    expects them (marker 1023 of ``DICT_ARUCO_ORIGINAL``, symmetric under a
+    half turn, the only one of its 1024). :func:`detect_markers` leaves them
+    out; no phantom places them.
+
+    >>> sorted(ambiguous_marker_ids("DICT_ARUCO_ORIGINAL"))
+    [1023]
+    """
+    dic = _dictionary(dictionary)
+    out = set()
+    for mid in range(len(dic.bytesList)):
+        bits = cv2.aruco.generateImageMarker(dic, mid, dic.markerSize + 2, borderBits=1) > 127
+        if any(np.array_equal(bits, np.rot90(bits, k)) for k in (1, 2, 3)):
+            out.add(mid)
+    return frozenset(out)
 
 
 def _grey(image: np.ndarray) -> np.ndarray:
@@ -340,7 +363,8 @@ def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "gri
     dict
         Corners in OpenCV order (top-left, top-right, bottom-right, bottom-left
         of the marker), observed (distorted) pixels, x = column. An id detected
-        twice in the image is ambiguous and left out (with a warning).
+        twice in the image is ambiguous and left out (with a warning), and so
+        is an id of :func:`ambiguous_marker_ids`.
 
     Notes
     -----
@@ -378,6 +402,11 @@ def detect_markers(image_bgr: np.ndarray, dictionary: str, *, refine: str = "gri
     dup = set(uniq[counts > 1].tolist())
     if dup:
         warnings.warn(f"marker id(s) {sorted(dup)} detected more than once in one image; left out", stacklevel=2)
+    symmetric = set(ids.tolist()) & ambiguous_marker_ids(dictionary)
+    if symmetric:
+        warnings.warn(f"marker id(s) {sorted(symmetric)} look the same turned (their corners' order is unknown); "
+                      "left out", stacklevel=2)
+        dup |= symmetric
     cells = dic.markerSize + 2
     found = {int(m): np.asarray(c, dtype=float).reshape(4, 2) for m, c in zip(ids, corners) if m not in dup}
     if refine not in ("edges", "grid"):

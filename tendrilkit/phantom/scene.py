@@ -8,40 +8,18 @@ and the generator draws the next design.
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
+from tendrilkit.calibration.markers import ambiguous_marker_ids
 from tendrilkit.camera import Camera
 from tendrilkit.geometry import arc_length, marker_corners
 from tendrilkit.phantom.design import (_CLEAR_PX, _NODE_RADIUS_MM, _STEM_RADIUS_MM, DICTIONARY, SITES,
                                        WORLD_MARKER_ID, WORLD_MARKER_MM, Design)
 from tendrilkit.phantom.projection import _mm_per_px, _project_poly, _project_safe
-
-@functools.cache
-def ambiguous_marker_ids(dictionary: str = DICTIONARY) -> frozenset[int]:
-    """Ids of ``dictionary`` whose cells look the same turned by 90 or 180 degrees.
-
-    A detector cannot tell which corner of such a marker is its first: it
-    reports the corners in one of the turns, and a generator that records
-    them in the marker's own order is 100+ px off (marker 1023 of
-    ``DICT_ARUCO_ORIGINAL``, symmetric under a half turn, the only one of
-    its 1024). No phantom places them.
-
-    >>> sorted(ambiguous_marker_ids())
-    [1023]
-    """
-    dic = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, dictionary))
-    out = set()
-    for mid in range(len(dic.bytesList)):
-        bits = cv2.aruco.generateImageMarker(dic, mid, dic.markerSize + 2, borderBits=1) > 127
-        if any(np.array_equal(bits, np.rot90(bits, k)) for k in (1, 2, 3)):
-            out.add(mid)
-    return frozenset(out)
-
 
 @dataclass(frozen=True, eq=False)
 class MarkerSpec:
@@ -188,7 +166,7 @@ def build_scene(design: Design, cams: list[Camera], curves: np.ndarray, seed: in
     ``world_frames`` (keyword-only): the world marker is tested against the
     tendril of the first ``world_frames`` frames only (the frames that
     calibrate: the tendril may pass over it later); None (the site phantoms):
-    every frame. No marker gets an id of :func:`ambiguous_marker_ids`.
+    every frame. No marker gets an id of :func:`tendrilkit.calibration.markers.ambiguous_marker_ids`.
     Raises :class:`Reject` when the stem is in the way or there is no room.
     """
     rng = np.random.default_rng([int(seed), SITES.index(design.site), int(attempt), 23])
@@ -319,7 +297,7 @@ def build_scene(design: Design, cams: list[Camera], curves: np.ndarray, seed: in
         raise Reject("the world marker is hidden by the tendril")
     static = [s | m for s, m in zip(static, wm)]
     n_markers = int(rng.integers(3, 6))
-    used = {WORLD_MARKER_ID} | ambiguous_marker_ids()  # drawn all the same: the draws stay the seed's
+    used = {WORLD_MARKER_ID} | ambiguous_marker_ids(DICTIONARY)  # drawn all the same: the draws stay the seed's
     cands = []
     for _ in range(120):
         mid = int(rng.integers(0, 1024))

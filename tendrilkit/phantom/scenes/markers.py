@@ -18,7 +18,7 @@ every view: a user does not tape it under the stem) in the frames that
 calibrate (:data:`CALIBRATION_FRAMES`; the tendril may pass over it later).
 
 No marker gets an id whose corners a detector cannot order
-(:func:`tendrilkit.phantom.scene.ambiguous_marker_ids`).
+(:func:`tendrilkit.calibration.markers.ambiguous_marker_ids`).
 """
 
 from __future__ import annotations
@@ -29,11 +29,11 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
+from tendrilkit.calibration.markers import ambiguous_marker_ids
 from tendrilkit.camera import Camera
-from tendrilkit.phantom.design import WORLD_MARKER_ID
+from tendrilkit.phantom.design import DICTIONARY, WORLD_MARKER_ID
 from tendrilkit.phantom.projection import _pixel_to_board, _project_safe
-from tendrilkit.phantom.scene import (MarkerSpec, Scene, _poly_mask, _quiet_scale, _rect_poly, _square_poly, _tube_mask,
-                                      ambiguous_marker_ids)
+from tendrilkit.phantom.scene import MarkerSpec, Scene, _poly_mask, _quiet_scale, _rect_poly, _square_poly, _tube_mask
 from tendrilkit.phantom.scenes.clutter import _Retry
 
 #: Video frames the calibration reads (``calibration.average_frames``' default; a scene's experiment file
@@ -70,7 +70,7 @@ def _redo_markers(scene: Scene, cams: list, curves: np.ndarray, rng) -> tuple[Sc
                        [0.0, t * cam.height]])[edge]
         c = _pixel_to_board(cam, xy[None])[0]
         mk = MarkerSpec(int(rng.integers(0, 1024)), c, float(rng.uniform(20.0, 32.0)), float(rng.uniform(-25, 25)))
-        if mk.id in {m.id for m in markers} | ambiguous_marker_ids():
+        if mk.id in {m.id for m in markers} | ambiguous_marker_ids(DICTIONARY):
             continue
         r = 0.5 * mk.length_mm * qs * math.sqrt(2)
         if any(np.linalg.norm(c - o.centre_mm) < r + 0.5 * o.length_mm * qs * math.sqrt(2) + 3 for o in markers):
@@ -148,7 +148,7 @@ def place_card(scene: Scene, cams: list, curves: np.ndarray, avoid_mm: list, rng
         ``incidence_deg`` per view, ``corners_mm`` (4, 3).
     """
     qs = _quiet_scale()
-    used = {m.id for m in scene.markers} | ambiguous_marker_ids()
+    used = {m.id for m in scene.markers} | ambiguous_marker_ids(DICTIONARY)
     tendril = curves[:, ::8].reshape(-1, 3)
     centre_xy = np.mean([c.center_world[:2] for c in cams], axis=0)
     for _ in range(60):
