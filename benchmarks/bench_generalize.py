@@ -141,7 +141,6 @@ def main(argv: list[str] | None = None) -> int:
     from tendrilkit.phantom.scenes import GROUPS, PRESETS, scene_parts
     from tendrilkit.scoring import summarise_scores
 
-
     if a.scene == "alone":
         scenes = [s for s in PRESETS if s not in ("random", *GROUPS)]
     else:

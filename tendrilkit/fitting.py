@@ -102,7 +102,8 @@ def _number(cell: str) -> float | None:
 
 
 def _read_curves(path: Path) -> _Curves:
-    """Read and check a curves.csv (csv module and numpy: pandas' import alone is a tenth of the fit command's time)."""
+    """Read and check a curves.csv (:func:`tendrilkit.io.columns.read_rows` and numpy: pandas' import alone is a
+    tenth of the fit command's time)."""
     if not path.exists():
         raise ExperimentError(f"{path}: curves file not found")
     if path.is_dir():
@@ -112,20 +113,9 @@ def _read_curves(path: Path) -> _Curves:
     if path.stat().st_size > MAX_CURVES_BYTES:
         raise ExperimentError(f"{path}: larger than {MAX_CURVES_BYTES // 1_000_000_000} GB; expected a curves.csv "
                               f"(split it by frames)")
-    import csv
+    from tendrilkit.io.columns import read_rows
 
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            rows = [r for r in csv.reader(fh) if r]  # blank lines skipped, as pandas does
-    except (csv.Error, UnicodeDecodeError, OSError) as e:
-        raise ExperimentError(f"{path}: cannot read as CSV ({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''})") from None
-    if not rows:
-        raise ExperimentError(f"{path}: cannot read as CSV (no columns in the file)")
-    header, body = rows[0], rows[1:]
-    for i, r in enumerate(body):
-        if len(r) > len(header):
-            raise ExperimentError(f"{path}: cannot read as CSV (expected {len(header)} fields in line {i + 2}, "
-                                  f"saw {len(r)})")
+    header, body = read_rows(path)
     missing = [c for c in ("frame", "point", "x_mm", "y_mm", "z_mm") if c not in header]
     if missing:
         raise ExperimentError(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(CURVES.columns)}")

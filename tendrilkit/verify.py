@@ -434,7 +434,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                 widths.append(2.0 * radius_px * float(np.median(cam.world_to_cam(X)[:, 2])) / float(cam.K[0, 0]))
             at_base = near_base(ev)  # the components at the base mark: the coverage's and the base check's
             out[f"coverage_frac_v{v + 1}"] = coverage_frac(ev, dense[seen], d[seen], tolerance_px,
-                                                           coverage_tolerance_px, cKDTree, inside_px, radius_px,
+                                                           coverage_tolerance_px, inside_px, radius_px,
                                                            near=at_base)
             wide = on_wide(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO)
             on_mask = seen & (d <= tolerance_px)
@@ -559,8 +559,8 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
 
     :func:`verify_curve`'s figures (the columns of ``frames.csv``) are added
     to ``q`` (which may hold ``pwc_r2`` already); the messages are
-    :func:`image_check_messages`' and those of the checks whose figures are
-    not columns (:func:`tendrilkit.verify_object.tip_object_message`,
+    :func:`image_check_messages`' and, after them, those of three checks
+    whose figures are the last columns (:func:`tendrilkit.verify_object.tip_object_message`,
     :func:`tendrilkit.verify_branch.turn_branch_message`,
     :func:`tendrilkit.verify_widen.distal_widening_message`).
 

@@ -47,8 +47,8 @@ def tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, c
     return float(np.median(inside[(near[:, 1] - off[1]).astype(int), (near[:, 0] - off[0]).astype(int)]))
 
 
-def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float, tree_cls,
-              inside: np.ndarray, radius_px: float, *, near: np.ndarray | None = None) -> float:
+def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float,
+                  inside: np.ndarray, radius_px: float, *, near: np.ndarray | None = None) -> float:
     """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
 
     Counted are the skeleton pixels of the components the curve runs along,
@@ -74,6 +74,8 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
     tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`
     of ``ev`` when the caller has it.
     """
+    from scipy.spatial import cKDTree
+
     on = dense[d <= tol]
     if len(on) == 0 or len(ev.skeleton_xy) == 0:
         return 0.0
@@ -110,7 +112,7 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
     if len(sk) == 0:
         return 0.0
     # one query serves the coverage (within cov_tol) and the crossing arms (attached within cov_tol + 3)
-    dist, nearest = tree_cls(dense).query(sk, distance_upper_bound=cov_tol + 3.0 + 1e-9)
+    dist, nearest = cKDTree(dense).query(sk, distance_upper_bound=cov_tol + 3.0 + 1e-9)
     near = dist < cov_tol + 1e-9
     n_near = int(near.sum())
     free = ~near & thin

@@ -629,7 +629,7 @@ def test_rig_flag_bounds_a_view_by_two_sigmas_plus_a_floor():
 
     assert (RIG_LIMIT_PX, RIG_LIMIT_SIGMAS, RIG_FLOOR_PX) == (0.5, 2.0, 0.05)
     assert _rig_bound_px(0.03) == pytest.approx(0.11)
-    assert not _pins_too_loosely(0.1883) and not _pins_too_loosely(0.225)
+    assert not _pins_too_loosely(0.1883) and not _pins_too_loosely(0.22)
     assert _pins_too_loosely(0.23) and _pins_too_loosely(np.inf) and not _pins_too_loosely(np.nan)
 
 

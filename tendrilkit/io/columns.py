@@ -1,6 +1,6 @@
-"""Result tables written from columns, without pandas: the ``fit`` command's writer.
+"""Tables read as rows of cells and written from columns, without pandas: the ``fit`` command's reader and writer.
 
-The same bytes as :func:`tendrilkit.io.write_result` (pandas' ``to_csv`` with
+:func:`read_rows` reads a CSV's header and cells; :func:`write_columns` writes the same bytes as :func:`tendrilkit.io.write_result` (pandas' ``to_csv`` with
 :data:`tendrilkit.io.FLOAT_FORMAT`), atomically; the ``fit`` command reads and
 writes its tables without importing pandas (its import was a tenth of the
 command's time).
@@ -13,10 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
+from tendrilkit.exceptions import ExperimentError
 from tendrilkit.io import _check_columns, atomic_path
 from tendrilkit.schema import Table
 
-__all__ = ["write_columns"]
+__all__ = ["read_rows", "write_columns"]
 
 
 def write_columns(columns: dict, path: str | Path, table: Table) -> None:
@@ -63,3 +64,27 @@ def write_columns(columns: dict, path: str | Path, table: Table) -> None:
             w = csv.writer(fh, lineterminator="\n")
             w.writerow(table.columns)
             w.writerows(zip(*cells))
+
+
+def read_rows(path: Path) -> tuple[list[str], list[list[str]]]:
+    """A CSV file's header and rows of cells, without pandas (blank lines skipped, as pandas does).
+
+    Raises
+    ------
+    ExperimentError
+        One line naming the file: it cannot be read as CSV, is empty, or a row
+        has more fields than the header.
+    """
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            rows = [r for r in csv.reader(fh) if r]  # blank lines skipped, as pandas does
+    except (csv.Error, UnicodeDecodeError, OSError) as e:
+        raise ExperimentError(f"{path}: cannot read as CSV ({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''})") from None
+    if not rows:
+        raise ExperimentError(f"{path}: cannot read as CSV (no columns in the file)")
+    header, body = rows[0], rows[1:]
+    for i, r in enumerate(body):
+        if len(r) > len(header):
+            raise ExperimentError(f"{path}: cannot read as CSV (expected {len(header)} fields in line {i + 2}, "
+                                  f"saw {len(r)})")
+    return header, body
