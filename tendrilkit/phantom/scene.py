@@ -176,11 +176,14 @@ def build_scene(design: Design, cams: list[Camera], curves: np.ndarray, seed: in
     # (beyond 20 mm) separately: it must not come back to the stem near the node
     sub = curves[:, ::4]
     s_sub = np.linspace(0.0, design.length_mm, curves.shape[1])[::4]
-    swept, distal = [], []
+    swept, distal, swept_world = [], [], []  # swept_world: the frames that calibrate only (all without world_frames)
     for cam in cams:
         m = np.zeros(_mask_shape(cam), np.uint8)
         md = np.zeros_like(m)
-        for c in sub:
+        mw = None
+        for i, c in enumerate(sub):
+            if i == world_frames:
+                mw = m.copy()
             xy = _project_safe(cam, c) * _HALF
             w = diameter_mm / _mm_per_px(cam, c.mean(axis=0)) * _HALF
             th = max(1, int(round(w + 2 * _CLEAR_PX * _HALF)))
@@ -189,19 +192,8 @@ def build_scene(design: Design, cams: list[Camera], curves: np.ndarray, seed: in
                           lineType=cv2.LINE_8, shift=4)
         swept.append(m)
         distal.append(md)
+        swept_world.append(m if mw is None else mw)
     static = [np.zeros_like(s) for s in swept]
-    swept_world = swept
-    if world_frames is not None:  # the tendril of the frames that calibrate, drawn as above
-        swept_world = []
-        for cam in cams:
-            m = np.zeros(_mask_shape(cam), np.uint8)
-            for c in sub[:world_frames]:
-                xy = _project_safe(cam, c) * _HALF
-                w = diameter_mm / _mm_per_px(cam, c.mean(axis=0)) * _HALF
-                th = max(1, int(round(w + 2 * _CLEAR_PX * _HALF)))
-                cv2.polylines(m, [np.round(xy * 16).astype(np.int32)], False, 1, thickness=th,
-                              lineType=cv2.LINE_8, shift=4)
-            swept_world.append(m)
 
     def clear_of(masks: list[np.ndarray], others: list[np.ndarray] | None, tendril: list | None = None) -> bool:
         for v, m in enumerate(masks):
