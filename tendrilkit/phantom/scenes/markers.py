@@ -31,6 +31,7 @@ from scipy.spatial import cKDTree
 
 from tendrilkit.calibration.markers import ambiguous_marker_ids
 from tendrilkit.camera import Camera
+from tendrilkit.params import Calibration
 from tendrilkit.phantom.design import DICTIONARY, WORLD_MARKER_ID
 from tendrilkit.phantom.projection import _pixel_to_board, _project_safe
 from tendrilkit.phantom.scene import MarkerSpec, Scene, _poly_mask, _quiet_scale, _rect_poly, _square_poly, _tube_mask
@@ -38,7 +39,7 @@ from tendrilkit.phantom.scenes.clutter import _Retry
 
 #: Video frames the calibration reads (``calibration.average_frames``' default; a scene's experiment file
 #: keeps it): the world marker must be clear of the tendril in these frames, not later ones.
-CALIBRATION_FRAMES = 5
+CALIBRATION_FRAMES = int(Calibration.model_fields["average_frames"].default)
 
 
 def _redo_markers(scene: Scene, cams: list, curves: np.ndarray, rng) -> tuple[Scene, dict]:
