@@ -41,6 +41,7 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from tendrilkit.phantom import render_tube_views  # noqa: E402
+from tendrilkit.params import with_overrides  # noqa: E402
 from tendrilkit.pipeline import reconstruct_frame  # noqa: E402
 
 REPEATS = 7
@@ -144,8 +145,7 @@ def main(argv: list[str]) -> None:
     if t_read is not None:
         print(f"  reading the 3 frames: {t_read * 1e3:.1f} ms (not counted below)")
     for method in ("epipolar", "frechet"):
-        e = exp.model_copy(update={"correspondence": exp.correspondence.model_copy(update={"method": method}),
-                                   "reconstruction": exp.reconstruction.model_copy(update={"method": "chain"})})
+        e = with_overrides(exp, {"reconstruction": {"method": "chain"}, "correspondence": {"method": method}})
         totals, r, stages = time_frame(images, cams, e)
         split = ", ".join(f"{k} {np.median(v) * 1e3:.1f}" for k, v in stages.items())
         tot = np.median(totals)

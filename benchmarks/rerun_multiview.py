@@ -52,7 +52,7 @@ def rerun_scene(folder: Path, cache: Path, *, fit: bool) -> list[dict]:
     from tendrilkit.io import open_views, read_cameras
     from tendrilkit.params import load_experiment
     from tendrilkit.phantom import read_ground_truth
-    from tendrilkit.runner import _read_views
+    from tendrilkit.runner import _next_curve, _read_views
 
     exp = load_experiment(folder / "scene" / "experiment.yaml")
     exp = exp.model_copy(update={"reconstruction": exp.reconstruction.model_copy(update={"method": "multiview"})})
@@ -85,7 +85,7 @@ def rerun_scene(folder: Path, cache: Path, *, fit: bool) -> list[dict]:
                                                    else state)
             finally:
                 pipeline.multiview_evidence = original
-            state = r.points_mm if r.status == "ok" else None
+            state = _next_curve(r)
             if r.points_mm is not None:
                 curves[f] = np.asarray(r.points_mm, float)
             rows.append({"scene": folder.name, "frame": f, "status": r.status, "message": r.message,

@@ -662,6 +662,42 @@ def parse_experiment(data: Any, *, source: Path | None = None, marks_optional: b
     return exp.model_copy(update=update)
 
 
+def with_overrides(exp: Experiment, overrides: dict | None) -> Experiment:
+    """The experiment with some sections changed, validated again.
+
+    Parameters
+    ----------
+    exp : Experiment
+    overrides : dict or None
+        Section name -> dict of keys to change in that section (merged into
+        it), or -> a value replacing the key whole, e.g.
+        ``{"reconstruction": {"method": "chain"}, "correspondence": {"method": "frechet"}}``.
+
+    Returns
+    -------
+    Experiment
+        A new experiment (``exp`` itself when there is nothing to change), with ``exp``'s source.
+
+    Raises
+    ------
+    ValueError
+        The changed experiment does not validate (a programming mistake of the caller).
+    """
+    if not overrides:
+        return exp
+    data = exp.model_dump()
+    for key, value in overrides.items():
+        if isinstance(value, dict) and isinstance(data.get(key), dict):
+            data[key] = {**data[key], **value}
+        else:
+            data[key] = value
+    try:
+        new = Experiment.model_validate(data)
+    except ValidationError as e:
+        raise ValueError(f"overrides {overrides!r} do not validate: {e}") from None
+    return new.model_copy(update={"source": exp.source})
+
+
 def load_experiment(path: str | Path, *, check_files: bool = True, marks_optional: bool = False) -> Experiment:
     """Read and validate an experiment YAML file.
 

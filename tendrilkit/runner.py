@@ -250,27 +250,6 @@ def _chunks(frames: list[int], workers: int) -> list[list[int]]:
     return [frames[i:i + size] for i in range(0, len(frames), size)]
 
 
-def _with_overrides(exp, overrides: dict | None):
-    """The experiment with some optional sections changed, validated again."""
-    if not overrides:
-        return exp
-    from pydantic import ValidationError
-
-    from tendrilkit.params import Experiment
-
-    data = exp.model_dump()
-    for key, value in overrides.items():
-        if isinstance(value, dict) and isinstance(data.get(key), dict):
-            data[key] = {**data[key], **value}
-        else:
-            data[key] = value
-    try:
-        new = Experiment.model_validate(data)
-    except ValidationError as e:  # a programming mistake of the caller
-        raise ValueError(f"overrides {overrides!r} do not validate: {e}") from None
-    return new.model_copy(update={"source": exp.source})
-
-
 def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers: int | None = None,
                     progress: bool = True, fit: bool = True, overrides: dict | None = None,
                     contact_sheet: bool = True, executor: Executor | None = None) -> ReconstructSummary:
@@ -319,12 +298,12 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
     from tendrilkit.inputs import check_inputs
     from tendrilkit.io import (check_writable_dir, file_stamp, open_views, read_cameras, read_csv, write_cameras,
                                write_result, write_frame_record, write_json)
-    from tendrilkit.params import load_experiment
+    from tendrilkit.params import load_experiment, with_overrides
     from tendrilkit.progress import progress as progress_bar
     from tendrilkit.verify import Thresholds
     from tendrilkit.verify_calibration import world_marker_message
 
-    exp = _with_overrides(load_experiment(experiment_path), overrides)
+    exp = with_overrides(load_experiment(experiment_path), overrides)
     out = check_writable_dir(out_dir)
     sources = open_views(list(exp.videos))
     try:

@@ -55,6 +55,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
+from tendrilkit.geometry import arc_length
+from tendrilkit.verify_self import SEPARATION_MM
 from tendrilkit.verify_tip import local_inside_px
 
 __all__ = ["MAX_DISTAL_WIDENING", "distal_widening", "distal_widening_message"]
@@ -63,18 +65,13 @@ __all__ = ["MAX_DISTAL_WIDENING", "distal_widening", "distal_widening_message"]
 #: docstring gives the measurements).
 MAX_DISTAL_WIDENING = 1.5
 
-#: Two samples farther apart along the curve than this (mm) whose projections lie within a line width of each
-#: other are a crossing of the curve with itself in that view.
-SELF_SEPARATION_MM = 5.0
-
 #: Spacing of the samples along the 3D curve, mm.
 STEP_MM = 0.5
 
 
 def _resample(points_mm: np.ndarray, step_mm: float) -> np.ndarray:
     """(n, 3) points every ``step_mm`` along the polyline (its start included, its end within a step)."""
-    seg = np.linalg.norm(np.diff(points_mm, axis=0), axis=1)
-    s = np.concatenate([[0.0], np.cumsum(seg)])
+    s = arc_length(points_mm)
     t = np.arange(0.0, s[-1] + 1e-9, step_mm)
     return np.column_stack([np.interp(t, s, points_mm[:, k]) for k in range(3)])
 
@@ -119,7 +116,7 @@ def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: flo
     largest inside distance (distance to the board, px) in the 3 x 3 pixels
     around the projected sample; samples whose projection lies within a
     line width of the projection of a part of the curve more than
-    :data:`SELF_SEPARATION_MM` away (the curve crossing itself in this view)
+    :data:`tendrilkit.verify_self.SEPARATION_MM` away (the curve crossing itself in this view)
     do not count. The ratio at sample
     :math:`k` is :math:`\\mathrm{median}(w_{k..n}) /
     \\mathrm{median}(w_{k-m..k-1})`, :math:`m` = ``proximal_mm / step_mm``.
@@ -157,7 +154,7 @@ def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: flo
     pairs = cKDTree(xy[on]).query_pairs(2.0 * float(np.median(local)) + tol_px, output_type="ndarray")
     if len(pairs):
         a, b = idx[pairs[:, 0]], idx[pairs[:, 1]]
-        far = np.abs(a - b) * step_mm > SELF_SEPARATION_MM
+        far = np.abs(a - b) * step_mm > SEPARATION_MM
         width[a[far]] = np.nan
         width[b[far]] = np.nan
     n_d = int(round(min_distal_mm / step_mm))
