@@ -15,6 +15,7 @@ and reports.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import signal
 import sys
@@ -67,8 +68,6 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _cluster(args: argparse.Namespace):
     """``--scheduler`` (or ``$TENDRILKIT_SCHEDULER``): a connected Dask cluster, or None for tendrilkit's pool."""
-    import contextlib
-
     from tendrilkit.distributed import Cluster, scheduler_from
 
     spec = scheduler_from(args.scheduler)
@@ -120,11 +119,40 @@ def _single_threaded_blas() -> None:
         os.environ.setdefault(var, "1")
 
 
+#: Optional packages numba imports when they are installed, for features the fit never uses: ``coverage``
+#: (numba's report of compiled lines to a running coverage measurement) and ``cffi`` (cffi functions called
+#: from compiled code). Both are in the environment (nbval needs coverage, jupyter cffi); numba's start
+#: with them costs the fit command about a tenth of a second more (``benchmarks/bench_pwc.py --command-csv``).
+NUMBA_EXTRAS = ("coverage", "cffi")
+
+
+@contextlib.contextmanager
+def _without_numba_extras():
+    """Inside: numba, if first imported here, finds :data:`NUMBA_EXTRAS` missing (unless already imported).
+
+    Only a process that has not imported numba yet is changed (a command run from the shell; in a
+    test or notebook numba is usually loaded already, and a package already imported, e.g. coverage
+    under ``pytest --cov``, is never hidden). The packages are importable again on the way out;
+    numba keeps the decision it made (cffi functions and coverage of compiled lines are off in
+    this process).
+    """
+    hidden = [] if "numba" in sys.modules else [n for n in NUMBA_EXTRAS if n not in sys.modules]
+    for name in hidden:
+        sys.modules[name] = None  # an import of it raises ImportError, which numba takes as "not installed"
+    try:
+        yield
+    finally:
+        for name in hidden:
+            if sys.modules.get(name, 0) is None:
+                del sys.modules[name]
+
+
 def _cmd_fit(args: argparse.Namespace) -> int:
     _single_threaded_blas()
-    from tendrilkit.fitting import run_fit
+    with _without_numba_extras():
+        from tendrilkit.fitting import run_fit
 
-    summary = run_fit(Path(args.curves), Path(args.out))
+        summary = run_fit(Path(args.curves), Path(args.out))
     print(summary)
     return 0 if summary.n_failed == 0 else 1  # as reconstruct: 1 when some frames failed
 

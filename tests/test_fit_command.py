@@ -182,3 +182,25 @@ def test_fit_command_imports_no_pandas(tmp_path):
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip().splitlines()[-1] == "False"
     assert (tmp_path / "out" / "pwc_metrics.csv").read_text().count("\n") == 2
+
+
+@pytest.mark.parametrize("imported_first", ["", "import cffi, numba; "])
+def test_fit_command_starts_numba_without_its_extras_and_gives_them_back(tmp_path, imported_first):
+    """The fit command hides coverage and cffi from numba's first import (a tenth of a second of its start):
+    numba then runs without them, the fit is the same, and both import normally once the command is done.
+    A process that imported numba (or the package) first is left alone."""
+    csv = tmp_path / "curves.csv"
+    write_curves(csv, seeds=(3,), degenerate=False)
+    code = (imported_first + "import sys\nfrom tendrilkit.cli import main\n"
+            "code = main(['fit', sys.argv[1], '--out', sys.argv[2]])\n"
+            "import numba.misc.coverage_support as c, numba.core.typing.cffi_utils as f, cffi, coverage\n"
+            "print(code, c.coverage_available, f.ffi is not None, sys.modules['cffi'] is cffi)")
+    r = subprocess.run([sys.executable, "-c", code, str(csv), str(tmp_path / "out")], capture_output=True,
+                       text=True, cwd=REPO)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip().splitlines()[-1] == ("0 False False True" if not imported_first else "0 True True True")
+    fit = pd.read_csv(tmp_path / "out" / "pwc_curves.csv")
+    other = tmp_path / "ref"
+    run_fit(csv, other)  # in this process, numba as the tests load it
+    assert (other / "pwc_curves.csv").read_bytes() == (tmp_path / "out" / "pwc_curves.csv").read_bytes()
+    assert len(fit) == len(random_pwc_curve(3).points_mm)
