@@ -35,6 +35,7 @@ frame of more than 5000 points (:mod:`tendrilkit.limits`).
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -101,6 +102,20 @@ def _number(cell: str) -> float | None:
         return None
 
 
+def _plain_numbers(cells) -> np.ndarray | None:
+    """A column of numbers as floats, when every cell is one that :func:`_number` reads as ``float`` does (the
+    usual curves.csv: ``float`` in one pass, without a call per cell); None for any other column, read cell by
+    cell: a missing (empty) cell, text, a ``_``, pandas' NA words or any NaN written out.
+    """
+    if "_" in "".join(cells):
+        return None
+    try:
+        conv = np.array(list(map(float, cells)), dtype=float)
+    except ValueError:
+        return None
+    return None if np.isnan(conv).any() else conv
+
+
 def _read_curves(path: Path) -> _Curves:
     """Read and check a curves.csv (:func:`tendrilkit.io.columns.read_rows` and numpy: pandas' import alone is a
     tenth of the fit command's time)."""
@@ -119,17 +134,22 @@ def _read_curves(path: Path) -> _Curves:
     missing = [c for c in ("frame", "point", "x_mm", "y_mm", "z_mm") if c not in header]
     if missing:
         raise ExperimentError(f"{path}: missing column(s) {', '.join(missing)}; expected {', '.join(CURVES.columns)}")
+    columns = list(itertools.zip_longest(*body, fillvalue=""))  # the cells by column; short rows padded
     cols = {}
     for c in ("frame", "point", "x_mm", "y_mm", "z_mm", "time_s"):
         if c not in header:  # time_s only
             cols[c] = np.full(len(body), np.nan)
             continue
         j = header.index(c)
-        values = [_number(r[j]) if j < len(r) else np.nan for r in body]
-        text = [i for i, v in enumerate(values) if v is None]  # a cell that is there but is not a number
-        if text:
-            raise ExperimentError(f"{path}: column {c}, row {text[0] + 2} of the file: text where a number is expected")
-        conv = np.array(values, dtype=float)
+        cells = columns[j] if j < len(columns) else ("",) * len(body)  # "": a missing cell, read as NaN
+        conv = _plain_numbers(cells)
+        if conv is None:  # missing cells, text, NaN written out: cell by cell
+            values = [_number(cell) for cell in cells]
+            text = [i for i, v in enumerate(values) if v is None]  # a cell that is there but is not a number
+            if text:
+                raise ExperimentError(f"{path}: column {c}, row {text[0] + 2} of the file: text where a number is "
+                                      f"expected")
+            conv = np.array(values, dtype=float)
         if c in ("frame", "point"):
             with np.errstate(invalid="ignore"):
                 bad = np.isnan(conv) | (conv % 1 != 0) | (conv < 0) | (conv > L.MAX_FRAME)

@@ -204,3 +204,26 @@ def test_fit_command_starts_numba_without_its_extras_and_gives_them_back(tmp_pat
     run_fit(csv, other)  # in this process, numba as the tests load it
     assert (other / "pwc_curves.csv").read_bytes() == (tmp_path / "out" / "pwc_curves.csv").read_bytes()
     assert len(fit) == len(random_pwc_curve(3).points_mm)
+
+
+@pytest.mark.parametrize("x_cells", [["1.5", "-2e-3", "+4", "5."], ["1.5", "", "3", "NA"], ["1", "-nan", "NaN", "2"],
+                                     ["1", " 2 ", "3E0", "4"], ["1", "1_0", "2", "3"], ["1", "2", "x", "3"]])
+def test_curves_are_read_as_cell_by_cell(tmp_path, x_cells):
+    """The reader's one-pass column (plain numbers) reads what the cell-by-cell reading reads, and any other column
+    (missing cells, NA words, NaN written out, '_', text) is read cell by cell: the same numbers, or the
+    same error naming the column and row."""
+    from tendrilkit import fitting as F
+
+    lines = ["frame,time_s,point,x_mm,y_mm,z_mm"] + [f"0,1.0,{i},{x},2.0,3.0" for i, x in enumerate(x_cells)]
+    lines[2] = "0,1.0,1,{},2.0".format(x_cells[1])  # a short row: its z_mm cell missing
+    csv = tmp_path / "curves.csv"
+    csv.write_text("\n".join(lines) + "\n")
+    expected = [F._number(c) for c in x_cells]
+    if any(v is None for v in expected):
+        with pytest.raises(ExperimentError, match=f"column x_mm, row {[v is None for v in expected].index(True) + 2} "):
+            F._read_curves(csv)
+        return
+    got = F._read_curves(csv)
+    assert got.xyz_mm[:, 0].tobytes() == np.array(expected, dtype=float).tobytes()  # NaN's sign bit too
+    assert np.isnan(got.xyz_mm[1, 2]) and np.array_equal(got.xyz_mm[[0, 2, 3], 2], [3.0, 3.0, 3.0])
+    assert (F._plain_numbers(x_cells) is None) == (x_cells not in (["1.5", "-2e-3", "+4", "5."], ["1", " 2 ", "3E0", "4"]))
