@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import errno
+import os
 import signal
 import sys
 import warnings
@@ -111,8 +112,6 @@ def _single_threaded_blas() -> None:
     same holds for ``reconstruct`` and ``batch``, whose parallelism is one process
     per worker or experiment.
     """
-    import os
-
     if "numpy" in sys.modules:  # in-process (tests, notebooks): too late, and not ours to change
         return
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -152,7 +151,8 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     with _without_numba_extras():
         from tendrilkit.fitting import run_fit
 
-        summary = run_fit(Path(args.curves), Path(args.out))
+        summary = run_fit(Path(args.curves), Path(args.out),
+                          workers=args.workers if args.workers is not None else (os.cpu_count() or 1))
     print(summary)
     return 0 if summary.n_failed == 0 else 1  # as reconstruct: 1 when some frames failed
 
@@ -262,6 +262,7 @@ def build_parser() -> argparse.ArgumentParser:
     fi = sub.add_parser("fit", help="refit the piece-wise clothoid to every frame of a curves.csv")
     fi.add_argument("curves")
     fi.add_argument("--out", required=True)
+    fi.add_argument("--workers", type=int, default=None, help="processes for frames (default: all cores)")
     fi.set_defaults(func=_cmd_fit)
 
     ba = sub.add_parser("batch", help="run the notebooks of each experiment into reports/<experiment>/")

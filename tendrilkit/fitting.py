@@ -242,23 +242,86 @@ def metrics_table(rows: list[dict]) -> pd.DataFrame:
     return mets
 
 
+def _fit_cut(frames: np.ndarray, times: np.ndarray, xyz: np.ndarray, cuts: list[tuple[int, int]],
+             options: dict | None) -> list[tuple]:
+    """``fit_frame`` of each frame ``frames[a:b]`` of the sorted arrays, ``(a, b)`` in ``cuts`` (in a worker too)."""
+    out = []
+    for a, b in cuts:
+        f = int(frames[a])
+        t_s = float(times[a]) if np.any(~np.isnan(times[a:b])) else np.nan
+        out.append((f, t_s, *fit_frame(xyz[a:b], options, frame=f, time_s=t_s)))
+    return out
+
+
+def _worker_init() -> None:
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # and SIGTERM: it ends the workers
+
+
+def _fit_in_pool(frames, times, xyz, cuts, options, workers):
+    """The frames' fits over ``workers`` forked processes, in frame order (each fit is the one of one process).
+
+    The first frame is fitted here first: numba's compiled kernels are then loaded once, and the
+    forked workers inherit them. Chunks of consecutive frames, about four per worker.
+    """
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    done = _fit_cut(frames, times, xyz, cuts[:1], options)
+    rest = cuts[1:]
+    size = max(1, -(-len(rest) // (4 * workers)))
+    chunks = [rest[i:i + size] for i in range(0, len(rest), size)]
+    pool = ProcessPoolExecutor(workers, mp_context=mp.get_context("fork"), initializer=_worker_init)
+    try:
+        jobs = []
+        for c in chunks:  # each job gets its frames' rows only
+            a0, b1 = c[0][0], c[-1][1]
+            jobs.append(pool.submit(_fit_cut, frames[a0:b1], times[a0:b1], xyz[a0:b1],
+                                    [(a - a0, b - a0) for a, b in c], options))
+        for job in jobs:
+            done.extend(job.result())
+    finally:  # Ctrl-C, SIGTERM or an error: the workers end with the parent
+        procs = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for p in procs:
+            if p.is_alive():
+                p.terminate()
+        for p in procs:
+            p.join()
+    return done
+
+
+#: The fit command's frames per worker below which a worker is not started (its fork and hand-over
+#: cost about a frame's fit).
+MIN_FRAMES_PER_WORKER = 8
+
+
 def _fit_arrays(frame: np.ndarray, point: np.ndarray, time_s: np.ndarray, xyz_mm: np.ndarray,
-                options: dict | None) -> tuple[dict, list[dict], list[dict]]:
+                options: dict | None, workers: int = 1) -> tuple[dict, list[dict], list[dict]]:
     """Fit every frame of a curves table given as arrays (rows in any order).
 
     The frames are cut from the arrays sorted by frame and point and the fitted curves gathered
-    at the end (a table per frame cost about as much as a tenth of a fit). Returns
+    at the end (a table per frame cost about as much as a tenth of a fit). ``workers`` > 1:
+    over that many forked processes (where the platform forks; at least
+    :data:`MIN_FRAMES_PER_WORKER` frames each), the same results. Returns
     ``(pwc_curves columns, segment rows, metric rows)``.
     """
+    import multiprocessing as mp
+
     order = np.lexsort((point, frame))
     frames, xyz, times = frame[order], xyz_mm[order], time_s[order]
     starts = np.flatnonzero(np.r_[True, frames[1:] != frames[:-1]]) if frames.size else np.zeros(0, int)
     ends = np.r_[starts[1:], frames.size]
+    cuts = [(int(a), int(b)) for a, b in zip(starts, ends)]
+    workers = min(int(workers), len(cuts) // MIN_FRAMES_PER_WORKER)
+    if workers > 1 and "fork" in mp.get_all_start_methods():
+        fits = _fit_in_pool(frames, times, xyz, cuts, options, workers)
+    else:
+        fits = _fit_cut(frames, times, xyz, cuts, options)
     out_frames, out_times, out_points, seg_rows, met_rows = [], [], [], [], []
-    for a, b in zip(starts, ends):
-        f = int(frames[a])
-        t_s = float(times[a]) if np.any(~np.isnan(times[a:b])) else np.nan
-        fitted, segs, row = fit_frame(xyz[a:b], options, frame=f, time_s=t_s)
+    for f, t_s, fitted, segs, row in fits:
         met_rows.append(row)
         seg_rows.extend(segs)
         if fitted is not None:
@@ -290,7 +353,7 @@ def _row_columns(rows: list[dict], table) -> dict:
     return {c: [r[c] for r in rows] for c in table.columns}
 
 
-def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None) -> FitSummary:
+def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None, workers: int = 1) -> FitSummary:
     """Refit the piece-wise clothoid to every frame of ``curves_csv``; write the tables to ``out_dir``.
 
     Parameters
@@ -302,6 +365,9 @@ def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None) -> 
     options : dict, keyword-only
         Keyword options of :func:`tendrilkit.pwc.fit_piecewise_clothoid`
         (default: its defaults, which are the experiment file's).
+    workers : int, keyword-only
+        Processes for the frames (forked; the command's default: every core). The same
+        tables whatever the number.
 
     Returns
     -------
@@ -319,7 +385,7 @@ def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None) -> 
 
     c = _read_curves(curves_csv)
     check_writable_dir(out_dir)
-    pwc, seg_rows, met_rows = _fit_arrays(c.frame, c.point, c.time_s, c.xyz_mm, options)
+    pwc, seg_rows, met_rows = _fit_arrays(c.frame, c.point, c.time_s, c.xyz_mm, options, workers)
     paths = (out_dir / "pwc_curves.csv", out_dir / "pwc_segments.csv", out_dir / "pwc_metrics.csv")
     tables = (pwc, _row_columns(seg_rows, PWC_SEGMENTS), _row_columns(met_rows, PWC_METRICS))
     for columns, p, table in zip(tables, paths, (PWC_CURVES, PWC_SEGMENTS, PWC_METRICS)):

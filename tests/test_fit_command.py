@@ -227,3 +227,21 @@ def test_curves_are_read_as_cell_by_cell(tmp_path, x_cells):
     assert got.xyz_mm[:, 0].tobytes() == np.array(expected, dtype=float).tobytes()  # NaN's sign bit too
     assert np.isnan(got.xyz_mm[1, 2]) and np.array_equal(got.xyz_mm[[0, 2, 3], 2], [3.0, 3.0, 3.0])
     assert (F._plain_numbers(x_cells) is None) == (x_cells not in (["1.5", "-2e-3", "+4", "5."], ["1", " 2 ", "3E0", "4"]))
+
+
+def test_fit_over_workers_writes_the_same_tables(tmp_path, monkeypatch):
+    """run_fit over forked workers (frames in chunks, at least MIN_FRAMES_PER_WORKER each) writes the bytes of one
+    process, a failed frame included."""
+    from tendrilkit import fitting as F
+
+    csv = tmp_path / "curves.csv"
+    write_curves(csv, seeds=tuple(range(2 * F.MIN_FRAMES_PER_WORKER + 1)))
+    one = run_fit(csv, tmp_path / "one")
+    pools = []
+    in_pool = F._fit_in_pool
+    monkeypatch.setattr(F, "_fit_in_pool", lambda *a: pools.append(a[-1]) or in_pool(*a))
+    two = run_fit(csv, tmp_path / "two", workers=2)
+    assert pools == [2]
+    assert (one.n_frames, one.n_failed) == (two.n_frames, two.n_failed) == (2 * F.MIN_FRAMES_PER_WORKER + 2, 1)
+    for name in ("pwc_curves.csv", "pwc_segments.csv", "pwc_metrics.csv"):
+        assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "two" / name).read_bytes(), name
