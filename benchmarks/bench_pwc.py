@@ -185,9 +185,12 @@ import sys, time
 c = time.process_time(); t = {{}}
 import numpy as np
 t["imports: numpy"] = time.process_time() - c; c = time.process_time()
+import tendrilkit.cli as cli
+hidden = cli._without_numba_extras()  # as the fit command: numba without coverage and cffi
+hidden.__enter__()
 import numba
-t["imports: numba"] = time.process_time() - c; c = time.process_time()
-import tendrilkit.cli, tendrilkit.fitting as F, tendrilkit.io as io, tendrilkit.pwc, tendrilkit.schema as S
+t["imports: numba (without " + ", ".join(cli.NUMBA_EXTRAS) + ")"] = time.process_time() - c; c = time.process_time()
+import tendrilkit.fitting as F, tendrilkit.io as io, tendrilkit.pwc, tendrilkit.schema as S
 from tendrilkit.io.columns import write_columns
 t["imports: tendrilkit"] = time.process_time() - c; c = time.process_time()
 from pathlib import Path
@@ -202,41 +205,56 @@ F._fit_arrays(cv.frame[one], cv.point[one], cv.time_s[one], cv.xyz_mm[one], None
 t["first frame's fit (numba's cache loads included)"] = time.process_time() - c; c = time.process_time()
 pwc, segs, mets = F._fit_arrays(cv.frame, cv.point, cv.time_s, cv.xyz_mm, None)
 n = len(mets)
-t[f"all {{n}} fits again (the first's cache loads apart: its own CPU is in here)"] = time.process_time() - c
+t[f"all {{n}} fits again, one process (the first's cache loads apart)"] = time.process_time() - c
 c = time.process_time()
 tables = (pwc, F._row_columns(segs, S.PWC_SEGMENTS), F._row_columns(mets, S.PWC_METRICS))
 for cols, name, table in zip(tables, ("a", "b", "c"), (S.PWC_CURVES, S.PWC_SEGMENTS, S.PWC_METRICS)):
     write_columns(cols, Path({out!r}) / name, table)
 t["writing the three tables"] = time.process_time() - c
 t["pandas imported (0 = no)"] = float("pandas" in sys.modules)
+t["numba's coverage support on (0 = no)"] = float(__import__("numba.misc.coverage_support").misc.coverage_support.coverage_available)
 for k, v in t.items():
     print(f"{{v:.3f}} {{k}}")
 """
 
 
 def _fit_command(csv: Path, rounds: int) -> None:
-    """Issue 17's figure: ``python -m tendrilkit fit CSV``, process start included; then its parts (CPU)."""
+    """Issue 17's figure: ``python -m tendrilkit fit CSV``, process start included; then its parts (CPU).
+
+    Timed with one worker and with the default (every core), alternately; then numba's cache use
+    (a run with ``NUMBA_DEBUG_CACHE``: functions loaded from the cache, and compiled).
+    """
     if not csv.is_file():
         print(f"--command-csv: {csv} not found; expected a curves.csv")
         raise SystemExit(2)
     with tempfile.TemporaryDirectory() as tmp:
         env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS",
                                                                  "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")}
-        walls, cpus = [], []
+        variants = {"--workers 1": ["--workers", "1"], f"default ({os.cpu_count()} cores)": []}
+        times = {k: ([], []) for k in variants}
         for run in range(rounds + 1):  # the first run may compile numba's caches: shown, not counted
-            t, c0 = time.perf_counter(), os.times()
-            r = subprocess.run([sys.executable, "-m", "tendrilkit", "fit", str(csv), "--out", str(Path(tmp) / "out")],
-                               cwd=REPO, capture_output=True, text=True, env=env)  # the command sets its BLAS threads
-            dt, c1 = time.perf_counter() - t, os.times()
-            cpu = (c1.children_user - c0.children_user) + (c1.children_system - c0.children_system)
-            if run:
-                walls.append(dt)
-                cpus.append(cpu)
-            print(f"fit command on {csv.name}, run {run}{' (cache fill, not counted)' if not run else ''}: {dt:.2f} s "
-                  f"wall, {cpu:.2f} s CPU [{(r.stdout.strip() or r.stderr.strip()).splitlines()[-1]}] "
-                  f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
-        print(f"fit command, median of {rounds} runs: {np.median(walls):.2f} s wall, {np.median(cpus):.2f} s CPU "
-              f"(target <= 2 s)")
+            for name, extra in variants.items():
+                t, c0 = time.perf_counter(), os.times()
+                r = subprocess.run([sys.executable, "-m", "tendrilkit", "fit", str(csv), "--out",
+                                    str(Path(tmp) / "out"), *extra], cwd=REPO, capture_output=True, text=True,
+                                   env=env)  # the command sets its BLAS threads
+                dt, c1 = time.perf_counter() - t, os.times()
+                cpu = (c1.children_user - c0.children_user) + (c1.children_system - c0.children_system)
+                if run:
+                    times[name][0].append(dt)
+                    times[name][1].append(cpu)
+                print(f"fit command on {csv.name} {name}, run {run}{' (cache fill, not counted)' if not run else ''}: "
+                      f"{dt:.2f} s wall, {cpu:.2f} s CPU [{(r.stdout.strip() or r.stderr.strip()).splitlines()[-1]}] "
+                      f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
+        for name, (walls, cpus) in times.items():
+            print(f"fit command {name}, median of {rounds} runs: {np.median(walls):.2f} s wall, {np.median(cpus):.2f} s "
+                  f"CPU (target <= 2 s)")
+        r = subprocess.run([sys.executable, "-m", "tendrilkit", "fit", str(csv), "--out", str(Path(tmp) / "out"),
+                            "--workers", "1"], cwd=REPO, capture_output=True, text=True,
+                           env={**env, "NUMBA_DEBUG_CACHE": "1"})
+        text = r.stdout + r.stderr
+        print(f"numba's cache in that run: {text.count('[cache] data loaded')} functions loaded from it, "
+              f"{text.count('[cache] data saved')} compiled and saved (a fresh clone compiles them at its first run)")
         code = _COMMAND_PARTS.format(csv=str(csv), out=tmp)
         env1 = {**env, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
         out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, env=env1)
@@ -244,11 +262,11 @@ def _fit_command(csv: Path, rounds: int) -> None:
             print(out.stderr.strip().splitlines()[-1])
             return
         rows = [line.split(" ", 1) for line in out.stdout.strip().splitlines()]
-        total = sum(float(v) for v, _ in rows)
+        total = sum(float(v) for v, k in rows if "(0 = no)" not in k)
         print(f"where one run's CPU goes (a fresh process, parts timed apart; the first fit counted twice), "
               f"total {total:.2f} s:")
         for v, k in rows:
-            print(f"  {k:62s} {float(v):6.3f} s")
+            print(f"  {k:62s} {float(v):6.3f}{'' if '(0 = no)' in k else ' s'}")
 
 
 def _search_figures(curves: list) -> dict:
