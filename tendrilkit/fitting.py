@@ -282,14 +282,16 @@ def _fit_in_pool(frames, times, xyz, cuts, options, workers):
                                     [(a - a0, b - a0) for a, b in c], options))
         for job in jobs:
             done.extend(job.result())
-    finally:  # Ctrl-C, SIGTERM or an error: the workers end with the parent
-        procs = list((getattr(pool, "_processes", None) or {}).values())
+    except BaseException:  # Ctrl-C, SIGTERM or an error: the workers end with the parent
+        procs = list((getattr(pool, "_processes", None) or {}).values())  # no public way to end them in 3.11
         pool.shutdown(wait=False, cancel_futures=True)
         for p in procs:
             if p.is_alive():
                 p.terminate()
         for p in procs:
             p.join()
+        raise
+    pool.shutdown()
     return done
 
 

@@ -245,3 +245,42 @@ def test_fit_over_workers_writes_the_same_tables(tmp_path, monkeypatch):
     assert (one.n_frames, one.n_failed) == (two.n_frames, two.n_failed) == (2 * F.MIN_FRAMES_PER_WORKER + 2, 1)
     for name in ("pwc_curves.csv", "pwc_segments.csv", "pwc_metrics.csv"):
         assert (tmp_path / "one" / name).read_bytes() == (tmp_path / "two" / name).read_bytes(), name
+
+
+def test_fit_over_workers_ends_them_on_sigterm(tmp_path):
+    """SIGTERM while the workers fit: exit 143 with one line, and no worker left running."""
+    import os
+    import signal
+    import time
+
+    csv = tmp_path / "curves.csv"
+    P = random_pwc_curve(0).points_mm
+    pd.DataFrame({"frame": np.repeat(np.arange(100), len(P)), "time_s": 0.0, "point": np.tile(np.arange(len(P)), 100),
+                  "x_mm": np.tile(P[:, 0], 100), "y_mm": np.tile(P[:, 1], 100),
+                  "z_mm": np.tile(P[:, 2], 100)}).to_csv(csv, index=False)
+    out = tmp_path / "out-sigterm-test"
+
+    def ours() -> list[int]:  # the command and its forked workers carry its arguments
+        pids = []
+        for d in os.listdir("/proc"):
+            try:
+                if d.isdigit() and str(out).encode() in open(f"/proc/{d}/cmdline", "rb").read():
+                    pids.append(int(d))
+            except OSError:
+                pass
+        return pids
+
+    proc = subprocess.Popen([sys.executable, "-m", "tendrilkit", "fit", str(csv), "--out", str(out), "--workers", "2"],
+                            cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0 = time.monotonic()
+    while len(ours()) < 3 and proc.poll() is None and time.monotonic() - t0 < 120:
+        time.sleep(0.05)
+    assert proc.poll() is None, "the fit ended before its workers were seen"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert err.strip().count("\n") == 0 and "terminated" in err and "Traceback" not in err
+    t0 = time.monotonic()
+    while ours() and time.monotonic() - t0 < 10:
+        time.sleep(0.05)
+    assert ours() == []
