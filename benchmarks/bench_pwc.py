@@ -464,25 +464,35 @@ def _compare(baseline: Path, n_curves: int, n_frames: int, rounds: int, command_
 
 
 def _compare_command(sides: dict, csv: Path, tmp: Path, what: str, rounds: int) -> None:
-    """The fit command of both sides on ``csv``, alternately, process start included."""
-    cmd = {k: ([], []) for k in sides}
+    """The fit command of both sides on ``csv``, alternately, process start included.
+
+    The new side runs twice: with ``--workers 1`` (the old command's one process) and with its default
+    (every core), when it has the option.
+    """
+    runs = {"old": (sides["old"], [])}
+    if "--workers" in subprocess.run([sys.executable, "-m", "tendrilkit", "fit", "--help"], cwd=sides["new"],
+                                     capture_output=True, text=True).stdout:
+        runs["new 1 worker"] = (sides["new"], ["--workers", "1"])
+    runs["new"] = (sides["new"], [])
+    cmd = {k: ([], []) for k in runs}
     for run in range(rounds + 1):  # the first pair may fill numba's caches: not counted
-        for name, cwd in sides.items():
+        for name, (cwd, extra) in runs.items():
             t, c0 = time.perf_counter(), os.times()
-            subprocess.run([sys.executable, "-m", "tendrilkit", "fit", str(csv), "--out", str(tmp / name)],
+            subprocess.run([sys.executable, "-m", "tendrilkit", "fit", str(csv), "--out", str(tmp / name), *extra],
                            cwd=cwd, capture_output=True, text=True, check=True)
             c1 = os.times()
             if run:
                 cmd[name][0].append(time.perf_counter() - t)
                 cmd[name][1].append((c1.children_user - c0.children_user) + (c1.children_system - c0.children_system))
     m = {k: (np.median(w), np.median(c)) for k, (w, c) in cmd.items()}
-    same = all((tmp / "old" / f).read_bytes() == (tmp / "new" / f).read_bytes()
-               for f in ("pwc_curves.csv", "pwc_segments.csv", "pwc_metrics.csv"))
-    print(f"fit command on {what}, process start included, median of {rounds} alternate runs: "
-          f"old {m['old'][0]:.2f} s wall {m['old'][1]:.2f} s CPU; new {m['new'][0]:.2f} s wall "
-          f"{m['new'][1]:.2f} s CPU (target <= 2 s); new/old wall {m['new'][0] / m['old'][0]:.2f}, "
-          f"CPU {m['new'][1] / m['old'][1]:.2f}; result files {'identical' if same else 'DIFFERENT'} "
-          f"(load average {os.getloadavg()[0]:.1f})")
+    same = all((tmp / "old" / f).read_bytes() == (tmp / k / f).read_bytes()
+               for k in runs for f in ("pwc_curves.csv", "pwc_segments.csv", "pwc_metrics.csv"))
+    print(f"fit command on {what}, process start included, median of {rounds} alternate runs "
+          f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores); result files "
+          f"{'identical' if same else 'DIFFERENT'}:")
+    for k, (w, c) in m.items():
+        print(f"  {k:13s} {w:.2f} s wall {c:.2f} s CPU (target <= 2 s); /old: wall {w / m['old'][0]:.2f}, "
+              f"CPU {c / m['old'][1]:.2f}")
 
 
 _ACCURACY = """
