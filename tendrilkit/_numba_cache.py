@@ -34,15 +34,15 @@ def drop_stale_caches(package_dir: str | Path) -> list[Path]:
     compiled module (one that mentions ``njit``) among those it imports from the package
     (``from PACKAGE.x import ...``, ``import PACKAGE.x``; followed through compiled modules) was
     modified after the oldest of its cache index files. Nothing is done when ``NUMBA_CACHE_DIR``
-    is set (the caches are elsewhere) or the folder cannot be written; housekeeping only, it
-    never raises.
+    is set or the package's folder cannot be written (numba keeps the caches elsewhere then);
+    housekeeping only, it never raises.
 
     Returns
     -------
     list of Path
         The cache files removed.
     """
-    if os.environ.get("NUMBA_CACHE_DIR"):
+    if os.environ.get("NUMBA_CACHE_DIR") or not os.access(package_dir, os.W_OK):  # caches elsewhere
         return []
     try:
         return _drop(Path(package_dir))
