@@ -242,6 +242,14 @@ def metrics_table(rows: list[dict]) -> pd.DataFrame:
     return mets
 
 
+#: The fit command's frames per worker below which a worker is not started (its fork and hand-over
+#: cost about a frame's fit).
+MIN_FRAMES_PER_WORKER = 8
+
+#: Chunks of consecutive frames per worker (:func:`_fit_in_pool`).
+CHUNKS_PER_WORKER = 16
+
+
 def _fit_cut(frames: np.ndarray, times: np.ndarray, xyz: np.ndarray, cuts: list[tuple[int, int]],
              options: dict | None) -> list[tuple]:
     """``fit_frame`` of each frame ``frames[a:b]`` of the sorted arrays, ``(a, b)`` in ``cuts`` (in a worker too)."""
@@ -264,14 +272,16 @@ def _fit_in_pool(frames, times, xyz, cuts, options, workers):
     """The frames' fits over ``workers`` forked processes, in frame order (each fit is the one of one process).
 
     The first frame is fitted here first: numba's compiled kernels are then loaded once, and the
-    forked workers inherit them. Chunks of consecutive frames, about four per worker.
+    forked workers inherit them. Chunks of consecutive frames, about :data:`CHUNKS_PER_WORKER` per worker
+    (a fit costs 10-80 ms: small chunks keep both workers busy to the end; a chunk's hand-over costs
+    well under a millisecond).
     """
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
     done = _fit_cut(frames, times, xyz, cuts[:1], options)
     rest = cuts[1:]
-    size = max(1, -(-len(rest) // (4 * workers)))
+    size = max(1, -(-len(rest) // (CHUNKS_PER_WORKER * workers)))
     chunks = [rest[i:i + size] for i in range(0, len(rest), size)]
     pool = ProcessPoolExecutor(workers, mp_context=mp.get_context("fork"), initializer=_worker_init)
     try:
@@ -293,11 +303,6 @@ def _fit_in_pool(frames, times, xyz, cuts, options, workers):
         raise
     pool.shutdown()
     return done
-
-
-#: The fit command's frames per worker below which a worker is not started (its fork and hand-over
-#: cost about a frame's fit).
-MIN_FRAMES_PER_WORKER = 8
 
 
 def _fit_arrays(frame: np.ndarray, point: np.ndarray, time_s: np.ndarray, xyz_mm: np.ndarray,
