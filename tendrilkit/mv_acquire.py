@@ -48,7 +48,7 @@ from numba import njit
 from tendrilkit.geometry import resample_polyline
 from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, skeleton_distance
 
-__all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap"]
+__all__ = ["point_costs", "seed_directions", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap"]
 
 #: A point's distance to a view's skeleton is capped at this (pixels).
 CAP_PX = 10.0
@@ -224,7 +224,13 @@ def _sphere(n: int) -> np.ndarray:
     return np.c_[np.cos(th) * np.sin(phi), np.sin(th) * np.sin(phi), np.cos(phi)]
 
 
-def _seeds(evidence, base_mm, n_seeds: int) -> np.ndarray:
+def seed_directions(evidence: list[SkeletonEvidence], base_mm: np.ndarray, n_seeds: int) -> np.ndarray:
+    """Unit directions (k, 3), k <= ``n_seeds``, best first, along which the views agree from the base.
+
+    Each of 400 directions on a sphere is scored by the mean distance (pixels) to the views' skeletons of its
+    points 1-14 mm from ``base_mm`` that two views or more see, less ``NEUTRAL_PX``; the best ones scoring
+    below zero, at least 15 degrees apart, are kept.
+    """
     dirs = _sphere(400)
     r = np.arange(1.0, 15.0)
     P = base_mm + (dirs[:, None, :] * r[None, :, None]).reshape(-1, 3)
@@ -279,7 +285,7 @@ def _one_per_cell_and_way(P_mm: np.ndarray, dirs: np.ndarray, cell_mm: float) ->
 
 def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm: float = 2.0, beam: int = 8,
                n_seeds: int = 6, cone_deg: float = 40.0, max_length_mm: float = 400.0,
-               max_unseen_steps: int = 6) -> np.ndarray:
+               max_unseen_steps: int = 6, loose_base: bool = False) -> np.ndarray:
     """Grow the tendril's 3D curve from the base by a beam search on every view's evidence.
 
     Parameters
@@ -302,6 +308,11 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         occlusion) before a hypothesis ends; three times as many steps
         that the views see on pixels the curve explained already (passes
         running over each other in two views).
+    loose_base : bool
+        The base point comes from marks that disagree
+        (:func:`tendrilkit.multiview.loose_marks`): it can lie a millimetre
+        beside the tendril's start, where the views show the board, so the
+        first step is scored at its end only (not at its midpoint).
 
     Returns
     -------
@@ -310,7 +321,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         the base and one step; trailing unseen steps removed).
     """
     B = np.asarray(base_mm, float)
-    seeds = _seeds(evidence, B, n_seeds)
+    seeds = seed_directions(evidence, B, n_seeds)
     if len(seeds) == 0:
         return np.vstack([B, B])  # nothing any two views agree on
     # a hypothesis: (nodes list, score, unconfirmed tail, last direction, claims, blind tail)
@@ -329,7 +340,8 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         tips_h = np.array([h[0][-1] for h in hyps])
         pts = tips_h[own] + step_mm * dirs
         N = len(pts)
-        mids = pts - 0.5 * step_mm * dirs
+        # loose marks: the first step's midpoint lies within the base point's uncertainty; its end alone is scored
+        mids = pts if (first and loose_base) else pts - 0.5 * step_mm * dirs
         d, seen, near, bg = point_costs(evidence, np.vstack([pts, mids]), nearest=True)
         m, n = _mean_seen(d, seen)
         m_end, n_end = m[:N], n[:N]

@@ -448,7 +448,7 @@ def multiview_evidence(images, cameras: list[Camera], exp, *, read_errors=None) 
 def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous_mm, read_errors, fit: bool
                      ) -> FrameResult:
     """:func:`reconstruct_frame` by ``reconstruction.method: multiview`` (:mod:`tendrilkit.multiview`)."""
-    from tendrilkit.multiview import base_point_from_marks, distance_table, reconstruct_multiview
+    from tendrilkit.multiview import base_point_from_marks, distance_table, loose_marks, reconstruct_multiview
     from tendrilkit.verify import Thresholds, verify_frame
 
     V = len(cameras)
@@ -462,8 +462,10 @@ def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous
         if len(used) < 2:
             raise DegenerateCurveError("fewer than two views have evidence of the tendril")
         t0 = time.perf_counter()
-        B = base_point_from_marks([m.base_point for m in exp.views], cameras, max_px=exp.correspondence.max_distance_px)
+        marks = [m.base_point for m in exp.views]
+        B = base_point_from_marks(marks, cameras, max_px=exp.correspondence.max_distance_px, evidence=evidence)
         mv = reconstruct_multiview([evidence[v] for v in used], B, previous_mm=previous_mm,
+                                   loose_base=loose_marks(marks, cameras),
                                    **stage_options(exp, "multiview"))
         timings["multiview"] = time.perf_counter() - t0
         if mv.note:
