@@ -6,7 +6,8 @@ each view on its own and then matches and triangulates the 2D curves).
 Model
     The centreline is a chain of nodes :math:`X_0 \\dots X_M` (world mm)
     about ``segment_mm`` apart, :math:`X_0` at the base point triangulated
-    from the marks.
+    from the marks (where they disagree, drawn loosely, moved onto the
+    tendril's axis: :func:`base_point_from_marks`).
 
 Objective (:func:`refine_curve`)
     Gauss-Newton on

@@ -7,7 +7,8 @@ the base point (triangulated from the marks) by a beam search,
 1. *seeds*: directions on a sphere around the base; each is scored by the
    evidence of every view at 1-14 mm along it (the keep-out box hides the
    first millimetres in every view); the best few, at least 15 degrees
-   apart, start a hypothesis each;
+   apart, start a hypothesis each; where the base marks were drawn loosely
+   (``loose_base``) the first step is scored at its end only;
 2. *growth*: every hypothesis is extended by a step of ``step_mm`` in the
    directions of a cone around its last direction; a step's cost is the mean
    over the views that see its end of the distance (pixels) of the
@@ -37,6 +38,15 @@ frames) but not on coil seeds 9510-9523 (29 -> 28 of 84 frames) nor on the
 validation seeds 9900-9939 (34.6 -> 31.7 % of 240); fitting the best three
 hypotheses that differ in 3D and keeping the one with the best precision x
 coverage on every view: 36.3 -> 35.7 % on dev seeds 0-27.
+Also tried (2026-11-30, dev seeds 9980-9999, 120 frames, the same harness):
+at most half the beam per family of hypotheses sharing their node 8 steps
+back (so that the other branch of a junction, the tendril going on past a
+petiole or a second tendril turning off, is not crowded out by near copies
+while it crosses a stretch the views see badly): mean <= 0.5 mm 69.2 ->
+78.3 %, ends 26.7 -> 30.0 %, but all three 23.3 -> 22.5 % and ``ok`` frames
+with max or an end over 2 mm 5 -> 9 (loops skipped by a shortcut that the
+views explain); 12 steps back: the same figures; 5 steps back: 75.0 %,
+22.5 %, 9; all but two places of the beam per family: 69.2 %, 21.7 %, 8.
 """
 
 from __future__ import annotations
@@ -48,7 +58,8 @@ from numba import njit
 from tendrilkit.geometry import resample_polyline
 from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, skeleton_distance
 
-__all__ = ["point_costs", "seed_directions", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap"]
+__all__ = ["point_costs", "seed_directions", "grow_curve", "cone_directions", "claim", "advance", "runs_out",
+           "bridge_gap"]
 
 #: A point's distance to a view's skeleton is capped at this (pixels).
 CAP_PX = 10.0
