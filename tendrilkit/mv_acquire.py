@@ -321,7 +321,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         running over each other in two views).
     loose_base : bool
         The base point comes from marks that disagree
-        (:func:`tendrilkit.multiview.loose_marks`): it can lie a millimetre
+        (:func:`tendrilkit.mv_base.loose_marks`): it can lie a millimetre
         beside the tendril's start, where the views show the board, so the
         first step is scored at its end only (not at its midpoint).
 

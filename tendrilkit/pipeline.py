@@ -448,7 +448,8 @@ def multiview_evidence(images, cameras: list[Camera], exp, *, read_errors=None) 
 def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous_mm, read_errors, fit: bool
                      ) -> FrameResult:
     """:func:`reconstruct_frame` by ``reconstruction.method: multiview`` (:mod:`tendrilkit.multiview`)."""
-    from tendrilkit.multiview import base_point_from_marks, distance_table, loose_marks, reconstruct_multiview
+    from tendrilkit.multiview import distance_table, reconstruct_multiview
+    from tendrilkit.mv_base import base_point_from_marks, loose_marks
     from tendrilkit.verify import Thresholds, verify_frame
 
     V = len(cameras)

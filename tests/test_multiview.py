@@ -14,7 +14,8 @@ import pytest
 from scipy.spatial import cKDTree
 
 from tendrilkit.geometry import resample_polyline
-from tendrilkit.multiview import base_point_from_marks, loose_marks, reconstruct_multiview
+from tendrilkit.multiview import reconstruct_multiview
+from tendrilkit.mv_base import base_point_from_marks, loose_marks
 from tendrilkit.evidence import view_evidence
 from tendrilkit.mv_evidence import skeleton_distance, skeleton_evidence
 from tendrilkit.phantom import render_tube_views
