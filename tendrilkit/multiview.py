@@ -6,8 +6,7 @@ each view on its own and then matches and triangulates the 2D curves).
 Model
     The centreline is a chain of nodes :math:`X_0 \\dots X_M` (world mm)
     about ``segment_mm`` apart, :math:`X_0` at the base point triangulated
-    from the marks (where they disagree, drawn loosely, moved onto the
-    tendril's axis: :func:`tendrilkit.mv_base.base_point_from_marks`).
+    from the marks (:func:`tendrilkit.mv_base.base_point_from_marks`).
 
 Objective (:func:`refine_curve`)
     Gauss-Newton on
@@ -65,8 +64,7 @@ import numpy as np
 from numba import njit
 from scipy.linalg import solveh_banded
 
-from tendrilkit.camera import Camera
-from tendrilkit.exceptions import DegenerateCurveError, TendrilLostError
+from tendrilkit.exceptions import TendrilLostError
 from tendrilkit.geometry import arc_length, resample_polyline, section_masks
 from tendrilkit.mv_acquire import (ON_PX, TURN_PX, advance, bridge_gap, claim, cone_directions, grow_curve, point_costs,
                                   runs_out)

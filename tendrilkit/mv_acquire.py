@@ -38,7 +38,8 @@ frames) but not on coil seeds 9510-9523 (29 -> 28 of 84 frames) nor on the
 validation seeds 9900-9939 (34.6 -> 31.7 % of 240); fitting the best three
 hypotheses that differ in 3D and keeping the one with the best precision x
 coverage on every view: 36.3 -> 35.7 % on dev seeds 0-27.
-Also tried (2026-11-30, dev seeds 9980-9999, 120 frames, the same harness):
+Also tried (2026-11-30, dev seeds 9980-9999, 120 frames, the same harness, on top
+of the loose base point refinement noted in :mod:`tendrilkit.mv_base`):
 at most half the beam per family of hypotheses sharing their node 8 steps
 back (so that the other branch of a junction, the tendril going on past a
 petiole or a second tendril turning off, is not crowded out by near copies
@@ -58,8 +59,7 @@ from numba import njit
 from tendrilkit.geometry import resample_polyline
 from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, skeleton_distance
 
-__all__ = ["point_costs", "seed_directions", "grow_curve", "cone_directions", "claim", "advance", "runs_out",
-           "bridge_gap"]
+__all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap"]
 
 #: A point's distance to a view's skeleton is capped at this (pixels).
 CAP_PX = 10.0
@@ -235,13 +235,7 @@ def _sphere(n: int) -> np.ndarray:
     return np.c_[np.cos(th) * np.sin(phi), np.sin(th) * np.sin(phi), np.cos(phi)]
 
 
-def seed_directions(evidence: list[SkeletonEvidence], base_mm: np.ndarray, n_seeds: int) -> np.ndarray:
-    """Unit directions (k, 3), k <= ``n_seeds``, best first, along which the views agree from the base.
-
-    Each of 400 directions on a sphere is scored by the mean distance (pixels) to the views' skeletons of its
-    points 1-14 mm from ``base_mm`` that two views or more see, less ``NEUTRAL_PX``; the best ones scoring
-    below zero, at least 15 degrees apart, are kept.
-    """
+def _seeds(evidence, base_mm, n_seeds: int) -> np.ndarray:
     dirs = _sphere(400)
     r = np.arange(1.0, 15.0)
     P = base_mm + (dirs[:, None, :] * r[None, :, None]).reshape(-1, 3)
@@ -332,7 +326,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         the base and one step; trailing unseen steps removed).
     """
     B = np.asarray(base_mm, float)
-    seeds = seed_directions(evidence, B, n_seeds)
+    seeds = _seeds(evidence, B, n_seeds)
     if len(seeds) == 0:
         return np.vstack([B, B])  # nothing any two views agree on
     # a hypothesis: (nodes list, score, unconfirmed tail, last direction, claims, blind tail)

@@ -464,7 +464,7 @@ def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous
             raise DegenerateCurveError("fewer than two views have evidence of the tendril")
         t0 = time.perf_counter()
         marks = [m.base_point for m in exp.views]
-        B = base_point_from_marks(marks, cameras, max_px=exp.correspondence.max_distance_px, evidence=evidence)
+        B = base_point_from_marks(marks, cameras, max_px=exp.correspondence.max_distance_px)
         mv = reconstruct_multiview([evidence[v] for v in used], B, previous_mm=previous_mm,
                                    loose_base=loose_marks(marks, cameras),
                                    **stage_options(exp, "multiview"))
