@@ -6,7 +6,7 @@ each view on its own and then matches and triangulates the 2D curves).
 Model
     The centreline is a chain of nodes :math:`X_0 \\dots X_M` (world mm)
     about ``segment_mm`` apart, :math:`X_0` at the base point triangulated
-    from the marks (:func:`tendrilkit.mv_base.base_point_from_marks`).
+    from the marks.
 
 Objective (:func:`refine_curve`)
     Gauss-Newton on
@@ -64,14 +64,16 @@ import numpy as np
 from numba import njit
 from scipy.linalg import solveh_banded
 
-from tendrilkit.exceptions import TendrilLostError
+from tendrilkit.camera import Camera
+from tendrilkit.exceptions import DegenerateCurveError, TendrilLostError
 from tendrilkit.geometry import arc_length, resample_polyline, section_masks
 from tendrilkit.mv_acquire import (ON_PX, TURN_PX, advance, bridge_gap, claim, cone_directions, grow_curve, point_costs,
                                   runs_out)
 from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
+from tendrilkit.triangulation import triangulate
 
 __all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "reconstruct_multiview",
-           "distance_table"]
+           "base_point_from_marks", "distance_table"]
 
 
 
@@ -114,6 +116,22 @@ class MultiviewResult:
     coverage: np.ndarray
     note: str = ""
     candidates: list = field(default_factory=list)
+
+
+def base_point_from_marks(base_points_xy: list, cameras: list[Camera], *, max_px: float) -> np.ndarray:
+    """The base point (3,) mm triangulated from every view's ``base_point`` mark.
+
+    Raises
+    ------
+    DegenerateCurveError
+        The marks do not triangulate to one point within ``max_px``.
+    """
+    tri = triangulate(np.array([[p] for p in base_points_xy], float), cameras)
+    B = tri.points_mm[0]
+    if not np.all(np.isfinite(B)) or np.nanmax(tri.reproj_err_px) > max_px:
+        raise DegenerateCurveError(f"the base_point marks do not agree (reprojection "
+                                   f"{np.nanmax(tri.reproj_err_px):.1f} px > {max_px} px)")
+    return B
 
 
 def _bending_blocks(n: int) -> np.ndarray:
@@ -475,7 +493,7 @@ def _fit(X0, evidence, B, segment_mm, prior_mm=0.0, max_length_mm=np.inf):
 def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, previous_mm: np.ndarray | None = None,
                           segment_mm: float = 1.0, min_score: float = 0.9, max_shrink: float = 0.08,
                           max_growth: float = 0.08,
-                          keep_candidates: bool = False, loose_base: bool = False) -> MultiviewResult:
+                          keep_candidates: bool = False) -> MultiviewResult:
     """The 3D curve of one frame from every view's evidence, tracked or acquired.
 
     Parameters
@@ -506,9 +524,6 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
         curve kept.
     keep_candidates : bool
         Keep every candidate's nodes in the result (figures).
-    loose_base : bool
-        ``base_mm`` comes from marks that disagree (:func:`tendrilkit.mv_base.loose_marks`): see
-        :func:`tendrilkit.mv_acquire.grow_curve`.
 
     Returns
     -------
@@ -540,7 +555,7 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
         elif shrink < 1.0 - max_shrink:
             note = f"tracking lost (length {100 * (shrink - 1):.0f} % from the previous frame): acquired afresh"
     if not cands or note:
-        G = grow_curve(evidence, B, loose_base=loose_base)
+        G = grow_curve(evidence, B)
         if len(G) < 3:
             if not cands:
                 raise TendrilLostError("no curve from the base that two views explain")

@@ -7,8 +7,7 @@ the base point (triangulated from the marks) by a beam search,
 1. *seeds*: directions on a sphere around the base; each is scored by the
    evidence of every view at 1-14 mm along it (the keep-out box hides the
    first millimetres in every view); the best few, at least 15 degrees
-   apart, start a hypothesis each; where the base marks were drawn loosely
-   (``loose_base``) the first step is scored at its end only;
+   apart, start a hypothesis each;
 2. *growth*: every hypothesis is extended by a step of ``step_mm`` in the
    directions of a cone around its last direction; a step's cost is the mean
    over the views that see its end of the distance (pixels) of the
@@ -38,16 +37,32 @@ frames) but not on coil seeds 9510-9523 (29 -> 28 of 84 frames) nor on the
 validation seeds 9900-9939 (34.6 -> 31.7 % of 240); fitting the best three
 hypotheses that differ in 3D and keeping the one with the best precision x
 coverage on every view: 36.3 -> 35.7 % on dev seeds 0-27.
-Also tried (2026-11-30, dev seeds 9980-9999, 120 frames, the same harness, on top
-of the loose base point refinement noted in :mod:`tendrilkit.mv_base`):
-at most half the beam per family of hypotheses sharing their node 8 steps
-back (so that the other branch of a junction, the tendril going on past a
-petiole or a second tendril turning off, is not crowded out by near copies
-while it crosses a stretch the views see badly): mean <= 0.5 mm 69.2 ->
-78.3 %, ends 26.7 -> 30.0 %, but all three 23.3 -> 22.5 % and ``ok`` frames
-with max or an end over 2 mm 5 -> 9 (loops skipped by a shortcut that the
-views explain); 12 steps back: the same figures; 5 steps back: 75.0 %,
-22.5 %, 9; all but two places of the beam per family: 69.2 %, 21.7 %, 8.
+
+Also tried and not kept (2026-11-30, issue 12; dev seeds 9980-9999, 120
+frames, the same harness; before: all three 20.8 %, wrong start 12 frames,
+``ok`` frames with max or an end over 2 mm 4). Careless base marks (blobs a
+few pixels off in different directions) triangulate with a reprojection
+error over 1 px (1.5-4.8 px on the careless scenes seen, under 0.8 px on the
+others) to a point up to 2.4 mm from the base, mostly in depth; a point
+1 mm beside the tendril puts the first step's midpoint on the board in two
+views, every seed along the tendril ends there and the curve runs up the
+stem (seed 9990). (a) Where the marks disagree by over 1 px, the first step
+scored at its end only: all three 24.2 %, wrong start 6, ``ok`` off 4; but
+site S3 with the marks that ``tendrilkit marks`` suggests for careless ones
+(2.7 px apart) then had two frames doubtful
+(``tests/test_preflight_marks.py``). Ungated: 22.5 %, ``ok`` off 6. (b) The
+loose base point moved onto the axis, of the few the views agree on from
+it, whose first 12 mm (fitted to every view's skeleton, extended straight
+back into the keep-out box) pass nearest the marks: base within 2 mm 93.3
+-> 99.2 % (seed 9986: 2.4 -> 0.2-0.8 mm), all three unchanged; on dev
+seed 0 it moved a base 0.3 mm off to 2.3 mm (the first millimetres hardly
+constrain depth) and frame 5 failed. (c) With (a) and (b), at most half
+the beam per family of hypotheses sharing their node 8 steps back (the
+other branch of a junction kept while it crosses a stretch the views see
+badly; seed 9989's second tendril): mean <= 0.5 mm 69 -> 78 %, but all
+three 23.3 -> 22.5 % and ``ok`` off 5 -> 9 (loops skipped by shortcuts the
+views explain); 5 or 12 steps back, or all but two places per family: no
+better.
 """
 
 from __future__ import annotations
@@ -290,7 +305,7 @@ def _one_per_cell_and_way(P_mm: np.ndarray, dirs: np.ndarray, cell_mm: float) ->
 
 def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm: float = 2.0, beam: int = 8,
                n_seeds: int = 6, cone_deg: float = 40.0, max_length_mm: float = 400.0,
-               max_unseen_steps: int = 6, loose_base: bool = False) -> np.ndarray:
+               max_unseen_steps: int = 6) -> np.ndarray:
     """Grow the tendril's 3D curve from the base by a beam search on every view's evidence.
 
     Parameters
@@ -313,11 +328,6 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         occlusion) before a hypothesis ends; three times as many steps
         that the views see on pixels the curve explained already (passes
         running over each other in two views).
-    loose_base : bool
-        The base point comes from marks that disagree
-        (:func:`tendrilkit.mv_base.loose_marks`): it can lie a millimetre
-        beside the tendril's start, where the views show the board, so the
-        first step is scored at its end only (not at its midpoint).
 
     Returns
     -------
@@ -345,8 +355,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         tips_h = np.array([h[0][-1] for h in hyps])
         pts = tips_h[own] + step_mm * dirs
         N = len(pts)
-        # loose marks: the first step's midpoint lies within the base point's uncertainty; its end alone is scored
-        mids = pts if (first and loose_base) else pts - 0.5 * step_mm * dirs
+        mids = pts - 0.5 * step_mm * dirs
         d, seen, near, bg = point_costs(evidence, np.vstack([pts, mids]), nearest=True)
         m, n = _mean_seen(d, seen)
         m_end, n_end = m[:N], n[:N]

@@ -448,8 +448,7 @@ def multiview_evidence(images, cameras: list[Camera], exp, *, read_errors=None) 
 def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous_mm, read_errors, fit: bool
                      ) -> FrameResult:
     """:func:`reconstruct_frame` by ``reconstruction.method: multiview`` (:mod:`tendrilkit.multiview`)."""
-    from tendrilkit.multiview import distance_table, reconstruct_multiview
-    from tendrilkit.mv_base import base_point_from_marks, loose_marks
+    from tendrilkit.multiview import base_point_from_marks, distance_table, reconstruct_multiview
     from tendrilkit.verify import Thresholds, verify_frame
 
     V = len(cameras)
@@ -463,10 +462,8 @@ def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous
         if len(used) < 2:
             raise DegenerateCurveError("fewer than two views have evidence of the tendril")
         t0 = time.perf_counter()
-        marks = [m.base_point for m in exp.views]
-        B = base_point_from_marks(marks, cameras, max_px=exp.correspondence.max_distance_px)
+        B = base_point_from_marks([m.base_point for m in exp.views], cameras, max_px=exp.correspondence.max_distance_px)
         mv = reconstruct_multiview([evidence[v] for v in used], B, previous_mm=previous_mm,
-                                   loose_base=loose_marks(marks, cameras),
                                    **stage_options(exp, "multiview"))
         timings["multiview"] = time.perf_counter() - t0
         if mv.note:

@@ -14,8 +14,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from tendrilkit.geometry import resample_polyline
-from tendrilkit.multiview import reconstruct_multiview
-from tendrilkit.mv_base import base_point_from_marks, loose_marks
+from tendrilkit.multiview import base_point_from_marks, reconstruct_multiview
 from tendrilkit.evidence import view_evidence
 from tendrilkit.mv_evidence import skeleton_distance, skeleton_evidence
 from tendrilkit.phantom import render_tube_views
@@ -103,24 +102,6 @@ def test_tracking_lost_is_acquired_afresh(coil):
     assert r.mode == "acquired" and "tracking lost" in r.note
     e = _errors(resample_polyline(r.nodes_mm, 200), X)
     assert e["mean"] <= 0.5 and e["tip"] <= 3.0, e
-
-
-def test_loose_base_marks(coil):
-    """Base marks drawn a few pixels off in different directions (careless marks: blobs) are told from marks
-    that agree to their rounding; their triangulation lies 1.9 mm from the tendril's base, where some views
-    show the board beside the tendril: the acquisition still starts along the tendril (its first step scored
-    at its end only)."""
-    X, images, cams, exp = coil
-    evs = _evidence(images, cams, exp)
-    exact = [np.array(m.base_point, float) for m in exp.views]
-    assert not loose_marks(exact, cams)
-    marks = [m + np.array(o, float) for m, o in zip(exact, [(4, 0), (0, -4), (-3, 3)])]
-    assert loose_marks(marks, cams)
-    B = base_point_from_marks(marks, cams, max_px=8.0)
-    assert np.linalg.norm(B - X[0]) > 1.5  # the marks' point is off
-    r = reconstruct_multiview(evs, B, loose_base=True)
-    e = _errors(resample_polyline(r.nodes_mm, 200), X)
-    assert e["mean"] <= 0.5 and e["base"] <= 2.0 and e["tip"] <= 3.0, e
 
 
 def test_stem_stub_in_a_loose_roi_is_not_the_tendril():

@@ -138,7 +138,6 @@ def test_the_pipeline_passes_every_option(monkeypatch):
 def test_the_multiview_pipeline_passes_its_options(monkeypatch):
     import tendrilkit.evidence
     import tendrilkit.multiview
-    import tendrilkit.mv_base
     import tendrilkit.mv_evidence
     from tendrilkit import pipeline
     from tendrilkit.camera import Camera
@@ -147,7 +146,7 @@ def test_the_multiview_pipeline_passes_its_options(monkeypatch):
     calls: dict = {}
     monkeypatch.setattr(tendrilkit.evidence, "view_evidence", _record(calls, "segmentation", object()))
     monkeypatch.setattr(tendrilkit.mv_evidence, "skeleton_evidence", _record(calls, "evidence", object()))
-    monkeypatch.setattr(tendrilkit.mv_base, "base_point_from_marks", _record(calls, "base", np.zeros(3)))
+    monkeypatch.setattr(tendrilkit.multiview, "base_point_from_marks", _record(calls, "base", np.zeros(3)))
     monkeypatch.setattr(tendrilkit.multiview, "reconstruct_multiview", _record(calls, "multiview", stop=True))
     cams = [Camera(K=np.eye(3), t_mm=np.zeros(3)) for _ in range(2)]
     with pytest.raises(_Reached):
