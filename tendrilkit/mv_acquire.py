@@ -37,6 +37,32 @@ frames) but not on coil seeds 9510-9523 (29 -> 28 of 84 frames) nor on the
 validation seeds 9900-9939 (34.6 -> 31.7 % of 240); fitting the best three
 hypotheses that differ in 3D and keeping the one with the best precision x
 coverage on every view: 36.3 -> 35.7 % on dev seeds 0-27.
+
+Also tried and not kept (2026-11-30, issue 12; dev seeds 9980-9999, 120
+frames, the same harness; before: all three 20.8 %, wrong start 12 frames,
+``ok`` frames with max or an end over 2 mm 4). Careless base marks (blobs a
+few pixels off in different directions) triangulate with a reprojection
+error over 1 px (1.5-4.8 px on the careless scenes seen, under 0.8 px on the
+others) to a point up to 2.4 mm from the base, mostly in depth; a point
+1 mm beside the tendril puts the first step's midpoint on the board in two
+views, every seed along the tendril ends there and the curve runs up the
+stem (seed 9990). (a) Where the marks disagree by over 1 px, the first step
+scored at its end only: all three 24.2 %, wrong start 6, ``ok`` off 4; but
+site S3 with the marks that ``tendrilkit marks`` suggests for careless ones
+(2.7 px apart) then had two frames doubtful
+(``tests/test_preflight_marks.py``). Ungated: 22.5 %, ``ok`` off 6. (b) The
+loose base point moved onto the axis, of the few the views agree on from
+it, whose first 12 mm (fitted to every view's skeleton, extended straight
+back into the keep-out box) pass nearest the marks: base within 2 mm 93.3
+-> 99.2 % (seed 9986: 2.4 -> 0.2-0.8 mm), all three unchanged; on dev
+seed 0 it moved a base 0.3 mm off to 2.3 mm (the first millimetres hardly
+constrain depth) and frame 5 failed. (c) With (a) and (b), at most half
+the beam per family of hypotheses sharing their node 8 steps back (the
+other branch of a junction kept while it crosses a stretch the views see
+badly; seed 9989's second tendril): mean <= 0.5 mm 69 -> 78 %, but all
+three 23.3 -> 22.5 % and ``ok`` off 5 -> 9 (loops skipped by shortcuts the
+views explain); 5 or 12 steps back, or all but two places per family: no
+better.
 """
 
 from __future__ import annotations
