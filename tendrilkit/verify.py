@@ -106,7 +106,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
-from tendrilkit.segmentation import grey_image
 from tendrilkit.verify_base import WIDE_RATIO, base_on_tendril, near_base
 from tendrilkit.verify_beyond import beyond_tip_px
 from tendrilkit.verify_branch import turn_branch_message, turn_branch_px
@@ -479,8 +478,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             img = None if images is None else images[v]
             if img is not None:
                 crop = _roi_crop(img, ev)
-                out[f"tip_tone_frac_v{v + 1}"] = tip_tone_frac(grey_image(crop, channel=channel), ev, dense, on_mask,
-                                                               radius_px)
+                out[f"tip_tone_frac_v{v + 1}"] = tip_tone_frac(crop, ev, dense, on_mask, radius_px, channel=channel)
                 out[f"off_colour_run_px_v{v + 1}"] = off_colour_run_px(crop, ev, dense, seen, on_mask)
     out["views_checked"] = checked
     out["line_width_mm"] = float(np.median(widths)) if widths else None

@@ -39,32 +39,31 @@ def test_tone_ahead_of_a_tip_that_stops_where_a_pale_part_goes_on():
     img = _image(dark_to=150, pale_from=150)  # grey 130 on a 235 board: not dark at threshold 100
     ev = _evidence(img)
     assert not ev.foreground[60, 200]  # the pale part is not segmented: no dark-pixel check can see it
-    grey = grey_image(img)
     short = _line(20, 148)
     on = np.ones(len(short), bool)
-    assert tip_tone_frac(grey, ev, short, on, 2.5) > 0.2
+    assert tip_tone_frac(img, ev, short, on, 2.5) > 0.2
     # the right curve, to the tendril's end: the board ahead of it
     img2 = _image(dark_to=150)
     ev2 = _evidence(img2)
     right = _line(20, 150)
-    assert tip_tone_frac(grey_image(img2), ev2, right, np.ones(len(right), bool), 2.5) == 0.0
+    assert tip_tone_frac(img2, ev2, right, np.ones(len(right), bool), 2.5) == 0.0
 
 
 def test_tone_of_a_curve_stopping_on_a_dark_continuation_counts_too():
     img = _image(dark_to=250)  # the rest is segmented: the figure does not rest on the segmentation missing it
     ev = _evidence(img)
     short = _line(20, 150)
-    assert tip_tone_frac(grey_image(img), ev, short, np.ones(len(short), bool), 2.5) > 0.2
+    assert tip_tone_frac(img, ev, short, np.ones(len(short), bool), 2.5) > 0.2
     full = _line(20, 250)
-    assert tip_tone_frac(grey_image(img), ev, full, np.ones(len(full), bool), 2.5) == 0.0
+    assert tip_tone_frac(img, ev, full, np.ones(len(full), bool), 2.5) == 0.0
 
 
 def test_tone_unknown_without_a_width_or_a_tendril_under_the_curve():
     img = _image()
     ev = _evidence(img)
     c = _line(20, 150)
-    assert tip_tone_frac(grey_image(img), ev, c, np.ones(len(c), bool), float("nan")) is None
-    assert tip_tone_frac(grey_image(img), ev, c, np.zeros(len(c), bool), 2.5) is None
+    assert tip_tone_frac(img, ev, c, np.ones(len(c), bool), float("nan")) is None
+    assert tip_tone_frac(img, ev, c, np.zeros(len(c), bool), 2.5) is None
 
 
 def test_off_colour_run_is_the_stretch_on_another_colour():
