@@ -113,7 +113,8 @@ from tendrilkit.verify_coverage import coverage_frac, tendril_radius_px
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
 from tendrilkit.verify_tip import TIP_PX, on_wide, skeleton_to_curve_px, tip_continuation, tip_wide_fraction, wide_run_px
-from tendrilkit.verify_tone import off_colour_message, off_colour_run_px, tip_tone_frac, tip_tone_message
+from tendrilkit.verify_tone import (line_seen_by_colour, off_colour_message, off_colour_run_px, tendril_colours,
+                                   tip_tone_frac, tip_tone_message)
 from tendrilkit.verify_widen import MAX_DISTAL_WIDENING, distal_widening, distal_widening_message
 
 __all__ = ["Thresholds", "view_columns", "verify_curve", "verify_frame", "image_check_messages",
@@ -335,7 +336,7 @@ class Thresholds:
     min_junction_turn_deg: float = 60.0
     min_junction_line_px: float = 15.0
     max_distal_widening: float = MAX_DISTAL_WIDENING
-    max_tip_tone_frac: float = 0.1
+    max_tip_tone_frac: float = 0.05
     max_off_colour_run_px: float = 100.0
 
     @classmethod
@@ -445,11 +446,14 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             if np.isfinite(radius_px):  # px to mm at the curve's median depth in this view
                 widths.append(2.0 * radius_px * float(np.median(cam.world_to_cam(X)[:, 2])) / float(cam.K[0, 0]))
             at_base = near_base(ev)  # the components at the base mark: the coverage's and the base check's
+            img = None if images is None else images[v]
+            crop = None if img is None else _roi_crop(img, ev)
+            on_mask = seen & (d <= tolerance_px)
+            refs = None if crop is None else tendril_colours(crop, ev, dense, on_mask)
             out[f"coverage_frac_v{v + 1}"] = coverage_frac(ev, dense[seen], d[seen], tolerance_px,
                                                            coverage_tolerance_px, inside_px, radius_px,
-                                                           near=at_base)
+                                                           near=at_base, colour=None if refs is None else (crop, refs))
             wide = on_wide(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO)
-            on_mask = seen & (d <= tolerance_px)
             # the skeleton shows the tendril's middle only where its line is seen: on pixels wider than the
             # tendril (a leaf it passes in front of) the skeleton is the blob's, not the tendril's
             on = dense[on_mask & ~wide]
@@ -465,7 +469,10 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             out[f"base_on_tendril_frac_v{v + 1}"] = base_on_tendril(ev, dense[keep], d[keep], tolerance_px,
                                                                      inside=inside_px, near=at_base)
             out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(wide, seen & (d <= tolerance_px))
-            out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, seen & (d <= tolerance_px))
+            # a run on clutter merged with the tendril, unless the tendril's line shows there by its colour
+            seen_line = (np.zeros(len(dense), bool) if refs is None
+                         else line_seen_by_colour(crop, ev, dense, refs, radius_px))
+            out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide & ~seen_line, seen & (d <= tolerance_px))
             out[f"beyond_tip_px_v{v + 1}"] = beyond_tip_px(ev, dense, inside_px, radius_px, cov_tol=coverage_tolerance_px,
                                                            tol=tolerance_px, wide_ratio=WIDE_RATIO, sk_dist=sk_dist)
             out[f"tip_object_px_v{v + 1}"] = tip_object_px(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO,
@@ -475,9 +482,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                                                              min_turn_deg=junction_turn_deg,
                                                              min_branch_px=junction_line_px)
             out[f"distal_widening_ratio_v{v + 1}"] = distal_widening(X, cam, ev, tol_px=tolerance_px)
-            img = None if images is None else images[v]
-            if img is not None:
-                crop = _roi_crop(img, ev)
+            if crop is not None:
                 out[f"tip_tone_frac_v{v + 1}"] = tip_tone_frac(crop, ev, dense, on_mask, radius_px, channel=channel)
                 out[f"off_colour_run_px_v{v + 1}"] = off_colour_run_px(crop, ev, dense, seen, on_mask)
     out["views_checked"] = checked
