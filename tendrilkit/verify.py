@@ -73,6 +73,17 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         :mod:`tendrilkit.verify_branch`); the width of the line under the
         curve's distal part over the width before it (empty: not measured;
         :mod:`tendrilkit.verify_widen`).
+    ``tip_tone_frac_v<i>``, ``off_colour_run_px_v<i>``
+        Read from the image itself, not its dark pixels, when the pipeline
+        hands the frames over (:mod:`tendrilkit.verify_tone`): the fraction
+        of a corridor ahead of the projected tip as dark as the tendril
+        (its rest going on unsegmented), and the longest run of the curve on
+        another colour than its proximal third (a leaf seen edge-on). The
+        colour also tells clutter from the tendril in two figures above: the
+        coverage leaves out unexplained branches of another colour than the
+        tendril's (a green petiole touching a brown tendril), the longest
+        stretch on wide pixels (``wide_run_px_v<i>``) leaves out the samples
+        where the tendril's line shows by its colour in front of the clutter.
     ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s``
         Against the previous reconstructed frame that passed the image checks
         (:func:`tendrilkit.verify_temporal.temporal_checks`): relative change of length (%), mean
@@ -299,6 +310,28 @@ class Thresholds:
         views or more: a tendril tapers, a leaf or a shoot the curve ran
         onto is wider (:mod:`tendrilkit.verify_widen` says how it was
         chosen; ``distal_widening_ratio_v<i>``).
+    max_tip_tone_frac : float
+        Largest fraction of the corridor ahead of the projected tip as dark
+        as the tendril (``tip_tone_frac_v<i>``, :func:`tendrilkit.verify_tone.tip_tone_frac`),
+        in two views or more (0.05): the tendril going on where the dark
+        pixels stop (a pale coil the segmentation misses, development seed
+        9509: six frames reported ``ok`` 88 mm short, 0.44-0.58 in every
+        view). Re-verified multi-view curves of 114 development seeds
+        (9980-9999, 9500-9518 of this round's code; 0-170, 9000-9039,
+        9200-9239 of earlier rounds, 937 frames): the 274 frames right on
+        all three accuracy criteria read at most 0.034 in their second-worst
+        view; 16 frames that passed every other check with the tip 2.1-23 mm
+        off read 0.055-0.92 (those at 0.026-0.05: 9510 frame 2, tip 5.5 mm
+        off, 0.026, and none right above 0.034; the limit sits between).
+    max_off_colour_run_px : float
+        Longest run of the projected curve on another colour than its
+        proximal third, px (``off_colour_run_px_v<i>``,
+        :func:`tendrilkit.verify_tone.off_colour_run_px`), in two views or
+        more (100 px): a curve run onto a leaf seen edge-on, as thin as the
+        tendril (development seed 9899 frame 2, 34 mm along the tip leaf,
+        ``ok`` before: 155-165 px). The right frames above read at most 62 px
+        in their second-worst view (scenes whose tendril changes colour
+        along its length).
     max_world_marker_px : float
         Largest corner reprojection error of the world marker after the
         calibration's joint adjustment, px (0.5 px; also more than 3 times
