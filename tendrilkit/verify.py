@@ -504,7 +504,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(wide, seen & (d <= tolerance_px))
             # a run on clutter merged with the tendril, unless the tendril's line shows there by its colour
             seen_line = (np.zeros(len(dense), bool) if refs is None
-                         else line_seen_by_colour(crop, ev, dense, refs, radius_px))
+                         else line_seen_by_colour(crop, ev, dense, refs, radius_px, where=wide))
             out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide & ~seen_line, seen & (d <= tolerance_px))
             out[f"beyond_tip_px_v{v + 1}"] = beyond_tip_px(ev, dense, inside_px, radius_px, cov_tol=coverage_tolerance_px,
                                                            tol=tolerance_px, wide_ratio=WIDE_RATIO, sk_dist=sk_dist)

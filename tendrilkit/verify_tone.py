@@ -249,7 +249,8 @@ def other_colour(crop_bgr: np.ndarray, ev: ViewEvidence, xy: np.ndarray, refs: n
 
 
 def line_seen_by_colour(crop_bgr: np.ndarray, ev: ViewEvidence, dense_xy: np.ndarray, refs: np.ndarray,
-                        radius_px: float, *, max_chroma: float = MAX_CHROMA) -> np.ndarray:
+                        radius_px: float, *, where: np.ndarray | None = None,
+                        max_chroma: float = MAX_CHROMA) -> np.ndarray:
     """(n,) bool: where the tendril's line shows by its colour under the projected curve.
 
     A sample shows the line where the pixel under it has the tendril's
@@ -270,25 +271,32 @@ def line_seen_by_colour(crop_bgr: np.ndarray, ev: ViewEvidence, dense_xy: np.nda
         The tendril's chromaticities.
     radius_px : float
         The tendril's half width in this view, px.
+    where : (n,) bool array, optional
+        The samples to look at (the others are False); default all.
     """
     n = len(dense_xy)
     out = np.zeros(n, bool)
     if n < 3 or not (np.isfinite(radius_px) and radius_px > 0):
         return out
-    tang = np.gradient(dense_xy, axis=0)
+    idx = np.arange(n) if where is None else np.flatnonzero(where)
+    if not idx.size:
+        return out
+    tang = np.gradient(dense_xy, axis=0)[idx]
     norm = np.hypot(tang[:, 0], tang[:, 1])
     norm[norm == 0] = 1.0
     nrm = np.column_stack([-tang[:, 1], tang[:, 0]]) / norm[:, None]
     side = 2.0 * radius_px + 1.0
     cols = []
-    for xy in (dense_xy, dense_xy + side * nrm, dense_xy - side * nrm):
+    at = dense_xy[idx]
+    for xy in (at, at + side * nrm, at - side * nrm):
         rc, inside = _crop_rc(ev, xy)
         rc[~inside] = 0
         cols.append((_chroma(crop_bgr[rc[:, 0], rc[:, 1]]), inside))
     (c0, i0), (c1, i1), (c2, i2) = cols
     own = np.min([np.abs(c0 - r).max(axis=1) for r in refs], axis=0) <= max_chroma
     apart = (np.abs(c1 - c0).max(axis=1) > max_chroma) & (np.abs(c2 - c0).max(axis=1) > max_chroma)
-    return own & apart & i0 & i1 & i2
+    out[idx] = own & apart & i0 & i1 & i2
+    return out
 
 
 def _two_views(figures: dict, stem: str, n_views: int, fails) -> list[tuple[int, float]]:
