@@ -78,12 +78,14 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         hands the frames over (:mod:`tendrilkit.verify_tone`): the fraction
         of a corridor ahead of the projected tip as dark as the tendril
         (its rest going on unsegmented), and the longest run of the curve on
-        another colour than its proximal third (a leaf seen edge-on). The
-        colour also tells clutter from the tendril in two figures above: the
-        coverage leaves out unexplained branches of another colour than the
-        tendril's (a green petiole touching a brown tendril), the longest
-        stretch on wide pixels (``wide_run_px_v<i>``) leaves out the samples
-        where the tendril's line shows by its colour in front of the clutter.
+        another colour than its proximal third (a leaf seen edge-on).
+    ``coverage_colour_frac_v<i>``, ``wide_run_hidden_px_v<i>``
+        The coverage and the longest stretch on wide pixels read again with
+        the colour (empty without it; the checks then use the plain ones):
+        the coverage leaves out unexplained branches of another colour than
+        the tendril's (a green petiole touching a brown tendril), the
+        stretch leaves out the samples where the tendril's line shows by its
+        colour in front of the clutter (a brown tendril over a green leaf).
     ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s``
         Against the previous reconstructed frame that passed the image checks
         (:func:`tendrilkit.verify_temporal.temporal_checks`): relative change of length (%), mean
@@ -395,7 +397,9 @@ def view_columns(n_views: int) -> list[str]:
     cols += [f"{stem}_v{v}" for stem in ("tip_object_px", "turn_branch_px", "distal_widening_ratio")
              for v in range(1, n_views + 1)]
     # the image's tone ahead of the tip and colour along the curve (issue 13, :mod:`tendrilkit.verify_tone`)
-    return cols + [f"{stem}_v{v}" for stem in ("tip_tone_frac", "off_colour_run_px") for v in range(1, n_views + 1)]
+    # and two figures read again with the colour (the old ones stay as they were; the checks use these when known)
+    return cols + [f"{stem}_v{v}" for stem in ("tip_tone_frac", "off_colour_run_px", "coverage_colour_frac",
+                                               "wide_run_hidden_px") for v in range(1, n_views + 1)]
 
 
 def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
@@ -485,7 +489,11 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             refs = None if crop is None else tendril_colours(crop, ev, dense, on_mask)
             out[f"coverage_frac_v{v + 1}"] = coverage_frac(ev, dense[seen], d[seen], tolerance_px,
                                                            coverage_tolerance_px, inside_px, radius_px,
-                                                           near=at_base, colour=None if refs is None else (crop, refs))
+                                                           near=at_base)
+            if refs is not None:  # the same, unexplained branches of another colour than the tendril's left out
+                out[f"coverage_colour_frac_v{v + 1}"] = coverage_frac(ev, dense[seen], d[seen], tolerance_px,
+                                                                      coverage_tolerance_px, inside_px, radius_px,
+                                                                      near=at_base, colour=(crop, refs))
             wide = on_wide(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO)
             # the skeleton shows the tendril's middle only where its line is seen: on pixels wider than the
             # tendril (a leaf it passes in front of) the skeleton is the blob's, not the tendril's
@@ -502,10 +510,10 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             out[f"base_on_tendril_frac_v{v + 1}"] = base_on_tendril(ev, dense[keep], d[keep], tolerance_px,
                                                                      inside=inside_px, near=at_base)
             out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(wide, seen & (d <= tolerance_px))
-            # a run on clutter merged with the tendril, unless the tendril's line shows there by its colour
-            seen_line = (np.zeros(len(dense), bool) if refs is None
-                         else line_seen_by_colour(crop, ev, dense, refs, radius_px, where=wide))
-            out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide & ~seen_line, seen & (d <= tolerance_px))
+            out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, on_mask)
+            if refs is not None:  # the same, less where the tendril's line shows by its colour in front of clutter
+                seen_line = line_seen_by_colour(crop, ev, dense, refs, radius_px, where=wide)
+                out[f"wide_run_hidden_px_v{v + 1}"] = wide_run_px(wide & ~seen_line, on_mask)
             out[f"beyond_tip_px_v{v + 1}"] = beyond_tip_px(ev, dense, inside_px, radius_px, cov_tol=coverage_tolerance_px,
                                                            tol=tolerance_px, wide_ratio=WIDE_RATIO, sk_dist=sk_dist)
             out[f"tip_object_px_v{v + 1}"] = tip_object_px(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO,
@@ -529,6 +537,12 @@ def _roi_crop(image: np.ndarray, ev: ViewEvidence) -> np.ndarray:
     x0, y0 = (int(a) for a in ev.roi_offset_xy)
     h, w = ev.shape
     return np.asarray(image)[y0:y0 + h, x0:x0 + w]
+
+
+def _colour_or_plain(q: dict, colour_stem: str, stem: str, v: int):
+    """View ``v``'s figure read with the colour (``<colour_stem>_v<v>``) when known, else the plain one."""
+    x = q.get(f"{colour_stem}_v{v}")
+    return q.get(f"{stem}_v{v}") if x is None else x
 
 
 def _in_views(q: dict, column: str, n_views: int, fails) -> list[tuple[int, float]]:
@@ -571,7 +585,7 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
         if b is not None and b < th.min_base_on_tendril_frac:
             msgs.append(f"base: view {v} curve leaves the base off the tendril ({100 * b:.0f} % of its first 30 px on "
                         f"the component leaving the base mark, limit {100 * th.min_base_on_tendril_frac:.0f} %)")
-        c = q.get(f"coverage_frac_v{v}")
+        c = _colour_or_plain(q, "coverage_colour_frac", "coverage_frac", v)
         if c is not None and c < th.min_coverage_frac:
             msgs.append(f"coverage: view {v} curve explains {100 * c:.0f} % of the tendril's skeleton "
                         f"(limit {100 * th.min_coverage_frac:.0f} %)")
@@ -592,7 +606,8 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
                     "cannot be seen) in " + ", ".join(f"view {v} ({100 * f:.0f} % of its last {TIP_PX} px)"
                                                      for v, f in wide)
                     + f" (limit {100 * th.max_tip_wide_frac:.0f} %)")
-    runs = _in_views(q, "wide_run_px", n_views, lambda r: r > th.max_wide_run_px)
+    runs = [(v, r) for v in range(1, n_views + 1)
+            if (r := _colour_or_plain(q, "wide_run_hidden_px", "wide_run_px", v)) is not None and r > th.max_wide_run_px]
     if len(runs) >= 2:  # in two views at least: in one view the tendril may pass in front of a leaf
         msgs.append("merged: the curve runs on pixels wider than the tendril (clutter merged with it: where its line "
                     "is cannot be seen) in " + ", ".join(f"view {v} ({r:.0f} px in a row)" for v, r in runs)
