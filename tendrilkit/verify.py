@@ -79,13 +79,15 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         of a corridor ahead of the projected tip as dark as the tendril
         (its rest going on unsegmented), and the longest run of the curve on
         another colour than its proximal third (a leaf seen edge-on).
-    ``coverage_colour_frac_v<i>``, ``wide_run_hidden_px_v<i>``
-        The coverage and the longest stretch on wide pixels read again with
-        the colour (empty without it; the checks then use the plain ones):
-        the coverage leaves out unexplained branches of another colour than
-        the tendril's (a green petiole touching a brown tendril), the
-        stretch leaves out the samples where the tendril's line shows by its
-        colour in front of the clutter (a brown tendril over a green leaf).
+    ``wide_run_hidden_px_v<i>``
+        The longest stretch on wide pixels read again with the colour
+        (empty without it; the merged check then uses ``wide_run_px_v<i>``):
+        the samples where the tendril's line shows by its colour in front of
+        the clutter (a brown tendril over a green leaf) left out. (The same
+        for the coverage, unexplained branches of another colour than the
+        tendril's left out, was withdrawn: a tendril whose coil is green
+        beyond an olive stretch, missed by a curve that ran onto a brown
+        shoot, read as clutter and passed, development seed 93 frame 4.)
     ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s``
         Against the previous reconstructed frame that passed the image checks
         (:func:`tendrilkit.verify_temporal.temporal_checks`): relative change of length (%), mean
@@ -398,8 +400,8 @@ def view_columns(n_views: int) -> list[str]:
              for v in range(1, n_views + 1)]
     # the image's tone ahead of the tip and colour along the curve (issue 13, :mod:`tendrilkit.verify_tone`)
     # and two figures read again with the colour (the old ones stay as they were; the checks use these when known)
-    return cols + [f"{stem}_v{v}" for stem in ("tip_tone_frac", "off_colour_run_px", "coverage_colour_frac",
-                                               "wide_run_hidden_px") for v in range(1, n_views + 1)]
+    return cols + [f"{stem}_v{v}" for stem in ("tip_tone_frac", "off_colour_run_px", "wide_run_hidden_px")
+                   for v in range(1, n_views + 1)]
 
 
 def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
@@ -490,10 +492,6 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             out[f"coverage_frac_v{v + 1}"] = coverage_frac(ev, dense[seen], d[seen], tolerance_px,
                                                            coverage_tolerance_px, inside_px, radius_px,
                                                            near=at_base)
-            if refs is not None:  # the same, unexplained branches of another colour than the tendril's left out
-                out[f"coverage_colour_frac_v{v + 1}"] = coverage_frac(ev, dense[seen], d[seen], tolerance_px,
-                                                                      coverage_tolerance_px, inside_px, radius_px,
-                                                                      near=at_base, colour=(crop, refs))
             wide = on_wide(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO)
             # the skeleton shows the tendril's middle only where its line is seen: on pixels wider than the
             # tendril (a leaf it passes in front of) the skeleton is the blob's, not the tendril's
@@ -585,7 +583,7 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
         if b is not None and b < th.min_base_on_tendril_frac:
             msgs.append(f"base: view {v} curve leaves the base off the tendril ({100 * b:.0f} % of its first 30 px on "
                         f"the component leaving the base mark, limit {100 * th.min_base_on_tendril_frac:.0f} %)")
-        c = _colour_or_plain(q, "coverage_colour_frac", "coverage_frac", v)
+        c = q.get(f"coverage_frac_v{v}")
         if c is not None and c < th.min_coverage_frac:
             msgs.append(f"coverage: view {v} curve explains {100 * c:.0f} % of the tendril's skeleton "
                         f"(limit {100 * th.min_coverage_frac:.0f} %)")

@@ -15,7 +15,6 @@ import numpy as np
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.verify_base import WIDE_RATIO, near_base
 from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
-from tendrilkit.verify_tone import other_colour
 
 __all__ = ["coverage_frac", "tendril_radius_px", "BORDER_PX", "MIN_BRANCH_PX"]
 
@@ -49,8 +48,7 @@ def tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, c
 
 
 def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float,
-                  inside: np.ndarray, radius_px: float, *, near: np.ndarray | None = None,
-                  colour: tuple | None = None) -> float:
+                  inside: np.ndarray, radius_px: float, *, near: np.ndarray | None = None) -> float:
     """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
 
     Counted are the skeleton pixels of the components the curve runs along,
@@ -72,11 +70,6 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
       unexplained branch (:func:`tendrilkit.verify_crossing.crossing_branches`):
       a thin line crossing the tendril (a second tendril, a stalk).
 
-    * branches of another colour than the tendril's, when ``colour``
-      (``(crop_bgr, refs)``: the view's ROI crop and
-      :func:`tendrilkit.verify_tone.tendril_colours`) is given
-      (:func:`tendrilkit.verify_tone.other_colour`): a green petiole or
-      second tendril touching a brown tendril.
 
     The coverage is the explained skeleton over explained plus the
     tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`
@@ -151,10 +144,5 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
         tendril[cand[crossing_branches(dense, sk[~near], branch[~near], cand, cov_tol=cov_tol,
                                                 width_px=2.0 * radius_px if np.isfinite(radius_px) else 0.0,
                                                 nearest=(dist[~near], nearest[~near]))]] = False
-    if colour is not None:  # a line of another colour touching the tendril is not a part of it
-        crop, refs = colour
-        for k in np.nonzero(tendril)[0]:
-            if other_colour(crop, ev, sk[free][b == k], refs):
-                tendril[k] = False
     n_free = int(size[tendril].sum())
     return float(n_near / max(n_near + n_free, 1))

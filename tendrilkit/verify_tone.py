@@ -38,7 +38,7 @@ from tendrilkit.evidence import ViewEvidence
 from tendrilkit.segmentation import grey_image
 
 __all__ = ["tip_tone_frac", "off_colour_run_px", "tip_tone_message", "off_colour_message", "tendril_colours",
-           "other_colour", "line_seen_by_colour", "BOARD_PX", "MAX_CHROMA"]
+           "line_seen_by_colour", "BOARD_PX", "MAX_CHROMA"]
 
 #: Half side of the square around a point whose pixels that are not dark give the board's grey there, px.
 BOARD_PX = 80
@@ -231,21 +231,6 @@ def tendril_colours(crop_bgr: np.ndarray | None, ev: ViewEvidence, dense_xy: np.
             return None
         refs.append(np.median(_chroma(crop_bgr[rc[sel, 0], rc[sel, 1]]), axis=0))
     return np.array(refs)
-
-
-def other_colour(crop_bgr: np.ndarray, ev: ViewEvidence, xy: np.ndarray, refs: np.ndarray, *,
-                 max_chroma: float = MAX_CHROMA) -> bool:
-    """Whether pixels ``xy`` (m, 2), full-image (a skeleton branch), are of another colour than the tendril's.
-
-    Their median chromaticity differs from both of :func:`tendril_colours`'
-    ``refs`` by more than ``max_chroma`` (largest component): a green
-    petiole or a leaf's vein beside a brown tendril, not a part of it.
-    """
-    rc, inside = _crop_rc(ev, np.asarray(xy, float).reshape(-1, 2))
-    if not inside.any():
-        return False
-    c = np.median(_chroma(crop_bgr[rc[inside, 0], rc[inside, 1]]), axis=0)
-    return bool(np.all(np.abs(refs - c).max(axis=1) > max_chroma))
 
 
 def line_seen_by_colour(crop_bgr: np.ndarray, ev: ViewEvidence, dense_xy: np.ndarray, refs: np.ndarray,

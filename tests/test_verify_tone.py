@@ -102,21 +102,6 @@ def _figures_inputs(img):
     return ev, c, d, on, radius, tendril_colours(img, ev, c, on)
 
 
-def test_coverage_leaves_out_a_touching_branch_of_another_colour_only():
-    from tendrilkit.verify_coverage import coverage_frac
-
-    img = _image(dark_to=250)
-    cv2.line(img, (150, 62), (200, 105), (40, 140, 60), 3)  # a green petiole touching the brown-grey tendril
-    ev, c, d, on, radius, refs = _figures_inputs(img)
-    plain = coverage_frac(ev, c, d, 2.0, 4.0, ev.inside_px, radius)
-    assert plain < 0.9
-    assert coverage_frac(ev, c, d, 2.0, 4.0, ev.inside_px, radius, colour=(img, refs)) == 1.0
-    same = _image(dark_to=250)
-    cv2.line(same, (150, 62), (200, 105), (60, 70, 80), 3)  # the same colour: possibly the tendril's, it counts
-    ev, c, d, on, radius, refs = _figures_inputs(same)
-    assert coverage_frac(ev, c, d, 2.0, 4.0, ev.inside_px, radius, colour=(same, refs)) < 0.9
-
-
 def test_line_seen_by_colour_in_front_of_a_leaf_not_on_one_of_its_colour():
     from tendrilkit.verify_tone import line_seen_by_colour
 
