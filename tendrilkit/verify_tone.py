@@ -37,8 +37,7 @@ import numpy as np
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.segmentation import grey_image
 
-__all__ = ["tip_tone_frac", "off_colour_run_px", "tip_tone_message", "off_colour_message", "tendril_colours",
-           "line_seen_by_colour", "BOARD_PX", "MAX_CHROMA"]
+__all__ = ["tip_tone_frac", "off_colour_run_px", "tip_tone_message", "off_colour_message", "BOARD_PX", "MAX_CHROMA"]
 
 #: Half side of the square around a point whose pixels that are not dark give the board's grey there, px.
 BOARD_PX = 80
@@ -205,83 +204,6 @@ def _chroma(bgr: np.ndarray) -> np.ndarray:
     """(n, 3) chromaticity ``(b, g, r) / (b + g + r)`` of (n, 3) BGR pixels (+ 1 each: black has a colour too)."""
     bgr = bgr.astype(float) + 1.0
     return bgr / bgr.sum(axis=1, keepdims=True)
-
-
-def tendril_colours(crop_bgr: np.ndarray | None, ev: ViewEvidence, dense_xy: np.ndarray,
-                    on: np.ndarray) -> np.ndarray | None:
-    """The tendril's chromaticity under the curve's proximal and distal thirds, (2, 3), or None.
-
-    None without colour or when a third has no sample on the dark pixels
-    (``on``, (n,) bool over ``dense_xy``). A tendril may change colour
-    along its length (green at the tip, brown at the base): both ends are
-    its colours.
-    """
-    if crop_bgr is None or crop_bgr.ndim != 3 or len(dense_xy) < 3:
-        return None
-    n = len(dense_xy)
-    rc, inside = _crop_rc(ev, dense_xy)
-    use = on & inside
-    k = max(n // 3, 1)
-    refs = []
-    for part in (slice(0, k), slice(n - k, n)):
-        sel = np.zeros(n, bool)
-        sel[part] = True
-        sel &= use
-        if not sel.any():
-            return None
-        refs.append(np.median(_chroma(crop_bgr[rc[sel, 0], rc[sel, 1]]), axis=0))
-    return np.array(refs)
-
-
-def line_seen_by_colour(crop_bgr: np.ndarray, ev: ViewEvidence, dense_xy: np.ndarray, refs: np.ndarray,
-                        radius_px: float, *, where: np.ndarray | None = None,
-                        max_chroma: float = MAX_CHROMA) -> np.ndarray:
-    """(n,) bool: where the tendril's line shows by its colour under the projected curve.
-
-    A sample shows the line where the pixel under it has the tendril's
-    colour (within ``max_chroma`` of one of ``refs``,
-    :func:`tendril_colours`) and the pixels two half widths and a pixel to
-    either side do not (more than ``max_chroma`` from it): a brown tendril in
-    front of a green leaf, whose dark pixels merge with the leaf's, is still
-    seen there.
-
-    Parameters
-    ----------
-    crop_bgr : (h, w, 3) uint8 array
-        The view's colour image, ROI crop.
-    ev : ViewEvidence
-    dense_xy : (n, 2) float array
-        The projected curve resampled every pixel, full-image px.
-    refs : (2, 3) float array
-        The tendril's chromaticities.
-    radius_px : float
-        The tendril's half width in this view, px.
-    where : (n,) bool array, optional
-        The samples to look at (the others are False); default all.
-    """
-    n = len(dense_xy)
-    out = np.zeros(n, bool)
-    if n < 3 or not (np.isfinite(radius_px) and radius_px > 0):
-        return out
-    idx = np.arange(n) if where is None else np.flatnonzero(where)
-    if not idx.size:
-        return out
-    tang = np.gradient(dense_xy, axis=0)[idx]
-    norm = np.hypot(tang[:, 0], tang[:, 1])
-    norm[norm == 0] = 1.0
-    nrm = np.column_stack([-tang[:, 1], tang[:, 0]]) / norm[:, None]
-    side = 2.0 * radius_px + 1.0
-    cols = []
-    at = dense_xy[idx]
-    for xy in (at, at + side * nrm, at - side * nrm):
-        rc, inside = _crop_rc(ev, xy)
-        rc[~inside] = 0
-        cols.append((_chroma(crop_bgr[rc[:, 0], rc[:, 1]]), inside))
-    (c0, i0), (c1, i1), (c2, i2) = cols
-    own = np.min([np.abs(c0 - r).max(axis=1) for r in refs], axis=0) <= max_chroma
-    apart = (np.abs(c1 - c0).max(axis=1) > max_chroma) & (np.abs(c2 - c0).max(axis=1) > max_chroma)
-    out[idx] = own & apart & i0 & i1 & i2
-    return out
 
 
 def _two_views(figures: dict, stem: str, n_views: int, fails) -> list[tuple[int, float]]:
