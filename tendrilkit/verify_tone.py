@@ -10,7 +10,7 @@ ways a curve can be wrong leave them agreeing with it:
   The image still shows the coil: as dark against the board as the tendril
   before it. The figure is the fraction of a corridor ahead of the projected
   tip (``reach_px`` along the tip's direction, ``corridor`` tendril half
-  widths to either side, the curve's own footprint left out) whose pixels
+  widths to either side, the curve's own footprint, :data:`FOOTPRINT`, left out) whose pixels
   are darker than the board near the tip by at least half the tendril's own
   darkness (the curve's proximal third against the board near it). The
   board is the 75th percentile of the grey of the pixels that are not dark
@@ -41,6 +41,10 @@ __all__ = ["tip_tone_frac", "off_colour_run_px", "tip_tone_message", "off_colour
 
 #: Half side of the square around a point whose pixels that are not dark give the board's grey there, px.
 BOARD_PX = 80
+#: The curve's footprint, left out of the corridor ahead of its tip: this many tendril half widths (and 2 px) to
+#: either side of it. A thick tendril's rounded end and blurred edges reach beyond one half width and a pixel: the
+#: S4 site phantom's right curves read up to 0.058 in their second-worst view with that footprint, 0.016 with this one.
+FOOTPRINT = 1.5
 #: A pixel's chromaticity differs from the tendril's when one of its three components does by more than this.
 MAX_CHROMA = 0.06
 
@@ -140,12 +144,13 @@ def tip_tone_frac(crop_bgr: np.ndarray, ev: ViewEvidence, dense_xy: np.ndarray, 
     crc = np.column_stack([lin // w, lin % w])
     if not len(crc):
         return None
-    # the footprint: the curve drawn radius + 1 px to either side, on the corridor's box
+    # the footprint: the curve drawn 1.5 half widths and 2 px to either side (its blurred edges, and the
+    # rounded end of a thick tendril beyond the centreline's last point), on the corridor's box
     r0, c0 = crc.min(axis=0)
     r1, c1 = crc.max(axis=0) + 1
     foot = np.zeros((r1 - r0, c1 - c0), np.uint8)
     line = np.rint((dense_xy - ev.roi_offset_xy - [c0, r0]) * 4).astype(np.int32)
-    cv2.polylines(foot, [line], False, 1, 2 * int(np.ceil(radius_px + 1.0)) + 1, cv2.LINE_8, 2)
+    cv2.polylines(foot, [line], False, 1, 2 * int(np.ceil(FOOTPRINT * radius_px + 2.0)) + 1, cv2.LINE_8, 2)
     crc = crc[foot[crc[:, 0] - r0, crc[:, 1] - c0] == 0]
     if ev.keep_out is not None:
         crc = crc[~ev.in_keep_out(crc[:, ::-1] + ev.roi_offset_xy)]
