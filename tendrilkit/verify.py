@@ -483,13 +483,11 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             if np.isfinite(radius_px):  # px to mm at the curve's median depth in this view
                 widths.append(2.0 * radius_px * float(np.median(cam.world_to_cam(X)[:, 2])) / float(cam.K[0, 0]))
             at_base = near_base(ev)  # the components at the base mark: the coverage's and the base check's
-            img = None if images is None else images[v]
-            crop = None if img is None else _roi_crop(img, ev)
-            on_mask = seen & (d <= tolerance_px)
             out[f"coverage_frac_v{v + 1}"] = coverage_frac(ev, dense[seen], d[seen], tolerance_px,
                                                            coverage_tolerance_px, inside_px, radius_px,
                                                            near=at_base)
             wide = on_wide(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO)
+            on_mask = seen & (d <= tolerance_px)
             # the skeleton shows the tendril's middle only where its line is seen: on pixels wider than the
             # tendril (a leaf it passes in front of) the skeleton is the blob's, not the tendril's
             on = dense[on_mask & ~wide]
@@ -505,7 +503,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             out[f"base_on_tendril_frac_v{v + 1}"] = base_on_tendril(ev, dense[keep], d[keep], tolerance_px,
                                                                      inside=inside_px, near=at_base)
             out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(wide, seen & (d <= tolerance_px))
-            out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, on_mask)
+            out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, seen & (d <= tolerance_px))
             out[f"beyond_tip_px_v{v + 1}"] = beyond_tip_px(ev, dense, inside_px, radius_px, cov_tol=coverage_tolerance_px,
                                                            tol=tolerance_px, wide_ratio=WIDE_RATIO, sk_dist=sk_dist)
             out[f"tip_object_px_v{v + 1}"] = tip_object_px(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO,
@@ -515,7 +513,8 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                                                              min_turn_deg=junction_turn_deg,
                                                              min_branch_px=junction_line_px)
             out[f"distal_widening_ratio_v{v + 1}"] = distal_widening(X, cam, ev, tol_px=tolerance_px)
-            if crop is not None:
+            if images is not None and images[v] is not None:  # the image's tone and colour (the frame's pixels)
+                crop = _roi_crop(images[v], ev)
                 out[f"tip_tone_frac_v{v + 1}"] = tip_tone_frac(crop, ev, dense, on_mask, radius_px, channel=channel)
                 out[f"off_colour_run_px_v{v + 1}"] = off_colour_run_px(crop, ev, dense, seen, on_mask)
     out["views_checked"] = checked

@@ -70,7 +70,6 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
       unexplained branch (:func:`tendrilkit.verify_crossing.crossing_branches`):
       a thin line crossing the tendril (a second tendril, a stalk).
 
-
     The coverage is the explained skeleton over explained plus the
     tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`
     of ``ev`` when the caller has it.
