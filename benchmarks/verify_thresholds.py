@@ -69,10 +69,11 @@ def reverify(seed_dir: Path, th: Thresholds, method: str | None = None) -> pd.Da
                 pts.append(None)
                 continue
             P = g[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
-            ev = [view_evidence(s.read(f), roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, **seg_opts)
-                  for s, m in zip(srcs, exp.views)]
+            imgs = [s.read(f) for s in srcs]
+            ev = [view_evidence(img, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, **seg_opts)
+                  for img, m in zip(imgs, exp.views)]
             q = {"pwc_r2": r.pwc_r2 if np.isfinite(r.pwc_r2) else None}
-            msgs = verify_frame(P, cams, ev, q, th)
+            msgs = verify_frame(P, cams, ev, q, th, images=imgs, channel=seg_opts.get("channel", "blue"))
             rows.append({"frame": f, "time_s": r.time_s, "status": "doubtful" if msgs else "ok",
                          "message": "; ".join(msgs), **q})
             pts.append(P)

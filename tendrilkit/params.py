@@ -454,6 +454,8 @@ class Verification(_Strict):
     min_junction_turn_deg: float = Field(60.0, ge=0, le=180)
     min_junction_line_px: NonNegFloat = 15.0
     max_distal_widening: PositiveFloat = 1.5
+    max_tip_tone_frac: float = Field(0.05, ge=0, le=1)
+    max_off_colour_run_px: PositiveFloat = 100.0
 
 
 class Analysis(_Strict):

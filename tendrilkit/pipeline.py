@@ -364,7 +364,8 @@ def _verify(points: np.ndarray, images: list, cameras: list[Camera], exp, seg_op
                 view_evidence(img, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, foreground=fg,
                               **seg_opts)
                 for img, m, fg in zip(images, exp.views, labelled)]
-    return verify_frame(points, cameras, evidence, q, Thresholds.from_params(exp.verification))
+    return verify_frame(points, cameras, evidence, q, Thresholds.from_params(exp.verification), images=images,
+                        channel=seg_opts.get("channel", "blue"))
 
 
 def _shape_and_fit(points: np.ndarray, q: dict, notes: list, exp, frame: int, t_s: float, fit: bool,
@@ -480,7 +481,8 @@ def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous
                     q[f"reproj_{k_}_px_v{row['view']}"] = row[f"{k_}_px"]
         pwc, pwc_segments, pwc_row = _shape_and_fit(points, q, notes, exp, frame, t_s, fit, timings)
         t0 = time.perf_counter()
-        checks = verify_frame(points, cameras, views, q, Thresholds.from_params(exp.verification))
+        checks = verify_frame(points, cameras, views, q, Thresholds.from_params(exp.verification), images=images,
+                              channel=exp.segmentation.channel)
         timings["verify"] = time.perf_counter() - t0
     except FrameError as e:
         return FrameResult(frame=frame, time_s=t_s, status="failed", message="; ".join(notes + [f"{type(e).__name__}: {e}"]),
