@@ -82,7 +82,7 @@ __all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "re
 STUB_MM = 20.0
 #: The tip's extension crosses at most this many gaps that no two views see (a tendril under leaves), each
 #: up to ``MAX_GAP_MM`` long; past a gap it must go on along two views for ``BRIDGE_CONFIRM_MM``.
-MAX_BRIDGES = 2
+MAX_BRIDGES = 4
 MAX_GAP_MM = 15.0
 BRIDGE_CONFIRM_MM = 3.0
 
@@ -341,6 +341,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     ext_mm = 0.0  # arc length added
     budget_mm = max_extend_mm  # the extension's end: past a gap, a new extension of max_extend_mm
     bridges = 0
+    pending = None  # where the gaps crossed since the last confirmed extension began, in ext
     while True:
         stopped = False  # by the evidence (not by a length limit)
         while ext_mm + step_mm <= budget_mm + 1e-9:
@@ -371,10 +372,8 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
             ext_mm += step_mm
             if len(ext) > lag:
                 claims = claim(evidence, claims, np.asarray(ext[-lag - 2:-lag]))
-        if bridges and len(ext) - bridged_at < BRIDGE_CONFIRM_MM / step_mm:
-            # the far end of the last gap did not lead on along two views: not the tendril coming out again
-            del ext[bridged_at - 1:]
-            break
+        if pending is not None and len(ext) - bridged_at >= BRIDGE_CONFIRM_MM / step_mm:
+            pending = None  # the far end of the last gap led on along two views: the tendril came out again
         if not stopped or bridges == MAX_BRIDGES:
             break
         room = min(MAX_GAP_MM, max_length_mm - s_[-1] - ext_mm)
@@ -382,6 +381,8 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         if far is None:
             break
         gap = float(np.linalg.norm(far - tip))
+        if pending is None:
+            pending = len(ext)  # undone unless some gap from here on leads on along two views
         t = (far - tip) / gap
         tip = far
         ext.append(tip)
@@ -391,6 +392,10 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         bridged_at = len(ext)
         # past the gap the tip explains new pixels only (the curve up to the gap's near end claims its own)
         claims = claim(evidence, claims, resample_polyline(np.asarray(X + ext[:-1], float), step=0.25))
+    if pending is not None:
+        # the far end of the last gap did not lead on along two views (nor did a gap crossed from near it): not
+        # the tendril coming out again
+        del ext[pending:]
     if ext and runs_out(evidence, [np.asarray(X + ext, float)], 2.0)[0] \
             and not runs_out(evidence, [np.asarray(X, float)], 2.0)[0]:
         # the extension ends where two views stop seeing (their ROIs' edge): it ran onto something hanging in
