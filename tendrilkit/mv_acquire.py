@@ -66,6 +66,9 @@ TURN_PX = 0.5
 BAND_PX = 6.0
 #: The far end of a gap must lead on: the views see the tendril this far beyond it, straight on (mm).
 LEAD_MM = np.array([1.5, 3.0])
+#: A gap where the views see dark pixels off their skeletons (another thin structure crossing the tendril) is
+#: at most this long (mm).
+CROSSING_MM = 4.0
 #: Places of a gap's far end refined at most (nearest first).
 MAX_REFINED = 100
 
@@ -474,7 +477,7 @@ def light_band(evidence: list[SkeletonEvidence], A_mm: np.ndarray, P_mm: np.ndar
 
 
 def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: np.ndarray, *,
-               max_gap_mm: float, cone_deg: float = 75.0, step_mm: float = 1.0,
+               max_gap_mm: float, cone_deg: float = 30.0, step_mm: float = 1.0,
                coarse_px: float = 6.0) -> np.ndarray | None:
     """Where the tendril comes out again after a part that fewer than two views see on their skeletons (None: nowhere).
 
@@ -526,9 +529,20 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
     d_q, seen_q, _, bg_q = point_costs(evidence, Q, nearest=True)
     band_q = bg_q & light_band(evidence, tip, Q)
     open_q = bg_q & ~band_q
-    absent = ~seen_q | (d_q > ON_PX)
-    if not np.any((absent.sum(axis=0) >= 2) & (open_q.sum(axis=0) < 2)):
-        return None
+    absent = ~seen_q | band_q  # covered, outside the ROI, or a light band across a dark object
+    free = open_q.sum(axis=0) < 2
+    if not np.any((absent.sum(axis=0) >= 2) & free):
+        # or dark but off the skeleton (another thin structure crossing it): a crossing is short
+        dark = np.zeros_like(seen_q)
+        for v, ev in enumerate(evidence):
+            u = np.rint(ev.camera.project(Q) - ev.offset_xy)
+            h, w = ev.inside_px.shape
+            on_crop = np.all(np.isfinite(u), axis=1) & (u[:, 0] >= 0) & (u[:, 1] >= 0) & (u[:, 0] < w) & (u[:, 1] < h)
+            ui = np.where(on_crop[:, None], u, 0).astype(np.int64)
+            dark[v] = on_crop & (ev.inside_px[ui[:, 1], ui[:, 0]] >= 1.0)
+        if not np.any(((absent | (dark & (d_q > ON_PX))).sum(axis=0) >= 2) & free):
+            return None
+        max_gap_mm = min(max_gap_mm, CROSSING_MM)
     claims = claim(evidence, None, resample_polyline(curve, step=0.25))
     dirs = cone_directions(t, cone_deg, 8)
     r = np.arange(step_mm, max_gap_mm + 1e-9, step_mm)
@@ -567,6 +581,8 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
             on[v] &= ~((nf[v] >= 0) & c[np.maximum(nf[v], 0)])
         # two views or more on their skeletons, and every view that sees the place too: not a ghost of two views
         good = (on.sum(axis=0) >= 2) & np.all(on | ~sf, axis=0)
+        # within the cone (the finer cone around a chord reaches beyond it near the tip)
+        good &= (F - tip) @ t >= np.cos(np.radians(cone_deg)) * np.linalg.norm(F - tip, axis=1)
         if good.any():  # and the tendril leads on from there straight on (not a stub of the object it crossed)
             g = np.flatnonzero(good)
             u = (F[g] - tip) / np.linalg.norm(F[g] - tip, axis=1, keepdims=True)
