@@ -525,7 +525,7 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
     t = np.asarray(tangent, float) / max(np.linalg.norm(tangent), 1e-12)
     # the tip must end in a place two views do not see on their skeletons (not on the open board: a free tip)
     near_dirs = cone_directions(t, 30.0, 2)
-    Q = (tip + near_dirs[:, None, :] * np.array([1.0, 2.0])[None, :, None]).reshape(-1, 3)
+    Q = (tip + near_dirs[:, None, :] * np.array([1.0, 2.0, 3.0])[None, :, None]).reshape(-1, 3)
     d_q, seen_q, _, bg_q = point_costs(evidence, Q, nearest=True)
     band_q = bg_q & light_band(evidence, tip, Q)
     open_q = bg_q & ~band_q
@@ -563,10 +563,11 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
     if not len(kk):
         return None
     order = np.lexsort((kk, jj))
-    best = None
+    best = None  # the nearest gap found so far, mm
+    found: list[tuple[float, float, np.ndarray]] = []  # (gap, mean distance to the skeletons, place)
     tried: list[np.ndarray] = []
     for k, j in zip(kk[order], jj[order]):
-        if len(tried) == MAX_REFINED or (best is not None and r[j] - step_mm > best[0]):
+        if len(tried) == MAX_REFINED or (best is not None and r[j] - 2 * step_mm > best):
             break
         centre = dirs[k]
         if any(np.linalg.norm(tip + r[j] * centre - q) < 1.5 * step_mm for q in tried):
@@ -582,7 +583,8 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
         # two views or more on their skeletons, and every view that sees the place too: not a ghost of two views
         good = (on.sum(axis=0) >= 2) & np.all(on | ~sf, axis=0)
         # within the cone (the finer cone around a chord reaches beyond it near the tip)
-        good &= (F - tip) @ t >= np.cos(np.radians(cone_deg)) * np.linalg.norm(F - tip, axis=1)
+        gap_f = np.linalg.norm(F - tip, axis=1)
+        good &= ((F - tip) @ t >= np.cos(np.radians(cone_deg)) * gap_f) & (gap_f >= step_mm)
         if good.any():  # and the tendril leads on from there straight on (not a stub of the object it crossed)
             g = np.flatnonzero(good)
             u = (F[g] - tip) / np.linalg.norm(F[g] - tip, axis=1, keepdims=True)
@@ -593,12 +595,15 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
             good[g] = lead
         if not good.any():
             continue
-        cost = np.where(good, (df * sf).sum(axis=0) / np.maximum(sf.sum(axis=0), 1), np.inf)
-        i = int(np.argmin(cost))
-        gap = float(np.linalg.norm(F[i] - tip))
-        if best is None or gap < best[0] - 1e-9:
-            best = (gap, F[i])
-    return None if best is None else best[1]
+        cost = (df * sf).sum(axis=0) / np.maximum(sf.sum(axis=0), 1)
+        for i in np.flatnonzero(good):
+            found.append((float(gap_f[i]), float(cost[i]), F[i]))
+        best = min(f[0] for f in found) if found else None
+    if not found:
+        return None
+    # the nearest places (within a step of the nearest) and among them the one nearest every view's skeleton
+    near_ones = [f for f in found if f[0] <= best + step_mm]
+    return min(near_ones, key=lambda f: (f[1], f[0]))[2]
 
 
 def runs_out(evidence: list[SkeletonEvidence], curves: list[np.ndarray], step_mm: float) -> np.ndarray:
