@@ -37,9 +37,13 @@ Coverage (:func:`adjust_tip`)
     something hanging in from outside (a second tendril, a petiole), and
     the tendril's tip is a free end inside every ROI. Where the extension
     stops because no two views see on (a leaf over the tendril in every
-    view), it crosses the gap to where every view sees the tendril again
+    view, a pale tendril over the stem, a thin structure crossing it), it
+    crosses the gap to where the views see the tendril again
     (:func:`tendrilkit.mv_acquire.bridge_gap`, at most ``MAX_GAP_MM``) and
-    goes on from there; the nodes in the gap rest on the bending term.
+    goes on from there; the nodes in the gap rest on the bending term. Up
+    to ``MAX_BRIDGES`` gaps; gaps crossed one after the other are undone
+    together unless the extension past the last goes on along two views for
+    ``BRIDGE_CONFIRM_MM``.
 
 Tracking (:func:`reconstruct_multiview`)
     A frame starts from the previous frame's curve (identity carried in 3D),
@@ -80,8 +84,9 @@ __all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "re
 #: A curve shorter than this (mm) that runs out of two views' ROIs is a stem stub, not the tendril: the marks put
 #: the tendril inside every ROI, and it is tens of millimetres long.
 STUB_MM = 20.0
-#: The tip's extension crosses at most this many gaps that no two views see (a tendril under leaves), each
-#: up to ``MAX_GAP_MM`` long; past a gap it must go on along two views for ``BRIDGE_CONFIRM_MM``.
+#: The tip's extension crosses at most this many gaps that no two views see on their skeletons (a tendril under
+#: leaves, over the stem, crossing a second tendril), each up to ``MAX_GAP_MM`` long; past a gap it must go on
+#: along two views for ``BRIDGE_CONFIRM_MM`` (a gap crossed right after another confirms both).
 MAX_BRIDGES = 4
 MAX_GAP_MM = 15.0
 BRIDGE_CONFIRM_MM = 3.0

@@ -479,31 +479,36 @@ def light_band(evidence: list[SkeletonEvidence], A_mm: np.ndarray, P_mm: np.ndar
 def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: np.ndarray, *,
                max_gap_mm: float, cone_deg: float = 30.0, step_mm: float = 1.0,
                coarse_px: float = 6.0) -> np.ndarray | None:
-    """Where the tendril comes out again after a part that fewer than two views see on their skeletons (None: nowhere).
+    """Where the tendril comes out again after a part that two views do not see on their skeletons (None: nowhere).
 
     A tendril under a leaf in every view, or under leaves, has a gap in
-    which no two views see it; a tendril merged with a leaf or the stem it
-    touches has no skeleton of its own there; a pale tendril over the stem
-    looks like the board where it crosses it (a light band across the
-    stem, :func:`light_band`). Past the gap the views see it again. Straight
-    chords from the tip within ``cone_deg`` of its tangent are followed in
-    steps of ``step_mm`` up to ``max_gap_mm``:
+    which no two views see it; a pale tendril over the stem looks like the
+    board where it crosses it (a light band across the stem,
+    :func:`light_band`); where another thin structure crosses it the views
+    see dark pixels off its skeleton. Past the gap the views see it again.
+    Straight chords from the tip within ``cone_deg`` of its tangent are
+    followed in steps of ``step_mm`` up to ``max_gap_mm``:
 
-    - the tip must end where two views or more do not see the tendril on
-      their skeletons (covered by something wider than a tendril, outside
-      their ROIs, dark but off the skeleton, or a light band across a dark
-      object), not where two show the open board (a free tip);
+    - 1-3 mm ahead of the tip, two views or more must not see the tendril
+      (covered by something wider than a tendril, outside their ROIs, or a
+      light band across a dark object), and fewer than two show the open
+      board (a free tip ends there); or two views see dark pixels off their
+      skeletons there (a crossing): then the gap is at most ``CROSSING_MM``;
     - a chord ends where two views show the open board on it (the tendril
       cannot pass there unseen; one view may, a pale tendril looking like
       the board; a light band across a dark object does not end it);
-    - its first place that two views see within ``coarse_px`` of skeleton
-      pixels the curve has not explained is refined on a finer cone; it is
-      the gap's far end if two views or more see it within ``ON_PX`` of
-      their skeletons and every other view cannot see it (covered, outside
-      its ROI): two views alone agree on ghosts (any pixel of one view's
-      skeleton has an epipolar line that meets the other's somewhere), so a
-      third view that sees the place must confirm it. The nearest such
-      place wins.
+    - its places that two views see within ``coarse_px`` of skeleton pixels
+      the curve has not explained are refined on a finer cone, nearest
+      first; a refined place is a far end if two views or more see it within
+      ``ON_PX`` of their skeletons and every other view cannot see it
+      (covered, outside its ROI): two views alone agree on ghosts (any pixel
+      of one view's skeleton has an epipolar line that meets the other's
+      somewhere), so a third view that sees the place must confirm it. It
+      must lie within the cone and lead on: two views (and every view that
+      sees them) have the tendril ``LEAD_MM`` beyond it straight on, within
+      ``2 ON_PX`` (not a stub of the object crossed). Of the far ends within
+      a step of the nearest, the one nearest the views' skeletons there and
+      ahead wins.
 
     Parameters
     ----------
@@ -540,7 +545,10 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
             on_crop = np.all(np.isfinite(u), axis=1) & (u[:, 0] >= 0) & (u[:, 1] >= 0) & (u[:, 0] < w) & (u[:, 1] < h)
             ui = np.where(on_crop[:, None], u, 0).astype(np.int64)
             dark[v] = on_crop & (ev.inside_px[ui[:, 1], ui[:, 0]] >= 1.0)
-        if not np.any(((absent | (dark & (d_q > ON_PX))).sum(axis=0) >= 2) & free):
+        # or two views see it on their skeletons a little further (the extension stopped where a third showed the
+        # board: a pale tendril lost at a crossing in that view)
+        on_q = seen_q & (d_q <= ON_PX) & ~bg_q
+        if not np.any(((absent | (dark & (d_q > ON_PX)) | on_q).sum(axis=0) >= 2) & free):
             return None
         max_gap_mm = min(max_gap_mm, CROSSING_MM)
     claims = claim(evidence, None, resample_polyline(curve, step=0.25))
@@ -593,15 +601,20 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
             on_a = sa & (da <= 2 * ON_PX) & ~ba
             lead = ((on_a.sum(axis=0) >= 2) & np.all(on_a | ~sa, axis=0)).reshape(len(g), len(LEAD_MM)).all(axis=1)
             good[g] = lead
+            # the distance to the skeletons at the place and ahead of it (a place off in depth leads off them)
+            ahead_cost = ((np.minimum(da, 2 * ON_PX) * sa).sum(axis=0) / np.maximum(sa.sum(axis=0), 1)).reshape(
+                len(g), len(LEAD_MM)).mean(axis=1)
         if not good.any():
             continue
         cost = (df * sf).sum(axis=0) / np.maximum(sf.sum(axis=0), 1)
+        cost[g] += ahead_cost
         for i in np.flatnonzero(good):
             found.append((float(gap_f[i]), float(cost[i]), F[i]))
         best = min(f[0] for f in found) if found else None
     if not found:
         return None
-    # the nearest places (within a step of the nearest) and among them the one nearest every view's skeleton
+    # the nearest places (within a step of the nearest) and among them the one nearest the views' skeletons there and
+    # ahead
     near_ones = [f for f in found if f[0] <= best + step_mm]
     return min(near_ones, key=lambda f: (f[1], f[0]))[2]
 
