@@ -492,8 +492,11 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
     - 1-3 mm ahead of the tip, two views or more must not see the tendril
       (covered by something wider than a tendril, outside their ROIs, or a
       light band across a dark object), and fewer than two show the open
-      board (a free tip ends there); or two views see dark pixels off their
-      skeletons there (a crossing): then the gap is at most ``CROSSING_MM``;
+      board (a free tip ends there); or, counting as not seeing it too, views
+      that see dark pixels off their skeletons there (another thin structure
+      crossing it) and views that see it on their skeletons (the extension
+      stopped where a third showed the board: a pale tendril lost at a
+      crossing in that view): then the gap is at most ``CROSSING_MM``;
     - a chord ends where two views show the open board on it (the tendril
       cannot pass there unseen; one view may, a pale tendril looking like
       the board; a light band across a dark object does not end it);
