@@ -37,9 +37,13 @@ Coverage (:func:`adjust_tip`)
     something hanging in from outside (a second tendril, a petiole), and
     the tendril's tip is a free end inside every ROI. Where the extension
     stops because no two views see on (a leaf over the tendril in every
-    view), it crosses the gap to where every view sees the tendril again
+    view, a pale tendril over the stem, a thin structure crossing it), it
+    crosses the gap to where the views see the tendril again
     (:func:`tendrilkit.mv_acquire.bridge_gap`, at most ``MAX_GAP_MM``) and
-    goes on from there; the nodes in the gap rest on the bending term.
+    goes on from there; the nodes in the gap rest on the bending term. Up
+    to ``MAX_BRIDGES`` gaps; gaps crossed one after the other are undone
+    together unless the extension past the last goes on along two views for
+    ``BRIDGE_CONFIRM_MM``.
 
 Tracking (:func:`reconstruct_multiview`)
     A frame starts from the previous frame's curve (identity carried in 3D),
@@ -80,9 +84,10 @@ __all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "re
 #: A curve shorter than this (mm) that runs out of two views' ROIs is a stem stub, not the tendril: the marks put
 #: the tendril inside every ROI, and it is tens of millimetres long.
 STUB_MM = 20.0
-#: The tip's extension crosses at most this many gaps that no two views see (a tendril under leaves), each
-#: up to ``MAX_GAP_MM`` long; past a gap it must go on along two views for ``BRIDGE_CONFIRM_MM``.
-MAX_BRIDGES = 2
+#: The tip's extension crosses at most this many gaps that no two views see on their skeletons (a tendril under
+#: leaves, over the stem, crossing a second tendril), each up to ``MAX_GAP_MM`` long; past a gap it must go on
+#: along two views for ``BRIDGE_CONFIRM_MM`` (a gap crossed right after another confirms both).
+MAX_BRIDGES = 4
 MAX_GAP_MM = 15.0
 BRIDGE_CONFIRM_MM = 3.0
 
@@ -341,6 +346,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     ext_mm = 0.0  # arc length added
     budget_mm = max_extend_mm  # the extension's end: past a gap, a new extension of max_extend_mm
     bridges = 0
+    pending = None  # where the gaps crossed since the last confirmed extension began, in ext
     while True:
         stopped = False  # by the evidence (not by a length limit)
         while ext_mm + step_mm <= budget_mm + 1e-9:
@@ -371,10 +377,8 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
             ext_mm += step_mm
             if len(ext) > lag:
                 claims = claim(evidence, claims, np.asarray(ext[-lag - 2:-lag]))
-        if bridges and len(ext) - bridged_at < BRIDGE_CONFIRM_MM / step_mm:
-            # the far end of the last gap did not lead on along two views: not the tendril coming out again
-            del ext[bridged_at - 1:]
-            break
+        if pending is not None and len(ext) - bridged_at >= BRIDGE_CONFIRM_MM / step_mm:
+            pending = None  # the far end of the last gap led on along two views: the tendril came out again
         if not stopped or bridges == MAX_BRIDGES:
             break
         room = min(MAX_GAP_MM, max_length_mm - s_[-1] - ext_mm)
@@ -382,6 +386,8 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         if far is None:
             break
         gap = float(np.linalg.norm(far - tip))
+        if pending is None:
+            pending = len(ext)  # undone unless some gap from here on leads on along two views
         t = (far - tip) / gap
         tip = far
         ext.append(tip)
@@ -391,6 +397,10 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         bridged_at = len(ext)
         # past the gap the tip explains new pixels only (the curve up to the gap's near end claims its own)
         claims = claim(evidence, claims, resample_polyline(np.asarray(X + ext[:-1], float), step=0.25))
+    if pending is not None:
+        # the far end of the last gap did not lead on along two views (nor did a gap crossed from near it): not
+        # the tendril coming out again
+        del ext[pending:]
     if ext and runs_out(evidence, [np.asarray(X + ext, float)], 2.0)[0] \
             and not runs_out(evidence, [np.asarray(X, float)], 2.0)[0]:
         # the extension ends where two views stop seeing (their ROIs' edge): it ran onto something hanging in

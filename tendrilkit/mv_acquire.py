@@ -74,7 +74,7 @@ from numba import njit
 from tendrilkit.geometry import resample_polyline
 from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, skeleton_distance
 
-__all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap"]
+__all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap", "light_band"]
 
 #: A point's distance to a view's skeleton is capped at this (pixels).
 CAP_PX = 10.0
@@ -87,6 +87,16 @@ STOP_PX = 4.0
 #: The cost of a step turning by the search cone's half-angle (pixels), growing with the square of the
 #: angle: a fifth of ``ON_PX``, so the skeletons' bends are followed and ties are broken straight on.
 TURN_PX = 0.5
+#: A place a view shows as board with dark pixels within this on both sides across the tendril's direction is a
+#: light band across a dark object (a pale tendril over the stem or a leaf), not the open board (pixels).
+BAND_PX = 6.0
+#: The far end of a gap must lead on: the views see the tendril this far beyond it, straight on (mm).
+LEAD_MM = np.array([1.5, 3.0])
+#: A gap where the views see dark pixels off their skeletons (another thin structure crossing the tendril) is
+#: at most this long (mm).
+CROSSING_MM = 4.0
+#: Places of a gap's far end refined at most (nearest first).
+MAX_REFINED = 100
 
 
 def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: float = CAP_PX, nearest: bool = False):
@@ -443,27 +453,91 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     return np.asarray(best[0], float)
 
 
+def light_band(evidence: list[SkeletonEvidence], A_mm: np.ndarray, P_mm: np.ndarray, *,
+               reach_px: float = BAND_PX) -> np.ndarray:
+    """(V, n) whether each point lies, in each view, on a light band across a dark object (dark on both sides).
+
+    A pale tendril over a darker object (the stem, a leaf) looks like the
+    board there: the object's pixels are cut by a light band, the tendril
+    itself. A place the view shows as board is such a band when dark pixels
+    (``near_foreground``) lie within ``reach_px`` of it on both sides across
+    the line from A to it (the tendril's direction); a free tip over the
+    open board has board on both sides, a tendril along an edge on one.
+
+    Parameters
+    ----------
+    evidence : list of SkeletonEvidence
+    A_mm : (3,) or (n, 3) float array
+        Where the line comes from (the tip), world mm.
+    P_mm : (n, 3) float array
+        The points, world mm.
+    reach_px : float
+
+    Returns
+    -------
+    (V, n) bool array
+        False where the point does not project on the view's crop.
+    """
+    P = np.asarray(P_mm, float).reshape(-1, 3)
+    A = np.broadcast_to(np.asarray(A_mm, float).reshape(-1, 3), P.shape)
+    k = np.arange(1.0, reach_px + 1e-9)
+    out = np.zeros((len(evidence), len(P)), bool)
+    for v, ev in enumerate(evidence):
+        uA, uP = ev.camera.project(A), ev.camera.project(P)
+        t = uP - uA
+        t = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-9)
+        n = np.c_[-t[:, 1], t[:, 0]]
+        h, w = ev.near_foreground.shape
+        sides = []
+        for sign in (1.0, -1.0):
+            q = uP[:, None, :] + sign * k[None, :, None] * n[:, None, :] - ev.offset_xy  # (n, k, 2) crop (x, y)
+            good = np.all(np.isfinite(q), axis=2)
+            xi = np.rint(np.where(good, q[..., 0], -1.0)).astype(np.int64)
+            yi = np.rint(np.where(good, q[..., 1], -1.0)).astype(np.int64)
+            good &= (xi >= 0) & (yi >= 0) & (xi < w) & (yi < h)
+            dark = np.zeros(xi.shape, bool)
+            dark[good] = ev.near_foreground[yi[good], xi[good]]
+            sides.append(dark.any(axis=1))
+        out[v] = sides[0] & sides[1]
+    return out
+
+
 def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: np.ndarray, *,
-               max_gap_mm: float, cone_deg: float = 75.0, step_mm: float = 1.0,
+               max_gap_mm: float, cone_deg: float = 30.0, step_mm: float = 1.0,
                coarse_px: float = 6.0) -> np.ndarray | None:
-    """Where the tendril comes out again after a part that fewer than two views see (None: nowhere).
+    """Where the tendril comes out again after a part that two views do not see on their skeletons (None: nowhere).
 
     A tendril under a leaf in every view, or under leaves, has a gap in
-    which no two views see it; past the gap the views see it again. Straight
-    chords from the tip within ``cone_deg`` of its tangent are followed in
-    steps of ``step_mm`` up to ``max_gap_mm``:
+    which no two views see it; a pale tendril over the stem looks like the
+    board where it crosses it (a light band across the stem,
+    :func:`light_band`); where another thin structure crosses it the views
+    see dark pixels off its skeleton. Past the gap the views see it again.
+    Straight chords from the tip within ``cone_deg`` of its tangent are
+    followed in steps of ``step_mm`` up to ``max_gap_mm``:
 
-    - the tip must end where two views or more do not see (covered by
-      something wider than a tendril, or outside their ROIs), not where two
-      show the board (a free tip);
-    - a chord ends where two views show the board on it (the tendril cannot
-      pass there unseen; one view may, a pale tendril looking like the board);
-    - its first place that two views see within ``coarse_px`` of skeleton
-      pixels the curve has not explained is refined on a finer cone; it is
-      the gap's far end if every view then sees it within ``ON_PX`` of its
-      skeleton (two views alone agree on ghosts: any pixel of one view's
-      skeleton has an epipolar line that meets the other's somewhere). The
-      nearest such place wins.
+    - 1-3 mm ahead of the tip, two views or more must not see the tendril
+      (covered by something wider than a tendril, outside their ROIs, or a
+      light band across a dark object), and fewer than two show the open
+      board (a free tip ends there); or, counting as not seeing it too, views
+      that see dark pixels off their skeletons there (another thin structure
+      crossing it) and views that see it on their skeletons (the extension
+      stopped where a third showed the board: a pale tendril lost at a
+      crossing in that view): then the gap is at most ``CROSSING_MM``;
+    - a chord ends where two views show the open board on it (the tendril
+      cannot pass there unseen; one view may, a pale tendril looking like
+      the board; a light band across a dark object does not end it);
+    - its places that two views see within ``coarse_px`` of skeleton pixels
+      the curve has not explained are refined on a finer cone, nearest
+      first; a refined place is a far end if two views or more see it within
+      ``ON_PX`` of their skeletons and every other view cannot see it
+      (covered, outside its ROI): two views alone agree on ghosts (any pixel
+      of one view's skeleton has an epipolar line that meets the other's
+      somewhere), so a third view that sees the place must confirm it. It
+      must lie within the cone and lead on: two views (and every view that
+      sees them) have the tendril ``LEAD_MM`` beyond it straight on, within
+      ``2 ON_PX`` (not a stub of the object crossed). Of the far ends within
+      a step of the nearest, the one nearest the views' skeletons there and
+      ahead wins.
 
     Parameters
     ----------
@@ -483,13 +557,29 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
     curve = np.asarray(curve_mm, float)
     tip = curve[-1]
     t = np.asarray(tangent, float) / max(np.linalg.norm(tangent), 1e-12)
-    # the tip must end in a place two views do not see (not on the board: a free tip ends there)
+    # the tip must end in a place two views do not see on their skeletons (not on the open board: a free tip)
     near_dirs = cone_directions(t, 30.0, 2)
-    Q = (tip + near_dirs[:, None, :] * np.array([1.0, 2.0])[None, :, None]).reshape(-1, 3)
-    _, seen_q, _, bg_q = point_costs(evidence, Q, nearest=True)
-    hidden = (~seen_q).sum(axis=0) >= 2
-    if not np.any(hidden & (bg_q.sum(axis=0) < 2)):
-        return None
+    Q = (tip + near_dirs[:, None, :] * np.array([1.0, 2.0, 3.0])[None, :, None]).reshape(-1, 3)
+    d_q, seen_q, _, bg_q = point_costs(evidence, Q, nearest=True)
+    band_q = bg_q & light_band(evidence, tip, Q)
+    open_q = bg_q & ~band_q
+    absent = ~seen_q | band_q  # covered, outside the ROI, or a light band across a dark object
+    free = open_q.sum(axis=0) < 2
+    if not np.any((absent.sum(axis=0) >= 2) & free):
+        # or dark but off the skeleton (another thin structure crossing it): a crossing is short
+        dark = np.zeros_like(seen_q)
+        for v, ev in enumerate(evidence):
+            u = np.rint(ev.camera.project(Q) - ev.offset_xy)
+            h, w = ev.inside_px.shape
+            on_crop = np.all(np.isfinite(u), axis=1) & (u[:, 0] >= 0) & (u[:, 1] >= 0) & (u[:, 0] < w) & (u[:, 1] < h)
+            ui = np.where(on_crop[:, None], u, 0).astype(np.int64)
+            dark[v] = on_crop & (ev.inside_px[ui[:, 1], ui[:, 0]] >= 1.0)
+        # or two views see it on their skeletons a little further (the extension stopped where a third showed the
+        # board: a pale tendril lost at a crossing in that view)
+        on_q = seen_q & (d_q <= ON_PX) & ~bg_q
+        if not np.any(((absent | (dark & (d_q > ON_PX)) | on_q).sum(axis=0) >= 2) & free):
+            return None
+        max_gap_mm = min(max_gap_mm, CROSSING_MM)
     claims = claim(evidence, None, resample_polyline(curve, step=0.25))
     dirs = cone_directions(t, cone_deg, 8)
     r = np.arange(step_mm, max_gap_mm + 1e-9, step_mm)
@@ -500,32 +590,62 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
         new[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
     shape = (len(dirs), len(r))
     hit = (new.sum(axis=0) >= 2).reshape(shape)
+    if bg.any():
+        bg = bg & ~light_band(evidence, tip, P)
     blocked = (bg.sum(axis=0) >= 2).reshape(shape)
-    # along each chord: the first hit before anything blocks it
+    # along each chord: the hits before anything blocks it, nearest first (the first may be a stub of the object
+    # the tendril crosses: a few more places are refined, each more than a step from those refined already)
     first_block = np.where(blocked.any(axis=1), blocked.argmax(axis=1), len(r))
-    first_hit = np.where(hit.any(axis=1), hit.argmax(axis=1), len(r))
-    ok = first_hit < first_block
-    if not ok.any():
+    kk, jj = np.nonzero(hit & (np.arange(len(r))[None, :] < first_block[:, None]))
+    if not len(kk):
         return None
-    best = None
-    for k in np.flatnonzero(ok)[np.argsort(first_hit[ok], kind="stable")][:6]:
+    order = np.lexsort((kk, jj))
+    best = None  # the nearest gap found so far, mm
+    found: list[tuple[float, float, np.ndarray]] = []  # (gap, mean distance to the skeletons, place)
+    tried: list[np.ndarray] = []
+    for k, j in zip(kk[order], jj[order]):
+        if len(tried) == MAX_REFINED or (best is not None and r[j] - 2 * step_mm > best):
+            break
         centre = dirs[k]
-        fine_dirs = cone_directions(centre, np.degrees(np.arctan2(2.0 * step_mm, r[first_hit[k]])), 3)
-        rr = r[first_hit[k]] + np.arange(-1.0, 1.01, 0.25) * step_mm
+        if any(np.linalg.norm(tip + r[j] * centre - q) < 1.5 * step_mm for q in tried):
+            continue
+        tried.append(tip + r[j] * centre)
+        fine_dirs = cone_directions(centre, np.degrees(np.arctan2(2.0 * step_mm, r[j])), 3)
+        rr = r[j] + np.arange(-1.0, 1.01, 0.25) * step_mm
         F = (tip + fine_dirs[:, None, :] * rr[None, :, None]).reshape(-1, 3)
         df, sf, nf, bf = point_costs(evidence, F, nearest=True)
         on = sf & (df <= ON_PX) & ~bf.any(axis=0)
         for v, c in enumerate(claims):
             on[v] &= ~((nf[v] >= 0) & c[np.maximum(nf[v], 0)])
-        good = on.sum(axis=0) == len(evidence)  # every view sees it on its skeleton: not a ghost of two views
+        # two views or more on their skeletons, and every view that sees the place too: not a ghost of two views
+        good = (on.sum(axis=0) >= 2) & np.all(on | ~sf, axis=0)
+        # within the cone (the finer cone around a chord reaches beyond it near the tip)
+        gap_f = np.linalg.norm(F - tip, axis=1)
+        good &= ((F - tip) @ t >= np.cos(np.radians(cone_deg)) * gap_f) & (gap_f >= step_mm)
+        if good.any():  # and the tendril leads on from there straight on (not a stub of the object it crossed)
+            g = np.flatnonzero(good)
+            u = (F[g] - tip) / np.linalg.norm(F[g] - tip, axis=1, keepdims=True)
+            ahead = (F[g][:, None, :] + u[:, None, :] * LEAD_MM[None, :, None]).reshape(-1, 3)
+            da, sa, _, ba = point_costs(evidence, ahead, nearest=True)
+            on_a = sa & (da <= 2 * ON_PX) & ~ba
+            lead = ((on_a.sum(axis=0) >= 2) & np.all(on_a | ~sa, axis=0)).reshape(len(g), len(LEAD_MM)).all(axis=1)
+            good[g] = lead
+            # the distance to the skeletons at the place and ahead of it (a place off in depth leads off them)
+            ahead_cost = ((np.minimum(da, 2 * ON_PX) * sa).sum(axis=0) / np.maximum(sa.sum(axis=0), 1)).reshape(
+                len(g), len(LEAD_MM)).mean(axis=1)
         if not good.any():
             continue
-        cost = np.where(good, (df * sf).sum(axis=0) / np.maximum(sf.sum(axis=0), 1), np.inf)
-        i = int(np.argmin(cost))
-        gap = float(np.linalg.norm(F[i] - tip))
-        if best is None or gap < best[0] - 1e-9:
-            best = (gap, F[i])
-    return None if best is None else best[1]
+        cost = (df * sf).sum(axis=0) / np.maximum(sf.sum(axis=0), 1)
+        cost[g] += ahead_cost
+        for i in np.flatnonzero(good):
+            found.append((float(gap_f[i]), float(cost[i]), F[i]))
+        best = min(f[0] for f in found) if found else None
+    if not found:
+        return None
+    # the nearest places (within a step of the nearest) and among them the one nearest the views' skeletons there and
+    # ahead
+    near_ones = [f for f in found if f[0] <= best + step_mm]
+    return min(near_ones, key=lambda f: (f[1], f[0]))[2]
 
 
 def runs_out(evidence: list[SkeletonEvidence], curves: list[np.ndarray], step_mm: float) -> np.ndarray:

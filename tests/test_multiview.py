@@ -344,3 +344,55 @@ def test_bridge_gap_finds_where_a_leaf_hiding_the_tendril_ends():
     d, i = cKDTree(X).query(far)
     assert d <= 1.0 and 38.0 <= arc[i] <= 42.0, (d, arc[i])
     assert bridge_gap(evs, X, X[-1] - X[-40], max_gap_mm=15.0) is None
+
+
+def _pale_over_stem(X, arc, at_mm, width_mm, cut_mm=None):
+    """Views of the tube X with a stem (a dark bar ``width_mm`` wide) across it at ``at_mm`` of arc: the tube over
+    the stem is as light as the board (a pale tendril in front of the stem). With ``cut_mm`` the tube ends there."""
+    T = X if cut_mm is None else X[:np.searchsorted(arc, cut_mm)]
+    images, cams, exp = render_tube_views(T, width_px=9, margin_px=40)
+    c = X[np.searchsorted(arc, at_mm)]
+    for img, cam in zip(images, cams):
+        u = cam.project(c[None])[0]
+        t = cam.project(X[np.searchsorted(arc, at_mm + 1.0)][None])[0] - u
+        t /= np.linalg.norm(t)
+        n = np.array([-t[1], t[0]])  # the stem runs across the tube in every view
+        w = float(np.linalg.norm(cam.project(X[np.searchsorted(arc, at_mm + width_mm / 2)][None])[0] - u))
+        stem = np.zeros(img.shape[:2], np.uint8)
+        a, b = u - 400 * n, u + 400 * n
+        cv2.line(stem, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), 1, int(round(2 * w)))
+        tube = np.zeros(img.shape[:2], np.uint8)
+        p = cam.project(T)
+        cv2.polylines(tube, [np.round(p).astype(np.int32)], False, 1, 9)
+        img[(stem > 0) & (tube == 0)] = (30, 60, 30)
+        img[(stem > 0) & (tube > 0)] = 235  # the pale tube over the stem: a light band across it
+    return images, cams, exp
+
+
+def test_bridge_gap_crosses_a_pale_tendril_over_the_stem():
+    """A pale tendril in front of the stem looks like the board there in every view (a light band across the
+    stem): the gap's far end is found on the tendril past the stem. A tendril that ends under the stem has no
+    far end; neither has a free tip over the board."""
+    from tendrilkit.mv_acquire import bridge_gap, light_band
+
+    s = np.linspace(0.0, 1.0, 2000)
+    X = np.c_[-5 + 70 * s, 5 * np.sin(2 * s), 20 + 3 * s]
+    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
+    images, cams, exp = _pale_over_stem(X, arc, 35.0, 4.0)
+    evs = _evidence(images, cams, exp)
+    k = np.searchsorted(arc, 32.5)  # the curve so far ends at the stem's near edge (33-37 mm: over the stem)
+    mid = X[np.searchsorted(arc, 35.0)]
+    assert light_band(evs, X[k], mid[None]).all()  # the stem's pixels on both sides of the band in every view
+    assert not light_band(evs, X[k], X[-1][None] + [5.0, 0.0, 0.0]).any()  # the open board past the free tip
+    far = bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0)
+    assert far is not None
+    d, i = cKDTree(X).query(far)
+    assert d <= 1.0 and 36.0 <= arc[i] <= 42.0, (d, arc[i])
+    assert bridge_gap(evs, X, X[-1] - X[-40], max_gap_mm=15.0) is None
+    # the tendril ends under the stem (drawn dark over it, nothing past it): no far end
+    images, cams, exp = _pale_over_stem(X, arc, 35.0, 4.0, cut_mm=36.0)
+    for img, cam in zip(images, cams):
+        p = cam.project(X[np.searchsorted(arc, 33.0):np.searchsorted(arc, 36.0)])
+        cv2.polylines(img, [np.round(p).astype(np.int32)], False, (30, 60, 30), 9)
+    evs = _evidence(images, cams, exp)
+    assert bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0) is None
