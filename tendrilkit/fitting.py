@@ -261,13 +261,6 @@ def _fit_cut(frames: np.ndarray, times: np.ndarray, xyz: np.ndarray, cuts: list[
     return out
 
 
-def _worker_init() -> None:
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # and SIGTERM: it ends the workers
-
-
 def _fit_in_pool(frames, times, xyz, cuts, options, workers):
     """The frames' fits over ``workers`` forked processes, in frame order (each fit is the one of one process).
 
@@ -279,11 +272,13 @@ def _fit_in_pool(frames, times, xyz, cuts, options, workers):
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
+    from tendrilkit.pools import ignore_interrupts, stop_pool
+
     done = _fit_cut(frames, times, xyz, cuts[:1], options)
     rest = cuts[1:]
     size = max(1, -(-len(rest) // (CHUNKS_PER_WORKER * workers)))
     chunks = [rest[i:i + size] for i in range(0, len(rest), size)]
-    pool = ProcessPoolExecutor(workers, mp_context=mp.get_context("fork"), initializer=_worker_init)
+    pool = ProcessPoolExecutor(workers, mp_context=mp.get_context("fork"), initializer=ignore_interrupts)
     try:
         jobs = []
         for c in chunks:  # each job gets its frames' rows only
@@ -293,13 +288,7 @@ def _fit_in_pool(frames, times, xyz, cuts, options, workers):
         for job in jobs:
             done.extend(job.result())
     except BaseException:  # Ctrl-C, SIGTERM or an error: the workers end with the parent
-        procs = list((getattr(pool, "_processes", None) or {}).values())  # no public way to end them in 3.11
-        pool.shutdown(wait=False, cancel_futures=True)
-        for p in procs:
-            if p.is_alive():
-                p.terminate()
-        for p in procs:
-            p.join()
+        stop_pool(pool)
         raise
     pool.shutdown()
     return done

@@ -77,7 +77,6 @@ import json
 import math
 import multiprocessing as mp
 import os
-import signal
 import warnings
 from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass
@@ -91,6 +90,7 @@ from tendrilkit.exceptions import ExperimentError, FrameError, FrameReadError
 from tendrilkit.options import stage_options
 from tendrilkit.assembly import assemble_tables, with_run_checks, with_temporal_checks
 from tendrilkit.pipeline import RESULT_FILES, FrameResult, reconstruct_frame
+from tendrilkit.pools import ignore_interrupts, stop_pool
 from tendrilkit.segmentation import segment_view
 
 __all__ = ["ReconstructSummary", "run_reconstruct", "frame_fingerprint", "RESULT_FILES"]
@@ -143,8 +143,7 @@ def _run_chunk(args) -> list[FrameResult]:
 def _worker_init() -> None:
     import cv2
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # and SIGTERM; _stop() ends the workers with it
+    ignore_interrupts()  # the parent handles Ctrl-C and SIGTERM; stop_pool() ends the workers with it
     cv2.setNumThreads(1)
 
 
@@ -394,7 +393,7 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
                 yield from _collect(pool, sources)
         finally:
             if executor is None:
-                _stop(pool)
+                stop_pool(pool)
 
     def _collect(pool: Executor, sources):
         if multiview:
@@ -454,17 +453,6 @@ def _own_pool(workers: int, fit: bool) -> ProcessPoolExecutor:
     else:
         ctx = mp.get_context("spawn")
     return ProcessPoolExecutor(workers, mp_context=ctx, initializer=_worker_init)
-
-
-def _stop(pool: ProcessPoolExecutor) -> None:
-    """Shut the own pool down at once (Ctrl-C, SIGTERM, an error: the finished frames are on disk)."""
-    procs = list((getattr(pool, "_processes", None) or {}).values())  # no public way to end workers in 3.11
-    pool.shutdown(wait=False, cancel_futures=True)
-    for p in procs:
-        if p.is_alive():
-            p.terminate()
-    for p in procs:
-        p.join()
 
 
 class _Sources:
