@@ -479,11 +479,11 @@ def light_band(evidence: list[SkeletonEvidence], A_mm: np.ndarray, P_mm: np.ndar
         False where the point does not project on the view's crop.
     """
     P = np.asarray(P_mm, float).reshape(-1, 3)
-    A = np.broadcast_to(np.asarray(A_mm, float).reshape(-1, 3), P.shape)
+    A0 = np.asarray(A_mm, float).reshape(-1, 3)
     k = np.arange(1.0, reach_px + 1e-9)
     out = np.zeros((len(evidence), len(P)), bool)
     for v, ev in enumerate(evidence):
-        uA, uP = ev.camera.project(A), ev.camera.project(P)
+        uA, uP = ev.camera.project(A0), ev.camera.project(P)
         t = uP - uA
         t = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-9)
         n = np.c_[-t[:, 1], t[:, 0]]
@@ -590,8 +590,9 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
         new[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
     shape = (len(dirs), len(r))
     hit = (new.sum(axis=0) >= 2).reshape(shape)
-    if bg.any():
-        bg = bg & ~light_band(evidence, tip, P)
+    cols = np.flatnonzero(bg.sum(axis=0) >= 2)  # light bands matter only where two views show the board
+    if len(cols):
+        bg[:, cols] &= ~light_band(evidence, tip, P[cols])
     blocked = (bg.sum(axis=0) >= 2).reshape(shape)
     # along each chord: the hits before anything blocks it, nearest first (the first may be a stub of the object
     # the tendril crosses: a few more places are refined, each more than a step from those refined already)
@@ -607,9 +608,10 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
         if len(tried) == MAX_REFINED or (best is not None and r[j] - 2 * step_mm > best):
             break
         centre = dirs[k]
-        if any(np.linalg.norm(tip + r[j] * centre - q) < 1.5 * step_mm for q in tried):
+        here = tip + r[j] * centre
+        if tried and np.linalg.norm(np.asarray(tried) - here, axis=1).min() < 1.5 * step_mm:
             continue
-        tried.append(tip + r[j] * centre)
+        tried.append(here)
         fine_dirs = cone_directions(centre, np.degrees(np.arctan2(2.0 * step_mm, r[j])), 3)
         rr = r[j] + np.arange(-1.0, 1.01, 0.25) * step_mm
         F = (tip + fine_dirs[:, None, :] * rr[None, :, None]).reshape(-1, 3)

@@ -36,6 +36,7 @@ import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.segmentation import grey_image
+from tendrilkit.verify_tip import wide_run_px
 
 __all__ = ["tip_tone_frac", "off_colour_run_px", "tip_tone_message", "off_colour_message", "BOARD_PX", "MAX_CHROMA"]
 
@@ -198,11 +199,8 @@ def off_colour_run_px(crop_bgr: np.ndarray, ev: ViewEvidence, dense_xy: np.ndarr
     rcu[~inside] = 0
     chroma = _chroma(crop_bgr[rcu[:, 0], rcu[:, 1]])
     ref = np.median(chroma[ref_sel], axis=0)
-    off = use & (np.abs(chroma - ref).max(axis=1) > max_chroma)
-    if not off.any():
-        return 0.0
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], off.view(np.int8), [0]])))  # starts and ends of the runs
-    return float(np.max(edges[1::2] - edges[::2]))
+    off = np.abs(chroma - ref).max(axis=1) > max_chroma
+    return wide_run_px(off, use)  # the longest run of seen samples off-colour
 
 
 def _chroma(bgr: np.ndarray) -> np.ndarray:

@@ -30,12 +30,13 @@ def _stem_mm(n=100):
     return np.column_stack([-23 + 0 * t, -30 + 19 * t, np.zeros(n)])
 
 
-def _scene(extra_draw=None, tendril_frac=1.0):
+def _scene(extra_draw=None, tendril_frac=1.0, with_images=False):
     """Images and evidence of two views: tendril (5 px wide; its first ``tendril_frac``), stem (9 px wide),
-    keep-out box between them; ``extra_draw(img, cam)`` adds more dark shapes (a leaf, ...)."""
+    keep-out box between them; ``extra_draw(img, cam)`` adds more dark shapes (a leaf, ...). ``with_images``:
+    the images too, as a third item."""
     cams = _cameras()
     T, S = _tendril_mm(frac=tendril_frac), _stem_mm()
-    evidence = []
+    evidence, images = [], []
     for cam in cams:
         img = np.full((300, 400, 3), 240, np.uint8)
         for X, width in ((T, 5), (S, 9)):
@@ -48,7 +49,8 @@ def _scene(extra_draw=None, tendril_frac=1.0):
         roi = [int(base[0]) - 30, 0, 300, 250]
         evidence.append(view_evidence(img, roi=roi, keep_out=keep_out, base_point_xy=base, opening_radius_px=0,
                                       min_component_px=20))
-    return cams, evidence
+        images.append(img)
+    return (cams, evidence, images) if with_images else (cams, evidence)
 
 
 @pytest.fixture(scope="module")
@@ -100,6 +102,26 @@ def test_shrunk_curve_is_caught_at_the_tip(scene):
     # one view only (clutter at the tip in that view) is not enough
     one = {**q, "tip_continuation_px_v2": 0.0}
     assert not any(m.startswith("tip:") for m in image_check_messages(one, 2, Thresholds()))
+
+
+def test_tone_and_colour_figures_are_read_from_the_frames_and_reported():
+    cams, ev, images = _scene(with_images=True)
+    short = _tendril_mm(frac=0.6)  # the tendril goes on, as dark as before, beyond the curve's tip
+    q: dict = {}
+    msgs = verify_frame(short, cams, ev, q, Thresholds(), images=images)
+    for v in (1, 2):
+        assert q[f"tip_tone_frac_v{v}"] > 0.2
+        assert q[f"off_colour_run_px_v{v}"] == 0.0  # one grey tendril: one colour
+    assert any(m.startswith("tip: the image ahead of the curve's tip") for m in msgs)
+    right: dict = {}
+    msgs = verify_frame(_tendril_mm(), cams, ev, right, Thresholds(), images=images)
+    assert all(right[f"tip_tone_frac_v{v}"] <= Thresholds().max_tip_tone_frac for v in (1, 2))
+    assert not any(m.startswith("tip: the image ahead") for m in msgs)
+    # without the frames the figures are unknown and the checks are silent
+    none: dict = {}
+    msgs = verify_frame(short, cams, ev, none, Thresholds())
+    assert all(none[f"{c}_v{v}"] is None for c in ("tip_tone_frac", "off_colour_run_px") for v in (1, 2))
+    assert not any(m.startswith("tip: the image ahead") for m in msgs)
 
 
 def test_shifted_curve_is_caught_by_precision(scene):
