@@ -18,6 +18,7 @@ hands the options to the stages.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -522,6 +523,15 @@ class Experiment(_Strict):
                     if getattr(m, key) is None:
                         raise ValueError(f"views[{i}].{key}: required key is missing (`python -m tendrilkit marks "
                                          f"EXPERIMENT.yaml` suggests the marks of every view)")
+        return self
+
+    @model_validator(mode="after")
+    def _ignored(self) -> "Experiment":
+        """Warn of an option the chosen reconstruction does not read (a batch would otherwise ignore it silently)."""
+        if self.correspondence.method != "epipolar" and self.reconstruction.method == "multiview":
+            warnings.warn(f"correspondence.method: {self.correspondence.method} is read only with "
+                          "reconstruction.method: chain; the multiview reconstruction (the default) ignores it",
+                          UserWarning, stacklevel=2)
         return self
 
     @property

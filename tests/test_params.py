@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import pytest
@@ -170,3 +171,14 @@ def test_example_ijcv25_params_file_loads():
     assert exp.extrinsics is not None and all(f.is_file() for f in exp.extrinsics.files)
     assert [v.suffix for v in exp.videos] == [".MOV"] * 3
     assert exp.frames.step == 3600
+
+
+def test_a_correspondence_method_the_multiview_reconstruction_ignores_is_warned_of():
+    data = copy.deepcopy(GOOD)
+    data["correspondence"] = {"method": "frechet"}
+    with pytest.warns(UserWarning, match="correspondence.method: frechet is read only with reconstruction.method: chain"):
+        parse_experiment(data)  # multiview, the default
+    data["reconstruction"] = {"method": "chain"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert parse_experiment(data).correspondence.method == "frechet"  # read: no warning
