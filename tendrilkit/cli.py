@@ -151,8 +151,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     with _without_numba_extras():
         from tendrilkit.fitting import run_fit
 
-        summary = run_fit(Path(args.curves), Path(args.out),
-                          workers=args.workers if args.workers is not None else (os.cpu_count() or 1))
+        summary = run_fit(Path(args.curves), Path(args.out), workers=args.workers)  # None: every core
     print(summary)
     return 0 if summary.n_failed == 0 else 1  # as reconstruct: 1 when some frames failed
 

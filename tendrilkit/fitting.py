@@ -266,7 +266,7 @@ def _fit_in_pool(frames, times, xyz, cuts, options, workers):
 
     The first frame is fitted here first: numba's compiled kernels are then loaded once, and the
     forked workers inherit them. Chunks of consecutive frames, about :data:`CHUNKS_PER_WORKER` per worker
-    (a fit costs 10-80 ms: small chunks keep both workers busy to the end; a chunk's hand-over costs
+    (a fit costs 10-80 ms: small chunks keep every worker busy to the end; a chunk's hand-over costs
     well under a millisecond).
     """
     import multiprocessing as mp
@@ -349,7 +349,7 @@ def _row_columns(rows: list[dict], table) -> dict:
     return {c: [r[c] for r in rows] for c in table.columns}
 
 
-def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None, workers: int = 1) -> FitSummary:
+def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None, workers: int | None = 1) -> FitSummary:
     """Refit the piece-wise clothoid to every frame of ``curves_csv``; write the tables to ``out_dir``.
 
     Parameters
@@ -361,9 +361,9 @@ def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None, wor
     options : dict, keyword-only
         Keyword options of :func:`tendrilkit.pwc.fit_piecewise_clothoid`
         (default: its defaults, which are the experiment file's).
-    workers : int, keyword-only
-        Processes for the frames (forked; the command's default: every core). The same
-        tables whatever the number.
+    workers : int or None, keyword-only
+        Processes for the frames (forked; None: every core, the command's default, as
+        :func:`tendrilkit.runner.run_reconstruct`). The same tables whatever the number.
 
     Returns
     -------
@@ -374,8 +374,11 @@ def run_fit(curves_csv: Path, out_dir: Path, *, options: dict | None = None, wor
     ExperimentError
         Missing or malformed CSV, or an output folder that cannot be made.
     """
+    import os
+
     t0 = time.perf_counter()
     curves_csv, out_dir = Path(curves_csv), Path(out_dir)
+    workers = max(1, int(workers) if workers is not None else (os.cpu_count() or 1))
     from tendrilkit.io import check_writable_dir
     from tendrilkit.io.columns import write_columns
 

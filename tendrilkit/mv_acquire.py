@@ -487,18 +487,23 @@ def light_band(evidence: list[SkeletonEvidence], A_mm: np.ndarray, P_mm: np.ndar
         t = uP - uA
         t = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-9)
         n = np.c_[-t[:, 1], t[:, 0]]
-        h, w = ev.near_foreground.shape
-        sides = []
-        for sign in (1.0, -1.0):
-            q = uP[:, None, :] + sign * k[None, :, None] * n[:, None, :] - ev.offset_xy  # (n, k, 2) crop (x, y)
-            good = np.all(np.isfinite(q), axis=2)
-            xi = np.rint(np.where(good, q[..., 0], -1.0)).astype(np.int64)
-            yi = np.rint(np.where(good, q[..., 1], -1.0)).astype(np.int64)
-            good &= (xi >= 0) & (yi >= 0) & (xi < w) & (yi < h)
-            dark = np.zeros(xi.shape, bool)
-            dark[good] = ev.near_foreground[yi[good], xi[good]]
-            sides.append(dark.any(axis=1))
+        sides = [_on_crop_mask(ev.near_foreground, ev.offset_xy,
+                               uP[:, None, :] + sign * k[None, :, None] * n[:, None, :]).any(axis=1)
+                 for sign in (1.0, -1.0)]  # (n, k) samples across the line on either side
         out[v] = sides[0] & sides[1]
+    return out
+
+
+def _on_crop_mask(mask: np.ndarray, offset_xy: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """``mask`` (a view's crop) at full-image pixels ``xy`` (..., 2), nearest pixel; False off the crop or NaN."""
+    q = np.asarray(xy, float) - offset_xy
+    good = np.all(np.isfinite(q), axis=-1)
+    xi = np.rint(np.where(good, q[..., 0], -1.0)).astype(np.int64)
+    yi = np.rint(np.where(good, q[..., 1], -1.0)).astype(np.int64)
+    h, w = mask.shape
+    good &= (xi >= 0) & (yi >= 0) & (xi < w) & (yi < h)
+    out = np.zeros(good.shape, bool)
+    out[good] = mask[yi[good], xi[good]]
     return out
 
 
@@ -567,13 +572,7 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
     free = open_q.sum(axis=0) < 2
     if not np.any((absent.sum(axis=0) >= 2) & free):
         # or dark but off the skeleton (another thin structure crossing it): a crossing is short
-        dark = np.zeros_like(seen_q)
-        for v, ev in enumerate(evidence):
-            u = np.rint(ev.camera.project(Q) - ev.offset_xy)
-            h, w = ev.inside_px.shape
-            on_crop = np.all(np.isfinite(u), axis=1) & (u[:, 0] >= 0) & (u[:, 1] >= 0) & (u[:, 0] < w) & (u[:, 1] < h)
-            ui = np.where(on_crop[:, None], u, 0).astype(np.int64)
-            dark[v] = on_crop & (ev.inside_px[ui[:, 1], ui[:, 0]] >= 1.0)
+        dark = np.array([_on_crop_mask(ev.foreground, ev.offset_xy, ev.camera.project(Q)) for ev in evidence])
         # or two views see it on their skeletons a little further (the extension stopped where a third showed the
         # board: a pale tendril lost at a crossing in that view)
         on_q = seen_q & (d_q <= ON_PX) & ~bg_q
