@@ -17,6 +17,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 import venv
 from pathlib import Path
 
@@ -51,10 +52,30 @@ def _make_venv() -> None:
             sys.exit(f"[dev] cannot create a virtual environment ({e}); install Debian's python3-venv")
 
 
+#: Fits a few seeded curves, so that numba compiles the piece-wise clothoid's kernels into their on-disk
+#: caches once, here, instead of in a user's first ``fit`` or ``reconstruct`` (about 20 s of CPU, paid by
+#: every worker process that starts before the caches exist); about a second when they exist.
+WARM_NUMBA = """
+from tendrilkit.pwc import fit_piecewise_clothoid
+from tendrilkit.pwc.datasets import random_pwc_curve
+for seed in (1, 2):
+    fit_piecewise_clothoid(random_pwc_curve(seed).points_mm)
+"""
+
+
+def _warm_numba() -> None:
+    t0 = time.perf_counter()
+    if _run([PY, "-c", WARM_NUMBA], env=dict(os.environ, TENDRILKIT_PROGRESS="0")) != 0:
+        _say("warning: compiling numba's kernels failed; they will be compiled at first use")
+    else:
+        _say(f"numba's kernels ready ({time.perf_counter() - t0:.0f} s; compiled into their caches the first time)")
+
+
 def setup() -> None:
     digest = hashlib.sha256(LOCK.read_bytes()).hexdigest()
     if PY.exists() and STAMP.exists() and STAMP.read_text().strip() == digest:
         _say("environment is up to date (.venv)")
+        _warm_numba()
         return
     _say("creating .venv from environment.lock")
     _make_venv()
@@ -75,6 +96,7 @@ def setup() -> None:
     _run([PY, "-m", "ipykernel", "install", "--sys-prefix", "--name", "python3"], stdout=subprocess.DEVNULL)
     STAMP.write_text(digest + "\n")
     _say("environment ready")
+    _warm_numba()
 
 
 def demo() -> int:
