@@ -13,7 +13,7 @@ import numpy as np
 from tendrilkit.pwc.costs import _check_signal
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _insert_knot, _Joiner, _merge_knots
 from tendrilkit.pwc.rebuild import _law_sse
-from tendrilkit.pwc.refine import _best_insertions, _law_state, _refine_laws
+from tendrilkit.pwc.refine import _best_insertions, _hinge_positions, _law_state, _refine_laws
 from tendrilkit.pwc.search import penalty_path
 
 __all__: list[str] = []
@@ -154,16 +154,49 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
     # the score test asks for, while the criterion improves.
     state = (0, 0)
     cur = from_path(0, 0)
-    while not (criterion == "r2" and cur[3] >= target_r2) and len(rows) < max_candidates:
+    skipped = 0  # candidates that could not win, counted towards max_candidates as if evaluated
+
+    def hopeless(k_segments, t_segments):
+        """Can no candidate with these segment counts win over ``cur``, whatever its fit?
+
+        With ``precision_mm`` the SSE in BIC is floored: a candidate's BIC is at least that of the
+        floor with its segments. ``cur`` reaching ``target_r2`` with a BIC at or below that bound
+        wins over it (``_preferred``), and so over every candidate that it beats: an exact bound,
+        the search takes the same steps without evaluating it.
+        """
+        return (criterion == "bic" and sse_floor > 0 and cur[3] >= target_r2
+                and _bic(sse_floor, n, k_segments, t_segments) >= cur[4])
+
+    while not (criterion == "r2" and cur[3] >= target_r2) and len(rows) + skipped < max_candidates:
         a0, b0 = state
-        tried = [((a0 + d, b0), from_path(a0 + d, b0, cur, "k"))
-                 for d in range(1, lookahead + 1) if laws_k.has(a0 + d)]
-        tried += [((a0, b0 + d), from_path(a0, b0 + d, cur, "t"))
-                  for d in range(1, lookahead + 1) if laws_t.has(b0 + d)]
+        tried = []
+        for d in range(1, lookahead + 1):  # the fewest segments of a path candidate: its path law's
+            if laws_k.has(a0 + d):
+                if refine and hopeless(laws_k[a0 + d].n_segments, cur[1].n_segments):
+                    skipped += 1
+                else:
+                    tried.append(((a0 + d, b0), from_path(a0 + d, b0, cur, "k")))
+        for d in range(1, lookahead + 1):
+            if laws_t.has(b0 + d):
+                if refine and hopeless(cur[0].n_segments, laws_t[b0 + d].n_segments):
+                    skipped += 1
+                else:
+                    tried.append(((a0, b0 + d), from_path(a0, b0 + d, cur, "t")))
         if refine and insertions:
-            for which, found in zip("kt", insertions_at(cur[0], cur[1])):
+            if hopeless(cur[0].n_segments + 1, cur[1].n_segments) and hopeless(cur[0].n_segments,
+                                                                               cur[1].n_segments + 1):
+                # neither insertion could win: no score test (the candidates it would give are counted)
+                found_kt = [(0.0, 0.0) if ok.any() else None for ok in _hinge_positions(prep, cur[0], cur[1])[1]]
+                skip_insertions = True
+            else:
+                found_kt = insertions_at(cur[0], cur[1])
+                skip_insertions = False
+            for which, found in zip("kt", found_kt):
                 law = cur[0] if which == "k" else cur[1]
                 if found is None or law.n_segments >= max_segments:
+                    continue
+                if skip_insertions:
+                    skipped += 1
                     continue
                 sk = _insert_knot(cur[0], found[0]) if which == "k" else cur[0]
                 st = _insert_knot(cur[1], found[0]) if which == "t" else cur[1]
