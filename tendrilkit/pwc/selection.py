@@ -114,6 +114,15 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             rows[row] = entry
         return (lk, lt, sse, r2, bic, row)
 
+    defined = fr.tau[prep.wt > 0]
+    tau_lo, tau_hi = (float(defined.min()), float(defined.max())) if defined.size else (0.0, 0.0)
+
+    def path_tau(b):
+        """The torsion path law ``b`` as a start: its values within the range of the torsion where defined."""
+        law = laws_t[b]
+        v = np.clip(law.values, tau_lo, tau_hi)
+        return law if np.array_equal(v, law.values) else PiecewiseLinearLaw(law.knots_mm, v, "tau")
+
     def from_path(a, b, cur=None, move=None):
         """Candidate (a, b) of the paths. Without refinement: the laws as they are.
 
@@ -131,7 +140,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             kc = PiecewiseLinearLaw(ends_k, np.full(ends_k.size, float(np.median(fr.kappa))), "kappa")
             tc = PiecewiseLinearLaw(ends_t, np.full(ends_t.size, _weighted_median(fr.tau, prep.wt)), "tau")
             t0 = PiecewiseLinearLaw(ends_t, np.zeros(ends_t.size), "tau")
-            starts = [(laws_k[a], laws_t[b]), (kc, tc), (kc, t0), (laws_k[a], t0)]
+            starts = [(laws_k[a], path_tau(b)), (kc, tc), (kc, t0), (laws_k[a], t0)]
         elif move == "k":
             k_new, k_cur, t_cur = laws_k[a].knots_mm, cur[0], cur[1]
             u = _merge_knots(k_new, k_cur.knots_mm, prep.min_gap_mm)
@@ -140,7 +149,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
         else:
             t_new, k_cur, t_cur = laws_t[b].knots_mm, cur[0], cur[1]
             u = _merge_knots(t_new, t_cur.knots_mm, prep.min_gap_mm)
-            starts = [(k_cur, laws_t[b]), (k_cur, PiecewiseLinearLaw(t_new, t_cur(t_new), "tau")),
+            starts = [(k_cur, path_tau(b)), (k_cur, PiecewiseLinearLaw(t_new, t_cur(t_new), "tau")),
                       (k_cur, PiecewiseLinearLaw(u, t_cur(u), "tau"))]
         # compared by the SSE of the refinement's own evaluation, from which the best is refined
         start_k, start_t = min(starts, key=lambda x: start_state(x[0], x[1])[0])
