@@ -22,6 +22,10 @@ __all__: list[str] = []
 #: final one is then refined to convergence).
 STEP_ITERATIONS = 10
 
+#: Skip the candidates that cannot win (an exact bound: ``_auto_search``'s ``hopeless``). Off: every
+#: candidate is evaluated, the same fits more slowly (tests, benchmarks).
+SKIP_HOPELESS = True
+
 
 def _mid_penalty(lo: float, hi: float) -> float:
     if not np.isfinite(hi):
@@ -173,7 +177,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
         wins over it (``_preferred``), and so over every candidate that it beats: an exact bound,
         the search takes the same steps without evaluating it.
         """
-        return (criterion == "bic" and sse_floor > 0 and cur[3] >= target_r2
+        return (SKIP_HOPELESS and criterion == "bic" and sse_floor > 0 and cur[3] >= target_r2
                 and _bic(sse_floor, n, k_segments, t_segments) >= cur[4])
 
     while not (criterion == "r2" and cur[3] >= target_r2) and len(rows) + skipped < max_candidates:
