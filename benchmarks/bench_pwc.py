@@ -3,10 +3,16 @@
     .venv/bin/python benchmarks/bench_pwc.py [--frames 100]
 
 1. one 200-point frame: automatic penalty selection + rebuild (issue 17 target: <= 5 ms;
-   the paper: about 200 s; a port of the reference's 10-step search: about 4 s);
+   the paper: about 200 s; a port of the reference's 10-step search: about 4 s). Measured
+   (2026-11, 2 shared cores, load 4): median 14.9 ms CPU per frame (main 0ece53a: 14.8; the fits
+   bit-identical); of a frame's CPU, Levenberg-Marquardt 45-55 % (2 iterations for each of ~26
+   candidates, 10 for each of ~5 steps taken, the last to convergence), the knot score test 15 %,
+   signals and cost tables 10 %, the starts' evaluations 7 %, joins 6 %, the rest Python;
 2. the paper's grid search on the same frames;
 3. ``python -m tendrilkit fit`` on a 100-frame curves.csv, process start included
-   (issue 17 target: <= 2 s), run twice: the first run may compile numba's cache; then the
+   (issue 17 target: <= 2 s; on the 100 reconstructed frames of the S3 + S4 site outputs (S3's 60,
+   S4's first 40), load 4.7 on 2 cores: 3.6 s CPU with one worker, main 3.75 s), run twice: the
+   first run may compile numba's cache; then the
    start-up alone (imports, numba's first cache load) in a fresh process, and whether the
    environment holds compiled bytecode (without it every process compiles numba, pandas and
    scipy from source: about a second more).
