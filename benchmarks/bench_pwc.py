@@ -19,6 +19,17 @@
 Also prints the accuracy on the seeded noisy ground-truth curves and where the time of one
 frame goes (CPU per stage, measured in a second pass).
 
+Search variants measured against main 0ece53a on the 340 seeded curves of ``--baseline`` (mean distance
+to the truth median / p95 / worst mm, segment counts as the truth; main 0.0486 / 0.0771 / 0.1323, 42.6 %;
+CPU on a loaded machine, +-5 %): candidates and steps on every other point, the last fit on all
+(-18 % CPU; 0.0490 / 0.0795 / 0.1088, 36.8 %); a first search started at the paths' segmentations for a
+penalty of 0.05 (-10 %; 0.0493 / 0.0762 / 0.1352, 27.9 %) or 0.02 (worse); 1 quick iteration instead of 2
+(0.0503 / 0.0865, 33.8 %); the step taken refined 3 or 5 iterations instead of 10, or stopped at a
+relative gain of 1e-4 / 1e-3 (no clear CPU gain: fits less refined take more steps; p95 or median worse);
+the current fit refined as a candidate instead of the step (no gain; worst 0.2058); the score test's
+projection without forming it (13 curves change, -9 % of the test only). None kept: the search is
+balanced, each change moves single curves by +-0.05 mm and the aggregates the wrong way.
+
     .venv/bin/python benchmarks/bench_pwc.py --curves-csv RUN/curves.csv   # a reconstruction's curves
 
 times the fit on every frame of a reconstruction's ``curves.csv`` (what the pipeline's ``pwc`` stage
