@@ -3,15 +3,32 @@
     .venv/bin/python benchmarks/bench_pwc.py [--frames 100]
 
 1. one 200-point frame: automatic penalty selection + rebuild (issue 17 target: <= 5 ms;
-   the paper: about 200 s; a port of the reference's 10-step search: about 4 s);
+   the paper: about 200 s; a port of the reference's 10-step search: about 4 s). Measured
+   (2026-11, 2 shared cores, load 4): median 14.9 ms CPU per frame (main 0ece53a: 14.8; the fits
+   bit-identical); of a frame's CPU, Levenberg-Marquardt 45-55 % (2 iterations for each of ~26
+   candidates, 10 for each of ~5 steps taken, the last to convergence), the knot score test 15 %,
+   signals and cost tables 10 %, the starts' evaluations 7 %, joins 6 %, the rest Python;
 2. the paper's grid search on the same frames;
 3. ``python -m tendrilkit fit`` on a 100-frame curves.csv, process start included
-   (issue 17 target: <= 2 s), run twice: the first run may compile numba's cache; then the
+   (issue 17 target: <= 2 s; on the 100 reconstructed frames of the S3 + S4 site outputs (S3's 60,
+   S4's first 40), load 4.7 on 2 cores: 3.6 s CPU with one worker, main 3.75 s), run twice: the
+   first run may compile numba's cache; then the
    start-up alone (imports, numba's first cache load) in a fresh process, and whether the
    environment holds compiled bytecode (without it every process compiles numba, pandas and
    scipy from source: about a second more).
 Also prints the accuracy on the seeded noisy ground-truth curves and where the time of one
 frame goes (CPU per stage, measured in a second pass).
+
+Search variants measured against main 0ece53a on the 340 seeded curves of ``--baseline`` (mean distance
+to the truth median / p95 / worst mm, segment counts as the truth; main 0.0486 / 0.0771 / 0.1323, 42.6 %;
+CPU on a loaded machine, +-5 %): candidates and steps on every other point, the last fit on all
+(-18 % CPU; 0.0490 / 0.0795 / 0.1088, 36.8 %); a first search started at the paths' segmentations for a
+penalty of 0.05 (-10 %; 0.0493 / 0.0762 / 0.1352, 27.9 %) or 0.02 (worse); 1 quick iteration instead of 2
+(0.0503 / 0.0865, 33.8 %); the step taken refined 3 or 5 iterations instead of 10, or stopped at a
+relative gain of 1e-4 / 1e-3 (no clear CPU gain: fits less refined take more steps; p95 or median worse);
+the current fit refined as a candidate instead of the step (no gain; worst 0.2058); the score test's
+projection without forming it (13 curves change, -9 % of the test only). None kept: the search is
+balanced, each change moves single curves by +-0.05 mm and the aggregates the wrong way.
 
     .venv/bin/python benchmarks/bench_pwc.py --curves-csv RUN/curves.csv   # a reconstruction's curves
 

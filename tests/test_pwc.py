@@ -620,3 +620,49 @@ def test_bic_counts_residuals_down_to_the_precision_asked_for(monkeypatch):
     assert floored.scores.rmse_mm < 0.02 * F._allowed_rms_mm(floored.data_mm, 0.999)
     assert np.array_equal(noisy.points_mm, noisy0.points_mm)
     assert np.array_equal(noisy.candidates, noisy0.candidates)
+
+
+def test_candidates_that_cannot_win_are_not_evaluated(monkeypatch):
+    """With BIC's SSE floored (a smooth curve whose fit reaches the floor), a candidate whose BIC at the floor is
+    no better than the current fit's cannot win: skipping it (and the score test when no insertion could win)
+    gives the same fit with fewer refinements; noisy points never reach the floor and skip nothing."""
+    import tendrilkit.pwc.selection as S
+
+    tc = random_pwc_curve(3)
+    rippled = tc.dense_mm[::100].copy()
+    rippled[:, 2] += 0.01 * np.sin(np.linspace(0, 12 * np.pi, len(rippled)))
+    calls = []
+    refine = S._refine_laws
+    monkeypatch.setattr(S, "_refine_laws", lambda *a: calls.append(1) or refine(*a))
+    fits, counts = {}, {}
+    for skip in (True, False):
+        monkeypatch.setattr(S, "SKIP_HOPELESS", skip)
+        for name, P in (("rippled", rippled), ("noisy", tc.points_mm)):
+            calls.clear()
+            fits[name, skip] = fit_piecewise_clothoid(P)
+            counts[name, skip] = len(calls)
+    for name in ("rippled", "noisy"):
+        a, b = fits[name, True], fits[name, False]
+        assert np.array_equal(a.points_mm, b.points_mm)
+        for law in ("kappa_law", "tau_law"):
+            assert np.array_equal(getattr(a, law).knots_mm, getattr(b, law).knots_mm)
+            assert np.array_equal(getattr(a, law).values, getattr(b, law).values)
+    assert counts["rippled", True] < counts["rippled", False]
+    assert counts["noisy", True] == counts["noisy", False]
+    assert np.array_equal(fits["noisy", True].candidates, fits["noisy", False].candidates)
+
+
+def test_torsion_path_laws_start_within_the_torsion_measured():
+    """Phantom S3 at frame 44 has a straight proximal part (curvature about 0, torsion undefined): a torsion path
+    law's line fitted where the torsion has weight extrapolated to about 7 /mm there, and from that start the fit
+    locked into a tight helix standing for the straight part (SSE 43 mm^2, |tau| up to 31 /mm). Started within
+    the range of the torsion measured, the fit follows the straight part."""
+    from tendrilkit.frenet import resample_curve
+    from tendrilkit.phantom import make_phantom
+
+    C = resample_curve(make_phantom("S3").curves_mm[44], 200)
+    X = C + np.random.default_rng(44).normal(0, 0.005, C.shape)
+    f = fit_piecewise_clothoid(X)
+    assert f.sse_mm2 < 2.0
+    assert np.abs(f.tau_law.values).max() < 1.0
+    assert mean_distance_mm(f.points_mm, resample_curve(make_phantom("S3").curves_mm[44], 4000)) < 0.05

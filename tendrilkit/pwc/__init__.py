@@ -81,7 +81,16 @@ Selection of the penalties (:func:`fit_piecewise_clothoid`):
     also add one knot to either law where a score test on the 3D residuals
     asks for it (the hinge whose Jacobian column best explains them), since
     curvature and torsion estimated from noisy points place knots poorly near
-    the ends and where torsion is weak.
+    the ends and where torsion is weak. A candidate that cannot win is not
+    evaluated: with the SSE floored, its BIC is at least that of the floor
+    with its segments, and a current fit reaching the target at or below that
+    bound beats it (an exact bound: the same fits; on smooth curves it skips
+    the candidates, and the score test, once the fit reaches the floor).
+    A torsion path law starts the fit with its values within the range of the
+    torsion where it is defined: where the curvature is about 0 the torsion
+    has no weight, a segment's line is extrapolated there (to 7-10 /mm on the
+    straight base of the S3 phantom), and from such a start the fit locked
+    into a tight helix standing for the straight part.
     A search that ends below ``target_r2``, or whose rms residual exceeds
     0.9 of the data's noise (:func:`tendrilkit.frenet.noise_sigma_mm`; a good
     fit leaves 0.7-0.9 of it on the seeded curves, one that took a wrong turn

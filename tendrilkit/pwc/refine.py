@@ -376,6 +376,13 @@ def _hinge_means(s, xs):
     return G
 
 
+def _hinge_positions(prep, lk, lt):
+    """The positions the score test tries (mm) and, per law, those at least the minimum gap from its knots."""
+    s, gap = prep.s, prep.min_gap_mm
+    xs = np.arange(s[0] + gap, s[-1] - gap, max(gap / 2, (s[-1] - s[0]) / 200))
+    return xs, [np.min(np.abs(xs[:, None] - law.knots_mm[None, :]), axis=1) >= gap for law in (lk, lt)]
+
+
 def _best_insertions(prep, lk, lt):
     """Score test for one more knot: the best new knot position for each law.
 
@@ -396,9 +403,7 @@ def _best_insertions(prep, lk, lt):
     H = Js.T @ Js
     H.flat[:: H.shape[0] + 1] += 1e-10
     r = (X - data).ravel()
-    gap = prep.min_gap_mm
-    xs = np.arange(s[0] + gap, s[-1] - gap, max(gap / 2, (s[-1] - s[0]) / 200))
-    oks = [np.min(np.abs(xs[:, None] - law.knots_mm[None, :]), axis=1) >= gap for law in (lk, lt)]
+    xs, oks = _hinge_positions(prep, lk, lt)
     nk, nt = int(oks[0].sum()), int(oks[1].sum())
     if nk + nt == 0:
         return [None, None]

@@ -13,7 +13,7 @@ import numpy as np
 from tendrilkit.pwc.costs import _check_signal
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _insert_knot, _Joiner, _merge_knots
 from tendrilkit.pwc.rebuild import _law_sse
-from tendrilkit.pwc.refine import _best_insertions, _law_state, _refine_laws
+from tendrilkit.pwc.refine import _best_insertions, _hinge_positions, _law_state, _refine_laws
 from tendrilkit.pwc.search import penalty_path
 
 __all__: list[str] = []
@@ -21,6 +21,10 @@ __all__: list[str] = []
 #: Levenberg-Marquardt iterations of the candidate each step of the search moves to (the
 #: final one is then refined to convergence).
 STEP_ITERATIONS = 10
+
+#: Skip the candidates that cannot win (an exact bound: ``_auto_search``'s ``hopeless``). Off: every
+#: candidate is evaluated, the same fits more slowly (tests, benchmarks).
+SKIP_HOPELESS = True
 
 
 def _mid_penalty(lo: float, hi: float) -> float:
@@ -114,6 +118,15 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             rows[row] = entry
         return (lk, lt, sse, r2, bic, row)
 
+    defined = fr.tau[prep.wt > 0]
+    tau_lo, tau_hi = (float(defined.min()), float(defined.max())) if defined.size else (0.0, 0.0)
+
+    def path_tau(b):
+        """The torsion path law ``b`` as a start: its values within the range of the torsion where defined."""
+        law = laws_t[b]
+        v = np.clip(law.values, tau_lo, tau_hi)
+        return law if np.array_equal(v, law.values) else PiecewiseLinearLaw(law.knots_mm, v, "tau")
+
     def from_path(a, b, cur=None, move=None):
         """Candidate (a, b) of the paths. Without refinement: the laws as they are.
 
@@ -131,7 +144,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             kc = PiecewiseLinearLaw(ends_k, np.full(ends_k.size, float(np.median(fr.kappa))), "kappa")
             tc = PiecewiseLinearLaw(ends_t, np.full(ends_t.size, _weighted_median(fr.tau, prep.wt)), "tau")
             t0 = PiecewiseLinearLaw(ends_t, np.zeros(ends_t.size), "tau")
-            starts = [(laws_k[a], laws_t[b]), (kc, tc), (kc, t0), (laws_k[a], t0)]
+            starts = [(laws_k[a], path_tau(b)), (kc, tc), (kc, t0), (laws_k[a], t0)]
         elif move == "k":
             k_new, k_cur, t_cur = laws_k[a].knots_mm, cur[0], cur[1]
             u = _merge_knots(k_new, k_cur.knots_mm, prep.min_gap_mm)
@@ -140,7 +153,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
         else:
             t_new, k_cur, t_cur = laws_t[b].knots_mm, cur[0], cur[1]
             u = _merge_knots(t_new, t_cur.knots_mm, prep.min_gap_mm)
-            starts = [(k_cur, laws_t[b]), (k_cur, PiecewiseLinearLaw(t_new, t_cur(t_new), "tau")),
+            starts = [(k_cur, path_tau(b)), (k_cur, PiecewiseLinearLaw(t_new, t_cur(t_new), "tau")),
                       (k_cur, PiecewiseLinearLaw(u, t_cur(u), "tau"))]
         # compared by the SSE of the refinement's own evaluation, from which the best is refined
         start_k, start_t = min(starts, key=lambda x: start_state(x[0], x[1])[0])
@@ -154,16 +167,49 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
     # the score test asks for, while the criterion improves.
     state = (0, 0)
     cur = from_path(0, 0)
-    while not (criterion == "r2" and cur[3] >= target_r2) and len(rows) < max_candidates:
+    skipped = 0  # candidates that could not win, counted towards max_candidates as if evaluated
+
+    def hopeless(k_segments, t_segments):
+        """Can no candidate with these segment counts win over ``cur``, whatever its fit?
+
+        With ``precision_mm`` the SSE in BIC is floored: a candidate's BIC is at least that of the
+        floor with its segments. ``cur`` reaching ``target_r2`` with a BIC at or below that bound
+        wins over it (``_preferred``), and so over every candidate that it beats: an exact bound,
+        the search takes the same steps without evaluating it.
+        """
+        return (SKIP_HOPELESS and criterion == "bic" and sse_floor > 0 and cur[3] >= target_r2
+                and _bic(sse_floor, n, k_segments, t_segments) >= cur[4])
+
+    while not (criterion == "r2" and cur[3] >= target_r2) and len(rows) + skipped < max_candidates:
         a0, b0 = state
-        tried = [((a0 + d, b0), from_path(a0 + d, b0, cur, "k"))
-                 for d in range(1, lookahead + 1) if laws_k.has(a0 + d)]
-        tried += [((a0, b0 + d), from_path(a0, b0 + d, cur, "t"))
-                  for d in range(1, lookahead + 1) if laws_t.has(b0 + d)]
+        tried = []
+        for d in range(1, lookahead + 1):  # the fewest segments of a path candidate: its path law's
+            if laws_k.has(a0 + d):
+                if refine and hopeless(laws_k[a0 + d].n_segments, cur[1].n_segments):
+                    skipped += 1
+                else:
+                    tried.append(((a0 + d, b0), from_path(a0 + d, b0, cur, "k")))
+        for d in range(1, lookahead + 1):
+            if laws_t.has(b0 + d):
+                if refine and hopeless(cur[0].n_segments, laws_t[b0 + d].n_segments):
+                    skipped += 1
+                else:
+                    tried.append(((a0, b0 + d), from_path(a0, b0 + d, cur, "t")))
         if refine and insertions:
-            for which, found in zip("kt", insertions_at(cur[0], cur[1])):
+            if hopeless(cur[0].n_segments + 1, cur[1].n_segments) and hopeless(cur[0].n_segments,
+                                                                               cur[1].n_segments + 1):
+                # neither insertion could win: no score test (the candidates it would give are counted)
+                found_kt = [(0.0, 0.0) if ok.any() else None for ok in _hinge_positions(prep, cur[0], cur[1])[1]]
+                skip_insertions = True
+            else:
+                found_kt = insertions_at(cur[0], cur[1])
+                skip_insertions = False
+            for which, found in zip("kt", found_kt):
                 law = cur[0] if which == "k" else cur[1]
                 if found is None or law.n_segments >= max_segments:
+                    continue
+                if skip_insertions:
+                    skipped += 1
                     continue
                 sk = _insert_knot(cur[0], found[0]) if which == "k" else cur[0]
                 st = _insert_knot(cur[1], found[0]) if which == "t" else cur[1]
