@@ -39,11 +39,14 @@ Coverage (:func:`adjust_tip`)
     stops because no two views see on (a leaf over the tendril in every
     view, a pale tendril over the stem, a thin structure crossing it), it
     crosses the gap to where the views see the tendril again
-    (:func:`tendrilkit.mv_acquire.bridge_gap`, at most ``MAX_GAP_MM``) and
-    goes on from there; the nodes in the gap rest on the bending term. Up
-    to ``MAX_BRIDGES`` gaps; gaps crossed one after the other are undone
-    together unless the extension past the last goes on along two views for
-    ``BRIDGE_CONFIRM_MM``.
+    (:func:`tendrilkit.mv_acquire.bridge_gap`, at most ``MAX_GAP_MM``, or
+    ``MAX_COVER_GAP_MM`` along a chord two views show covered: a long leaf
+    over or under it) and goes on from there, up to ``BRIDGE_EXTEND_MM``
+    (the acquisition's beam stopped at the gap: the rest of the tendril is
+    the extension's to follow); the nodes in the gap rest on the bending
+    term. Up to ``MAX_BRIDGES`` gaps; gaps crossed one after the other are
+    undone together unless the extension past the last goes on along two
+    views for ``BRIDGE_CONFIRM_MM``.
 
 Tracking (:func:`reconstruct_multiview`)
     A frame starts from the previous frame's curve (identity carried in 3D),
@@ -91,10 +94,13 @@ MAX_BRIDGES = 4
 MAX_GAP_MM = 15.0
 BRIDGE_CONFIRM_MM = 3.0
 #: A gap that two views show covered (a leaf over or under the tendril: its semi-axes are 18-30 mm in the random
-#: scenes) is crossed up to this long (mm; :func:`tendrilkit.mv_acquire.bridge_gap`'s ``max_cover_gap_mm``).
+#: scenes) is crossed up to this long (mm; :func:`tendrilkit.mv_acquire.bridge_gap`'s ``max_cover_gap_mm``). Dev
+#: seeds 9248, 9254, 9260, 9269, 9282: leaves over 17-25 mm of the tendril in every view, the curve stopped at them
+#: 64-110 mm short of the tip in 24 frames (rerun with cached evidence, 9240-9299: all three 30.6 -> 37.2 %).
 MAX_COVER_GAP_MM = 40.0
-#: Past a gap the extension goes on up to this far (mm): the acquisition's beam stopped at the gap, the rest of the
-#: tendril is the extension's to follow (a leaf over 17 mm of a 191 mm tendril 82 mm from the base: dev seed 9248).
+#: Past a gap the extension goes on up to this far (mm; before the first gap ``adjust_tip``'s ``max_extend_mm``): the
+#: acquisition's beam stopped at the gap, the rest of the tendril is the extension's to follow (dev seed 9248: a
+#: leaf over 17 mm of a 191 mm tendril 82 mm from the base; with 60 mm the curve stopped 30 mm short).
 BRIDGE_EXTEND_MM = 200.0
 
 

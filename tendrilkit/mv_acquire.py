@@ -63,6 +63,22 @@ badly; seed 9989's second tendril): mean <= 0.5 mm 69 -> 78 %, but all
 three 23.3 -> 22.5 % and ``ok`` off 5 -> 9 (loops skipped by shortcuts the
 views explain); 5 or 12 steps back, or all but two places per family: no
 better.
+
+Also tried and not kept (2026-11-30, issue 12; dev seeds 9240-9299, 360
+frames, the same harness, with the covered gaps of ``bridge_gap``): where
+no gap is found ahead of the tip, looking for it from 3 mm back along the
+curve's earlier direction (the tip bent along the skeleton's spur where the
+tendril enters a leaf): one frame more right on all three criteria (9282
+frame 1), 5 already wrong frames changed (3 worse), for a cut-and-undo of
+the curve in ``adjust_tip``; its first version cut 3 mm off free tips of
+the site phantoms (a far end found on the tendril's own last millimetres).
+Of the 210 dev frames whose tip is still wrong after the covered gaps, 157
+leave the truth (mostly in its first half: the beam takes a shoot, a
+petiole, a second tendril or a coil's other pass at a crossing; in 7 of 10
+such frames looked at no finished hypothesis of the beam follows the truth
+5 mm further than the chosen one) and 50 stop where two views show the
+board (pale tendrils the segmentation misses); none stops while two views
+show the tendril going on.
 """
 
 from __future__ import annotations
@@ -513,7 +529,8 @@ def _on_crop_mask(mask: np.ndarray, offset_xy: np.ndarray, xy: np.ndarray) -> np
 
 
 def _covered(evidence: list[SkeletonEvidence], P_mm: np.ndarray) -> np.ndarray:
-    """(V, n) whether each view shows each point covered (``covered`` of :func:`tendrilkit.mv_evidence.skeleton_distance`)."""
+    """(V, n) whether each view shows each point covered (:func:`tendrilkit.mv_evidence.skeleton_distance`'s
+    ``covered``: deep inside a dark region wider than a tendril, off the skeleton)."""
     P = np.asarray(P_mm, float).reshape(-1, 3)
     return np.array([skeleton_distance(ev, ev.camera.project(P), outside_px=CAP_PX, index=True)[5] for ev in evidence])
 
