@@ -135,6 +135,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seeds", default=None, help="START:STOP (stop exclusive); default every scene of OUT")
     p.add_argument("--no-fit", action="store_true", help="skip the piece-wise clothoid (faster; see above)")
     p.add_argument("--compare", default=None, help="a previous TAG: print the frames that changed")
+    p.add_argument("--keep-curves", action="store_true",
+                   help="write each scene's curves to OUT/curves-TAG/SCENE.csv (frame, x_mm, y_mm, z_mm)")
     a = p.parse_args(argv)
     os.environ.setdefault("TENDRILKIT_PROGRESS", "0")
     import cv2
@@ -153,7 +155,13 @@ def main(argv: list[str] | None = None) -> int:
     cache.mkdir(exist_ok=True)
     tables = []
     for d in scenes:
-        tables.append(score(*rerun_scene(d, cache, fit=not a.no_fit)))
+        rows, curves, gt = rerun_scene(d, cache, fit=not a.no_fit)
+        tables.append(score(rows, curves, gt))
+        if a.keep_curves:
+            (a.out / f"curves-{a.tag}").mkdir(exist_ok=True)
+            pd.concat([pd.DataFrame({"frame": f, "x_mm": P[:, 0], "y_mm": P[:, 1], "z_mm": P[:, 2]})
+                       for f, P in curves.items()] or [pd.DataFrame(columns=["frame", "x_mm", "y_mm", "z_mm"])]
+                      ).to_csv(a.out / f"curves-{a.tag}" / f"{d.name}.csv", index=False)
         print(d.name, flush=True)
     t = pd.concat(tables, ignore_index=True)
     t.to_csv(a.out / f"rerun-{a.tag}.csv", index=False, float_format="%.4f")

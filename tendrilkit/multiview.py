@@ -39,11 +39,14 @@ Coverage (:func:`adjust_tip`)
     stops because no two views see on (a leaf over the tendril in every
     view, a pale tendril over the stem, a thin structure crossing it), it
     crosses the gap to where the views see the tendril again
-    (:func:`tendrilkit.mv_acquire.bridge_gap`, at most ``MAX_GAP_MM``) and
-    goes on from there; the nodes in the gap rest on the bending term. Up
-    to ``MAX_BRIDGES`` gaps; gaps crossed one after the other are undone
-    together unless the extension past the last goes on along two views for
-    ``BRIDGE_CONFIRM_MM``.
+    (:func:`tendrilkit.mv_acquire.bridge_gap`, at most ``MAX_GAP_MM``, or
+    ``MAX_COVER_GAP_MM`` along a chord two views show covered: a long leaf
+    over or under it) and goes on from there, up to ``BRIDGE_EXTEND_MM``
+    (the acquisition's beam stopped at the gap: the rest of the tendril is
+    the extension's to follow); the nodes in the gap rest on the bending
+    term. Up to ``MAX_BRIDGES`` gaps; gaps crossed one after the other are
+    undone together unless the extension past the last goes on along two
+    views for ``BRIDGE_CONFIRM_MM``.
 
 Tracking (:func:`reconstruct_multiview`)
     A frame starts from the previous frame's curve (identity carried in 3D),
@@ -90,6 +93,15 @@ STUB_MM = 20.0
 MAX_BRIDGES = 4
 MAX_GAP_MM = 15.0
 BRIDGE_CONFIRM_MM = 3.0
+#: A gap that two views show covered (a leaf over or under the tendril: its semi-axes are 18-30 mm in the random
+#: scenes) is crossed up to this long (mm; :func:`tendrilkit.mv_acquire.bridge_gap`'s ``max_cover_gap_mm``). Dev
+#: seeds 9248, 9254, 9260, 9269, 9282: leaves over 17-25 mm of the tendril in every view, the curve stopped at them
+#: 64-110 mm short of the tip in 24 frames (rerun with cached evidence, 9240-9299: all three 30.6 -> 37.2 %).
+MAX_COVER_GAP_MM = 40.0
+#: Past a gap the extension goes on up to this far (mm; before the first gap ``adjust_tip``'s ``max_extend_mm``): the
+#: acquisition's beam stopped at the gap, the rest of the tendril is the extension's to follow (dev seed 9248: a
+#: leaf over 17 mm of a 191 mm tendril 82 mm from the base; with 60 mm the curve stopped 30 mm short).
+BRIDGE_EXTEND_MM = 200.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -344,7 +356,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     if np.isfinite(max_length_mm):  # tracking: the tip may have moved far since the last processed frame
         max_extend_mm = max(max_extend_mm, max_length_mm - s_[-1])
     ext_mm = 0.0  # arc length added
-    budget_mm = max_extend_mm  # the extension's end: past a gap, a new extension of max_extend_mm
+    budget_mm = max_extend_mm  # the extension's end: past a gap, a new extension of BRIDGE_EXTEND_MM
     bridges = 0
     pending = None  # where the gaps crossed since the last confirmed extension began, in ext
     while True:
@@ -381,8 +393,9 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
             pending = None  # the far end of the last gap led on along two views: the tendril came out again
         if not stopped or bridges == MAX_BRIDGES:
             break
-        room = min(MAX_GAP_MM, max_length_mm - s_[-1] - ext_mm)
-        far = bridge_gap(evidence, np.asarray(X + ext, float), t, max_gap_mm=room) if room >= 2.0 else None
+        room = min(MAX_COVER_GAP_MM, max_length_mm - s_[-1] - ext_mm)
+        far = bridge_gap(evidence, np.asarray(X + ext, float), t, max_gap_mm=min(MAX_GAP_MM, room),
+                         max_cover_gap_mm=room) if room >= 2.0 else None
         if far is None:
             break
         gap = float(np.linalg.norm(far - tip))
@@ -392,7 +405,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         tip = far
         ext.append(tip)
         ext_mm += gap
-        budget_mm = ext_mm + max_extend_mm
+        budget_mm = ext_mm + max(max_extend_mm, BRIDGE_EXTEND_MM)
         bridges += 1
         bridged_at = len(ext)
         # past the gap the tip explains new pixels only (the curve up to the gap's near end claims its own)
