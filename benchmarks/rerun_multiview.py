@@ -20,10 +20,13 @@ issue's figures and the causes split by pale / not pale. Compare two tags
 with ``--compare TAG_BEFORE`` (the frames that changed).
 
 With ``--no-fit`` the piece-wise clothoid is not fitted (faster; the curves
-are the same). Checked 2026-11-30 on dev seeds 0-27 (168 frames) against
+are the same, but the fit's R2 check is then not applied). Checked 2026-11-30 on dev seeds 0-27 (168 frames) against
 ``bench_generalize``'s own results: curves equal to 5e-5 mm; statuses equal on
-162 of 168 frames, with or without the fit (the other 6 not explained yet:
-take statuses from ``bench_generalize``).
+162 of 168 frames: the other 6 were the checks a cached frame skipped (the
+tone and colour checks read the images; the frames are now read every time)
+and those of the whole run (against the other frames, the world marker's fit;
+now applied over each scene): on dev seeds 9780-9789 (60 frames) every status
+equals ``bench_generalize``'s.
 
 Seeds 0-9999 only (``bench_generalize``'s rule); this is for development, the
 figures that count are ``bench_generalize``'s.

@@ -89,6 +89,10 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         shows by its colour in front of the clutter (two right frames of seed
         9985 no longer flagged, but seed 9231 frame 3, 4 mm off at the tip,
         which only the merged check flagged, passed).
+    ``open_tip_px_v<i>``
+        The tip continuation where the tone ahead of the tip agrees and no
+        object lies ahead (:func:`tendrilkit.verify_tip.open_tip_px`): the
+        tendril going on over the open board, px; it counts in one view.
     ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s``
         Against the previous reconstructed frame that passed the image checks
         (:func:`tendrilkit.verify_temporal.temporal_checks`): relative change of length (%), mean

@@ -68,7 +68,10 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
     * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs;
     * branches that run straight on across the curve into another
       unexplained branch (:func:`tendrilkit.verify_crossing.crossing_branches`):
-      a thin line crossing the tendril (a second tendril, a stalk).
+      a thin line crossing the tendril (a second tendril, a stalk), and the
+      pieces of such a line beyond breaks in its dark pixels that were
+      bridged from its arms (:func:`tendrilkit.verify_crossing.across_gaps`
+      run again without the arms' pixels does not reach them).
 
     The coverage is the explained skeleton over explained plus the
     tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`
