@@ -457,6 +457,7 @@ class Verification(_Strict):
     max_distal_widening: PositiveFloat = 1.5
     max_tip_tone_frac: float = Field(0.05, ge=0, le=1)
     max_off_colour_run_px: PositiveFloat = 100.0
+    max_open_tip_px: NonNegFloat = 3.0
 
 
 class Analysis(_Strict):

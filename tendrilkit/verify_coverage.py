@@ -68,7 +68,10 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
     * branches shorter than :data:`MIN_BRANCH_PX`: the skeleton's spurs;
     * branches that run straight on across the curve into another
       unexplained branch (:func:`tendrilkit.verify_crossing.crossing_branches`):
-      a thin line crossing the tendril (a second tendril, a stalk).
+      a thin line crossing the tendril (a second tendril, a stalk), and the
+      pieces of such a line beyond breaks in its dark pixels that were
+      bridged from its arms (:func:`tendrilkit.verify_crossing.across_gaps`
+      run again without the arms' pixels does not reach them).
 
     The coverage is the explained skeleton over explained plus the
     tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`
@@ -106,8 +109,10 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
     # the tendril's thin line, not a leaf's blob or a thicker stem (no radius: every skeleton pixel)
     thin_px = WIDE_RATIO * radius_px if np.isfinite(radius_px) and radius_px > 0 else np.inf
     thin = inside[sr, sc] <= thin_px
-    touched = across_gaps(ev.labels, sk, sr, sc, thin, touched, dense)
+    direct = touched
+    touched = across_gaps(ev.labels, sk, sr, sc, thin, direct, dense)
     mine = np.isin(ev.labels[sr, sc], touched)
+    whole = (sk, sr, sc, thin, np.nonzero(mine)[0])  # for the pieces bridged from a crossing line's arm (below)
     sk, sr, sc, thin = sk[mine], sr[mine], sc[mine], thin[mine]
     if len(sk) == 0:
         return 0.0
@@ -140,8 +145,22 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
     if cand.size:  # a thin line crossing the tendril: its arms continue each other across the curve
         branch = np.zeros(len(sk), int)
         branch[free] = b
-        tendril[cand[crossing_branches(dense, sk[~near], branch[~near], cand, cov_tol=cov_tol,
-                                                width_px=2.0 * radius_px if np.isfinite(radius_px) else 0.0,
-                                                nearest=(dist[~near], nearest[~near]))]] = False
+        every = np.arange(1, nb)  # the spur-sized arms too: a broken line's pieces may be bridged from them
+        arms = every[crossing_branches(dense, sk[~near], branch[~near], every, cov_tol=cov_tol,
+                                       width_px=2.0 * radius_px if np.isfinite(radius_px) else 0.0,
+                                       nearest=(dist[~near], nearest[~near]))]
+        tendril[arms] = False
+        if arms.size and len(touched) > len(direct):
+            # a crossing line broken in the dark pixels (a pale petiole): its pieces beyond the breaks were
+            # bridged from its arm, not from the tendril; bridged again without the arms, they are not reached
+            sk0, sr0, sc0, thin0, at = whole
+            thin0 = thin0.copy()
+            thin0[at[np.isin(branch, arms)]] = False
+            kept = across_gaps(ev.labels, sk0, sr0, sc0, thin0, direct, dense)
+            gone = np.setdiff1d(touched, kept)
+            if gone.size:
+                lone = np.isin(ev.labels[sr, sc], gone)
+                tendril[np.unique(branch[lone & free])] = False
+                tendril[0] = False
     n_free = int(size[tendril].sum())
     return float(n_near / max(n_near + n_free, 1))

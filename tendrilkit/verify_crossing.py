@@ -14,6 +14,12 @@ right frames (within 0.1-0.2 mm of the truth) crossed by a thin line inside
 the ROI, which does not reach the border to be left out as the stem, scored
 a coverage of 0.56-0.74 in every view.
 
+A pale crossing line may itself be broken in the dark pixels: its pieces
+beyond the breaks, bridged from its arm by :func:`across_gaps`, are left out
+with the arm (:func:`tendrilkit.verify_coverage.coverage_frac` bridges again
+without the arms; development seed 9811, a petiole crossing the tendril in
+one view: two right frames at 0.63-0.64, 1.0 so).
+
 A line running out of the ROI (the stem, a shoot, a second tendril's arm)
 comes from outside the region the tendril moves in: only its own skeleton
 segments, between junctions, are left out (:func:`border_segments`), not a

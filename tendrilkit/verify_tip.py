@@ -5,6 +5,11 @@ tendril (:mod:`tendrilkit.verify` applies both in every view):
 
 * the curve stops short: the tendril's skeleton goes on beyond the projected
   tip (:func:`tip_continuation`);
+* the curve stops short and only one view shows it: the tendril's last
+  millimetres point towards the other cameras, foreshortened to a few pixels
+  there; where that one view shows the rest both as skeleton and as tone
+  ahead of the tip, on the open board, the curve stops short
+  (:func:`open_tip_px`);
 * the curve runs on past the tendril's end along clutter the tip touches (a
   leaf the tip rests on, a stem, a second tendril's blob): its last pixels lie
   on a dark region wider than the tendril (:func:`tip_wide_fraction`), where
@@ -22,7 +27,8 @@ import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
 
-__all__ = ["TIP_PX", "tip_continuation", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction", "wide_run_px"]
+__all__ = ["TIP_PX", "tip_continuation", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction", "wide_run_px",
+           "open_tip_px", "open_tip_message"]
 
 #: The curve's tip, in :func:`tip_wide_fraction`: its last this many pixels of projection (px).
 TIP_PX = 20
@@ -162,3 +168,47 @@ def wide_run_px(wide: np.ndarray, on: np.ndarray) -> float:
     d = np.diff(x)
     starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
     return float((ends - starts).max(initial=0))
+
+
+def open_tip_px(continuation_px: float | None, tone_frac: float | None, object_px: float | None, *,
+                max_tone_frac: float) -> float | None:
+    """The tendril going on beyond the projected tip over the open board in one view, px (0: it does not).
+
+    The tip continuation (:func:`tip_continuation`, px) counts where the
+    image ahead of the tip is also as dark as the tendril
+    (:func:`tendrilkit.verify_tone.tip_tone_frac` above ``max_tone_frac``)
+    and no pixel wider than the tendril lies within reach ahead of it
+    (:func:`tendrilkit.verify_object.tip_object_px` None): the skeleton and
+    the tone agree that a line goes on, and it is no object's (a shoot or a
+    leaf at the tip has its own skeleton and tone). A curve stopping 3-6 mm
+    short of a tip whose last part points towards the other cameras shows it
+    in one view only (development seeds 9805, 9806, 9808: 5-14 px of
+    skeleton, 0.07-0.17 of the corridor), which the two-view tip checks let
+    through. None where either figure was not read.
+
+    Examples
+    --------
+    >>> open_tip_px(13.7, 0.17, None, max_tone_frac=0.05)
+    13.7
+    >>> open_tip_px(91.0, 0.2, 0.0, max_tone_frac=0.05)  # a shoot at the tip: its skeleton, not the tendril's
+    0.0
+    >>> open_tip_px(12.0, 0.0, None, max_tone_frac=0.05)  # a skeleton spur the image does not show as a line
+    0.0
+    """
+    if continuation_px is None or tone_frac is None:
+        return None
+    if object_px is not None or not tone_frac > max_tone_frac:
+        return 0.0
+    return float(continuation_px)
+
+
+def open_tip_message(figures: dict, n_views: int, limit_px: float) -> str | None:
+    """The message when the tendril goes on over the open board beyond the tip (``open_tip_px_v<i>``) by more
+    than ``limit_px`` in one view or more, else None."""
+    hits = [(v, x) for v in range(1, n_views + 1)
+            if (x := figures.get(f"open_tip_px_v{v}")) is not None and x > limit_px]
+    if not hits:
+        return None
+    return ("tip: the tendril goes on beyond the curve's tip over the open board (its skeleton and the image's tone "
+            "ahead of the tip, no object there) in " + ", ".join(f"view {v} ({x:.0f} px)" for v, x in hits)
+            + f" (limit {limit_px:g} px in one view)")
