@@ -59,8 +59,29 @@ def _figures() -> set[str]:
 FIGURES = _figures()
 
 
-def rerun_scene(folder: Path, cache: Path, *, fit: bool) -> list[dict]:
-    """Reconstruct every processed frame of one scene again (multiview), evidence from ``cache``."""
+def parse_sets(items: list[str]) -> dict:
+    """``segmentation.KEY=VALUE`` items (``--set``) -> {section: {KEY: value}} (ints, floats, true/false)."""
+    out: dict = {}
+    for item in items:
+        key, _, value = item.partition("=")
+        section, _, name = key.strip().partition(".")
+        low = value.strip().lower()
+        if low in ("true", "false"):
+            v = low == "true"
+        else:
+            try:
+                v = int(value)
+            except ValueError:
+                v = float(value)
+        out.setdefault(section, {})[name] = v
+    return out
+
+
+def rerun_scene(folder: Path, cache: Path, *, fit: bool, sets: dict | None = None) -> list[dict]:
+    """Reconstruct every processed frame of one scene again (multiview), evidence from ``cache``.
+
+    ``sets``: {section: {key: value}} replacing the experiment's options (``--set``).
+    """
     import tendrilkit.pipeline as pipeline
     from tendrilkit.io import open_views, read_cameras
     from tendrilkit.params import load_experiment
@@ -72,6 +93,8 @@ def rerun_scene(folder: Path, cache: Path, *, fit: bool) -> list[dict]:
 
     exp = load_experiment(folder / "scene" / "experiment.yaml")
     exp = exp.model_copy(update={"reconstruction": exp.reconstruction.model_copy(update={"method": "multiview"})})
+    for section, values in (sets or {}).items():
+        exp = exp.model_copy(update={section: getattr(exp, section).model_copy(update=values)})
     res = folder / "result-multiview"
     cameras = read_cameras(res / "cameras.json")
     frames = sorted(int(f) for f in pd.read_csv(res / "frames.csv").frame)
@@ -161,7 +184,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--compare", default=None, help="a previous TAG: print the frames that changed")
     p.add_argument("--keep-curves", action="store_true",
                    help="write each scene's curves to OUT/curves-TAG/SCENE.csv (frame, x_mm, y_mm, z_mm)")
+    p.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                   help="replace an experiment option (e.g. segmentation.line_width_px=11); evidence cached apart")
+    p.add_argument("--workers", type=int, default=1, help="scenes re-run at once (at most 2)")
     a = p.parse_args(argv)
+    sets = parse_sets(a.set)
     os.environ.setdefault("TENDRILKIT_PROGRESS", "0")
     import cv2
 
@@ -175,11 +202,10 @@ def main(argv: list[str] | None = None) -> int:
         p.error("seeds 10000 and above are reserved for the final benchmark")
     if not scenes:
         p.error(f"no scene with result-multiview/frames.csv in {a.out}")
-    cache = a.out / "evidence-cache"
+    cache = a.out / ("evidence-cache" + "".join(f"-{k}" for k in sorted(a.set)))
     cache.mkdir(exist_ok=True)
     tables = []
-    for d in scenes:
-        rows, curves, gt = rerun_scene(d, cache, fit=not a.no_fit)
+    def keep(d, rows, curves, gt):
         tables.append(score(rows, curves, gt))
         if a.keep_curves:
             (a.out / f"curves-{a.tag}").mkdir(exist_ok=True)
@@ -187,6 +213,17 @@ def main(argv: list[str] | None = None) -> int:
                        for f, P in curves.items()] or [pd.DataFrame(columns=["frame", "x_mm", "y_mm", "z_mm"])]
                       ).to_csv(a.out / f"curves-{a.tag}" / f"{d.name}.csv", index=False)
         print(d.name, flush=True)
+
+    if a.workers > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(min(a.workers, 2)) as pool:
+            futures = [pool.submit(rerun_scene, d, cache, fit=not a.no_fit, sets=sets) for d in scenes]
+            for d, fut in zip(scenes, futures):
+                keep(d, *fut.result())
+    else:
+        for d in scenes:
+            keep(d, *rerun_scene(d, cache, fit=not a.no_fit, sets=sets))
     t = pd.concat(tables, ignore_index=True)
     t.to_csv(a.out / f"rerun-{a.tag}.csv", index=False, float_format="%.4f")
     print(figures(t, a.tag))
