@@ -1,6 +1,7 @@
 """Re-run the multi-view reconstruction on the scenes of a generalisation run, each view's evidence cached.
 
-    .venv/bin/python benchmarks/rerun_multiview.py OUT TAG [--seeds 0:28] [--no-fit]
+    .venv/bin/python benchmarks/rerun_multiview.py OUT TAG [--seeds 0:28] [--no-fit] [--compare TAG0]
+        [--keep-curves] [--set SECTION.KEY=VALUE ...] [--workers 2]
 
 ``OUT`` is the ``--out`` folder of ``benchmarks/bench_generalize.py --method
 multiview`` (its scenes, of any ``--scene`` kind, and ``result-multiview/cameras.json``). Every processed
@@ -9,13 +10,14 @@ and :mod:`tendrilkit.mv_acquire` (tracking from the previous frame as the run
 does: the chunks of ``reconstruction.chunk_frames``, the previous curve if it
 was ``ok``). Each view's evidence (segmentation, skeleton: most of a frame's
 cost) is computed once and kept in ``OUT/evidence-cache/`` (pickles; delete
-the folder when the evidence code changes), so a second run measures a change
+the folder when the evidence code changes; with ``--set segmentation.KEY=VALUE``
+in ``OUT/evidence-cache-<those items>/``), so a second run measures a change
 of the multi-view decisions in a minute or two instead of the generalisation
 run's 40-60 s per scene.
 
 Writes ``OUT/rerun-TAG.csv`` (one row per frame: ``scene, frame, status,
 message, factors, mean_mm, max_mm, base_mm, tip_mm, ends, within, cause,
-pale``; ``cause`` as :mod:`benchmarks.diagnose_multiview`) and prints the
+pale`` and every check's figure of ``frames.csv``); ``cause`` as :mod:`benchmarks.diagnose_multiview`) and prints the
 issue's figures and the causes split by pale / not pale. Compare two tags
 with ``--compare TAG_BEFORE`` (the frames that changed).
 
@@ -60,11 +62,17 @@ FIGURES = _figures()
 
 
 def parse_sets(items: list[str]) -> dict:
-    """``segmentation.KEY=VALUE`` items (``--set``) -> {section: {KEY: value}} (ints, floats, true/false)."""
+    """``SECTION.KEY=VALUE`` items (``--set``) -> {section: {KEY: value}} (ints, floats, true/false, else text).
+
+    Raises ValueError for an item that is not ``SECTION.KEY=VALUE``; the keys and values are
+    validated with the experiment (:func:`tendrilkit.params.with_overrides`).
+    """
     out: dict = {}
     for item in items:
-        key, _, value = item.partition("=")
-        section, _, name = key.strip().partition(".")
+        key, eq, value = item.partition("=")
+        section, dot, name = key.strip().partition(".")
+        if not (eq and dot and section and name):
+            raise ValueError(f"--set {item!r}: expected SECTION.KEY=VALUE, e.g. segmentation.line_width_px=11")
         low = value.strip().lower()
         if low in ("true", "false"):
             v = low == "true"
@@ -72,7 +80,10 @@ def parse_sets(items: list[str]) -> dict:
             try:
                 v = int(value)
             except ValueError:
-                v = float(value)
+                try:
+                    v = float(value)
+                except ValueError:
+                    v = value.strip()
         out.setdefault(section, {})[name] = v
     return out
 
@@ -84,7 +95,7 @@ def rerun_scene(folder: Path, cache: Path, *, fit: bool, sets: dict | None = Non
     """
     import tendrilkit.pipeline as pipeline
     from tendrilkit.io import open_views, read_cameras
-    from tendrilkit.params import load_experiment
+    from tendrilkit.params import load_experiment, with_overrides
     from tendrilkit.phantom import read_ground_truth
     from tendrilkit.assembly import with_run_checks, with_temporal_checks
     from tendrilkit.runner import _next_curve, _read_views
@@ -93,8 +104,8 @@ def rerun_scene(folder: Path, cache: Path, *, fit: bool, sets: dict | None = Non
 
     exp = load_experiment(folder / "scene" / "experiment.yaml")
     exp = exp.model_copy(update={"reconstruction": exp.reconstruction.model_copy(update={"method": "multiview"})})
-    for section, values in (sets or {}).items():
-        exp = exp.model_copy(update={section: getattr(exp, section).model_copy(update=values)})
+    if sets:
+        exp = with_overrides(exp, sets)  # validated: a mistyped key is an error, not a silent baseline
     res = folder / "result-multiview"
     cameras = read_cameras(res / "cameras.json")
     frames = sorted(int(f) for f in pd.read_csv(res / "frames.csv").frame)
@@ -188,7 +199,10 @@ def main(argv: list[str] | None = None) -> int:
                    help="replace an experiment option (e.g. segmentation.line_width_px=11); evidence cached apart")
     p.add_argument("--workers", type=int, default=1, help="scenes re-run at once (at most 2)")
     a = p.parse_args(argv)
-    sets = parse_sets(a.set)
+    try:
+        sets = parse_sets(a.set)
+    except ValueError as e:
+        p.error(str(e))
     os.environ.setdefault("TENDRILKIT_PROGRESS", "0")
     import cv2
 
@@ -202,9 +216,20 @@ def main(argv: list[str] | None = None) -> int:
         p.error("seeds 10000 and above are reserved for the final benchmark")
     if not scenes:
         p.error(f"no scene with result-multiview/frames.csv in {a.out}")
-    cache = a.out / ("evidence-cache" + "".join(f"-{k}" for k in sorted(a.set)))
+    if sets:  # every key checked once, before any scene is re-run
+        from tendrilkit.exceptions import ExperimentError
+        from tendrilkit.params import load_experiment, with_overrides
+
+        try:
+            with_overrides(load_experiment(scenes[0] / "scene" / "experiment.yaml"), sets)
+        except (ExperimentError, ValueError) as e:
+            p.error(f"--set: {e}")
+    # the evidence depends on the segmentation's options only: other --set items share the default cache
+    seg = sorted(f"{k}={v}" for k, v in sets.get("segmentation", {}).items())
+    cache = a.out / ("evidence-cache" + "".join(f"-segmentation.{k}" for k in seg))
     cache.mkdir(exist_ok=True)
     tables = []
+
     def keep(d, rows, curves, gt):
         tables.append(score(rows, curves, gt))
         if a.keep_curves:
