@@ -320,8 +320,9 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     evidence : list of SkeletonEvidence
     step_mm : float
     max_extend_mm : float
-        Longest extension, mm; when ``max_length_mm`` is finite, at least up
-        to it (a tracked curve's tip can lag the tendril's by tens of mm after
+        Longest extension, mm (past a gap crossed by ``bridge_gap`` the
+        extension may go on up to ``BRIDGE_EXTEND_MM`` further); when
+        ``max_length_mm`` is finite, at least up to it (a tracked curve's tip can lag the tendril's by tens of mm after
         a large change between processed frames: the curve refitted from the
         previous frame is cut back where the views stop agreeing, and grows
         again along them).

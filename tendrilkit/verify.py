@@ -641,11 +641,17 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     """Every image check of one frame: its figures into ``q``, the messages of the checks it fails out.
 
     :func:`verify_curve`'s figures (the columns of ``frames.csv``) are added
-    to ``q`` (which may hold ``pwc_r2`` already); the messages are
-    :func:`image_check_messages`' and, after them, those of three checks
+    to ``q`` (which may hold ``pwc_r2`` already), and the open tip's
+    (``open_tip_px_v<i>``, computed here from three of them and the tone's
+    limit, :func:`tendrilkit.verify_tip.open_tip_px`: it is ``None`` in
+    :func:`verify_curve`'s own result); the messages are
+    :func:`image_check_messages`' and, after them, those of six checks
     whose figures are the last columns (:func:`tendrilkit.verify_object.tip_object_message`,
     :func:`tendrilkit.verify_branch.turn_branch_message`,
-    :func:`tendrilkit.verify_widen.distal_widening_message`).
+    :func:`tendrilkit.verify_widen.distal_widening_message`,
+    :func:`tendrilkit.verify_tone.tip_tone_message`,
+    :func:`tendrilkit.verify_tone.off_colour_message`,
+    :func:`tendrilkit.verify_tip.open_tip_message`).
 
     Parameters
     ----------

@@ -382,6 +382,24 @@ def test_bridge_gap_crosses_a_long_leaf_two_views_show_covered():
     assert bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0, max_cover_gap_mm=40.0) is None
 
 
+def test_bridge_gap_beyond_max_gap_needs_views_showing_it_covered(monkeypatch):
+    """The long leaf of the test above, with the views' reading of covered places switched off: the chord's
+    far end lies beyond ``max_gap_mm`` and no two views show the chord covered, so it is not crossed (the rule
+    ``COVER_FRAC``; the board-in-two-views rule alone does not refuse it: the leaf is dark in every view)."""
+    import tendrilkit.mv_acquire as A
+
+    s = np.linspace(0.0, 1.0, 2000)
+    X = np.c_[-5 + 90 * s, 5 * np.sin(2 * s), 20 + 3 * s]
+    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
+    images, cams, exp = _leaf_over(X, arc, 40.0, 13.0)
+    evs = _evidence(images, cams, exp)
+    k = np.searchsorted(arc, 26.5)
+    monkeypatch.setattr(A, "_covered", lambda evidence, P: np.zeros((len(evidence), len(P)), bool))
+    assert A.bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0, max_cover_gap_mm=40.0) is None
+    monkeypatch.setattr(A, "COVER_FRAC", 0.0)  # the rule off: the same chord is crossed (the test can fail)
+    assert A.bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0, max_cover_gap_mm=40.0) is not None
+
+
 def test_acquired_curve_reaches_the_tip_past_a_long_leaf():
     """The whole method on the tendril under a 26 mm leaf 35 mm from the base and 55 mm before its tip: the
     acquisition's beam stops at the leaf, the tip's extension crosses it and follows the tendril to its end

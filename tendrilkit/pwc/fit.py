@@ -217,8 +217,10 @@ def fit_piecewise_clothoid(
         ``auto``: Levenberg-Marquardt iterations when comparing candidates (the
         chosen one is then refined to convergence).
     max_candidates : int
-        ``auto``: the search stops after evaluating this many candidates (a
-        bound on the time per frame on hard, noisy curves).
+        ``auto``: the search stops after this many candidates, evaluated or
+        skipped as unable to win (a bound on the time per frame on hard, noisy
+        curves; the skipped ones count as the evaluated did before they were
+        skipped, so the fits are the same).
     retries : bool
         ``auto`` with ``refine``: when the search ends below ``target_r2``, or
         with an rms residual above :data:`RETRY_NOISE_RATIO` of the data's
