@@ -84,6 +84,36 @@ such frames looked at no finished hypothesis of the beam follows the truth
 5 mm further than the chosen one) and 50 stop where two views show the
 board (pale tendrils the segmentation misses); none stops while two views
 show the tendril going on.
+
+Where the beam loses the truth (``benchmarks/diagnose_beam.py``, dev seeds
+9240-9299, 360 frames, the acquisition alone from the cached evidence): the
+chosen hypothesis follows the truth to within 2 mm of its end in 94 frames,
+a finished one in 108. In the 266 others the hypothesis following the truth ended (no
+acceptable step) in 123; it was dropped by the cell filter in 112 (71 to a
+better sibling off the truth in the same cell, 41 to another hypothesis's
+candidate), by the beam's rank in 29 (9th to 19th), by the per-parent limit
+in 2; lost at a median 54 % of the tendril's length.
+Tried and not kept (2026-11-30, issue 12, ``benchmarks/rerun_multiview.py
+--no-fit`` on those seeds; before: all three 37.2 %, ``ok`` off 13, silent
+0). Each keeps the straight-through branch alive more often but the final
+choice then takes a wrong branch more often than it gains (seed 9273's
+frames: a 270 mm curve onto other structures for the 186 mm tendril; gains on
+9251, 9260, 9290, 9296 in all of them): (a) ``spread``: two more hypotheses
+beyond the beam, each the one whose tip is farthest (at least 4 mm) from
+every kept tip: 35.3 %, 0 frames gained, 7 lost; the beam-rank losses 29 ->
+22, a finished hypothesis to the truth's end 108 -> 110. (b) The bending cost
+measured from the last direction continued by the last turn (a tendril's
+curvature goes on; a crossing shoot meets it at an angle): 32.8 % (14 gained,
+30 lost, ``ok`` off 16); half the last turn: 32.5 %, silent 2; the mean turn
+of the last two steps: 30.8 %, silent 3, ``ok`` off 28; the full turn with
+twice the bending weight: 29.4 %, silent 1. The cone's rings are 13 degrees
+apart: a hypothesis's turns jitter by as much, and continuing them runs it
+off. (c) Per parent, its best child heading at least 30 degrees off its best
+child kept in any cell (the branch at a junction, whose first tip is in the
+same cell as the other's): 34.7 % (10 gained, 19 lost, ``ok`` off 14); 45
+degrees: 34.2 %, ``ok`` off 19; validation seeds 9300-9339 (240 frames, the
+re-run with the fit): all three 48.3 -> 47.1 % (6 gained, 9 lost), ``ok``
+off 15 -> 13, silent 0 -> 0.
 """
 
 from __future__ import annotations
@@ -108,6 +138,11 @@ STOP_PX = 4.0
 #: The cost of a step turning by the search cone's half-angle (pixels), growing with the square of the
 #: angle: a fifth of ``ON_PX``, so the skeletons' bends are followed and ties are broken straight on.
 TURN_PX = 0.5
+#: A callable ``_TRACE(event, **values)`` that :func:`grow_curve` calls after every step's pruning (``"step"``: the
+#: hypotheses, each candidate's hypothesis row ``own`` and tip ``pts``, the acceptable candidates best first
+#: ``ranked``, those the cell filter keeps ``diverse``, those kept ``kept``) and with its finished hypotheses
+#: (``"ends"``); ``None`` in use (``benchmarks/diagnose_beam.py`` sets it).
+_TRACE = None
 #: A place a view shows as board with dark pixels within this on both sides across the tendril's direction is a
 #: light band across a dark object (a pale tendril over the stem or a leaf), not the open board (pixels).
 BAND_PX = 6.0
@@ -433,9 +468,10 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         finished.extend(hyps[h][:3] for h in np.flatnonzero(~has))
         idx = np.flatnonzero(ok)
         idx = idx[np.argsort(score[idx], kind="stable")]
+        ranked = idx
         # diversity: per cell of 1.5 steps the best hypothesis and the best heading against it, at most two
         # children per parent, so that the branches of a crossing both stay in the beam
-        idx = idx[_one_per_cell_and_way(pts[idx], dirs[idx], 1.5 * step_mm)]
+        idx = diverse = idx[_one_per_cell_and_way(pts[idx], dirs[idx], 1.5 * step_mm)]
         kept, per_parent = [], np.zeros(len(hyps), int)
         for i in idx:
             if per_parent[own[i]] < 2:
@@ -444,6 +480,8 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
                 if len(kept) == beam:
                     break
         idx = np.asarray(kept, int)
+        if _TRACE is not None:
+            _TRACE("step", hyps=hyps, own=own, pts=pts, ranked=ranked, diverse=diverse, kept=idx)
         # claim what each kept hypothesis explained two steps back (all at once: one projection per view)
         parents = [hyps[own[i]] for i in idx]
         grown = [k for k, h in enumerate(parents) if len(h[0]) >= 3]
@@ -476,6 +514,8 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     length = np.array([len(n) for n, _ in ends], float)
     inside = [e for e, c, n in zip(ends, cut, length) if not c and n >= 0.5 * length.max()]
     best = min(inside or ends, key=lambda t: t[1])
+    if _TRACE is not None:
+        _TRACE("ends", ends=ends, cut=cut, best=best)
     return np.asarray(best[0], float)
 
 

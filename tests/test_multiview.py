@@ -464,3 +464,35 @@ def test_bridge_gap_crosses_a_pale_tendril_over_the_stem():
         cv2.polylines(img, [np.round(p).astype(np.int32)], False, (30, 60, 30), 9)
     evs = _evidence(images, cams, exp)
     assert bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0) is None
+
+
+def test_beam_trace_changes_nothing_and_follows_the_coil(coil):
+    """``mv_acquire._TRACE`` (``benchmarks/diagnose_beam.py``) sees every step's pruning and the finished
+    hypotheses without changing the curve; on the coil the truth-following hypothesis is never lost."""
+    import tendrilkit.mv_acquire as A
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from diagnose_beam import trace_frame
+
+    X, images, cams, exp = coil
+    ev = _evidence(images, cams, exp)
+    B = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=8.0)
+    plain = A.grow_curve(ev, B)
+    seen = []
+
+    def on(event, **v):
+        if event == "step":  # kept within those the cell filter keeps, within the acceptable ones
+            assert set(v["kept"].tolist()) <= set(v["diverse"].tolist()) <= set(v["ranked"].tolist())
+        seen.append(event)
+
+    A._TRACE = on
+    try:
+        traced = A.grow_curve(ev, B)
+    finally:
+        A._TRACE = None
+    assert np.array_equal(plain, traced)
+    assert seen.count("ends") == 1 and seen[-1] == "ends" and seen.count("step") >= len(plain) - 1
+    truth = resample_polyline(X, step=1.0)
+    r = trace_frame(ev, B, truth)
+    assert r["event"] in ("no step", "survives") and r["truth_mm"] - r["chosen_follows_mm"] <= 3, r
+    # a truth the curve cannot follow (shifted 5 mm sideways) is lost at once
+    assert trace_frame(ev, B, truth + [0.0, 0.0, 5.0])["chosen_follows_mm"] == 0
