@@ -132,8 +132,8 @@ from tendrilkit.verify_branch import turn_branch_message, turn_branch_px
 from tendrilkit.verify_coverage import coverage_frac, tendril_radius_px
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
-from tendrilkit.verify_tip import (TIP_PX, on_wide, open_tip_message, open_tip_px, skeleton_to_curve_px, tip_continuation,
-                                   tip_wide_fraction, wide_run_px)
+from tendrilkit.verify_tip import (TIP_PX, failing_views, on_wide, open_tip_message, open_tip_px, skeleton_to_curve_px,
+                                   tip_continuation, tip_wide_fraction, wide_run_px)
 from tendrilkit.verify_tone import off_colour_message, off_colour_run_px, tip_tone_frac, tip_tone_message
 from tendrilkit.verify_widen import MAX_DISTAL_WIDENING, distal_widening, distal_widening_message
 
@@ -552,12 +552,6 @@ def _roi_crop(image: np.ndarray, ev: ViewEvidence) -> np.ndarray:
     return np.asarray(image)[y0:y0 + h, x0:x0 + w]
 
 
-def _in_views(q: dict, column: str, n_views: int, fails) -> list[tuple[int, float]]:
-    """``(view, figure)`` of the views (1-based) whose ``<column>_v<view>`` figure is known and ``fails(figure)``."""
-    values = [(v, q.get(f"{column}_v{v}")) for v in range(1, n_views + 1)]
-    return [(v, x) for v, x in values if x is not None and fails(x)]
-
-
 def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
     """The image checks a frame fails, one message each (empty: all pass).
 
@@ -599,21 +593,21 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
         b = q.get(f"base_px_v{v}")
         if b is not None and b > th.max_base_px:
             msgs.append(f"base: view {v} base {b:.1f} px from its mark (limit {th.max_base_px:g} px)")
-    at_edge = _in_views(q, "tip_border_px", n_views, lambda e: e <= th.min_tip_border_px)
+    at_edge = failing_views(q, "tip_border_px", n_views, lambda e: e <= th.min_tip_border_px)
     if len(at_edge) >= 2:  # the stem runs out of the ROI, the tendril does not (in one view it may leave the image)
         msgs.append("tip: the curve ends at the ROI's border in " + ", ".join(
             f"view {v} ({e:.1f} px from it)" for v, e in at_edge) + f" (limit {th.min_tip_border_px:g} px)")
-    long_tips = _in_views(q, "tip_continuation_px", n_views, lambda t: t > th.max_tip_continuation_px)
+    long_tips = failing_views(q, "tip_continuation_px", n_views, lambda t: t > th.max_tip_continuation_px)
     if len(long_tips) >= 2:  # in two views at least: a piece of clutter at the tip in one view is not a tendril
         msgs.append("tip: the tendril goes on beyond the curve's tip in " + ", ".join(
             f"view {v} ({t:.0f} px)" for v, t in long_tips) + f" (limit {th.max_tip_continuation_px:g} px)")
-    wide = _in_views(q, "tip_wide_frac", n_views, lambda f: f > th.max_tip_wide_frac)
+    wide = failing_views(q, "tip_wide_frac", n_views, lambda f: f > th.max_tip_wide_frac)
     if len(wide) >= 2:  # in two views at least: one view may see the tip in front of a leaf or the stem
         msgs.append("tip: the curve ends on pixels wider than the tendril (a leaf, the stem: where the tendril ends "
                     "cannot be seen) in " + ", ".join(f"view {v} ({100 * f:.0f} % of its last {TIP_PX} px)"
                                                      for v, f in wide)
                     + f" (limit {100 * th.max_tip_wide_frac:.0f} %)")
-    runs = _in_views(q, "wide_run_px", n_views, lambda r: r > th.max_wide_run_px)
+    runs = failing_views(q, "wide_run_px", n_views, lambda r: r > th.max_wide_run_px)
     if len(runs) >= 2:  # in two views at least: in one view the tendril may pass in front of a leaf
         msgs.append("merged: the curve runs on pixels wider than the tendril (clutter merged with it: where its line "
                     "is cannot be seen) in " + ", ".join(f"view {v} ({r:.0f} px in a row)" for v, r in runs)
@@ -622,7 +616,7 @@ def image_check_messages(q: dict, n_views: int, th: Thresholds) -> list[str]:
     if lw is not None and lw > th.max_line_width_mm:
         msgs.append(f"width: the curve runs on a line {lw:.1f} mm wide (median over the views, limit "
                     f"{th.max_line_width_mm:g} mm): a stem, not a tendril")
-    beyond = _in_views(q, "beyond_tip_px", n_views, lambda b: b > th.max_beyond_tip_px)
+    beyond = failing_views(q, "beyond_tip_px", n_views, lambda b: b > th.max_beyond_tip_px)
     if len(beyond) >= 2:  # in two views at least: a second tendril or a stalk crosses the tendril in one view
         msgs.append("beyond: the tendril goes on across an object ahead of the curve's tip (a leaf, a shoot it passes "
                     "behind) in " + ", ".join(f"view {v} ({b:.0f} px)" for v, b in beyond)

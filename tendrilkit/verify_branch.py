@@ -40,6 +40,7 @@ from __future__ import annotations
 import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
+from tendrilkit.verify_tip import failing_views
 
 __all__ = ["turn_branch_px", "turn_branch_message"]
 
@@ -145,8 +146,8 @@ def turn_branch_message(figures: dict, n_views: int) -> str | None:
         ``turn_branch_px_v<i>`` per view (1-based; None: none found).
     n_views : int
     """
-    found = [(v, x) for v in range(1, n_views + 1) if (x := figures.get(f"turn_branch_px_v{v}")) is not None]
-    if len(found) < 2:  # in one view a crossing line may lie along one side of a bend
+    found = failing_views(figures, "turn_branch_px", n_views, lambda x: True, min_views=2)
+    if not found:  # in one view a crossing line may lie along one side of a bend
         return None
     return ("junction: the curve turns off a line that goes on beyond the turn (it may run onto a second tendril) "
             "in " + ", ".join(f"view {v} ({x:.0f} px of line)" for v, x in found))

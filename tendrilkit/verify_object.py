@@ -45,6 +45,7 @@ from __future__ import annotations
 import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
+from tendrilkit.verify_tip import failing_views
 
 __all__ = ["tip_object_px", "tip_object_message"]
 
@@ -114,9 +115,8 @@ def tip_object_message(figures: dict, n_views: int, limit_px: float) -> str | No
     limit_px : float
         ``verification.min_tip_object_px``.
     """
-    near = [(v, x) for v in range(1, n_views + 1)
-            if (x := figures.get(f"tip_object_px_v{v}")) is not None and x <= limit_px]
-    if len(near) < 2:  # in one view the tip may lie in front of an object
+    near = failing_views(figures, "tip_object_px", n_views, lambda x: x <= limit_px, min_views=2)
+    if not near:  # in one view the tip may lie in front of an object
         return None
     return ("tip: the curve stops at an object the tendril may cross (the stem, a shoot, a leaf: where the tendril "
             "ends cannot be seen) in " + ", ".join(f"view {v} ({x:.0f} px ahead)" for v, x in near)

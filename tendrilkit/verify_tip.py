@@ -28,7 +28,7 @@ import numpy as np
 from tendrilkit.evidence import ViewEvidence
 
 __all__ = ["TIP_PX", "tip_continuation", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction", "wide_run_px",
-           "open_tip_px", "open_tip_message"]
+           "open_tip_px", "open_tip_message", "failing_views"]
 
 #: The curve's tip, in :func:`tip_wide_fraction`: its last this many pixels of projection (px).
 TIP_PX = 20
@@ -202,11 +202,26 @@ def open_tip_px(continuation_px: float | None, tone_frac: float | None, object_p
     return float(continuation_px)
 
 
+def failing_views(figures: dict, stem: str, n_views: int, fails, *, min_views: int = 1) -> list[tuple[int, float]]:
+    """``(view, figure)`` of the views whose ``<stem>_v<view>`` (1-based) is known and ``fails(figure)``, when
+    ``min_views`` or more do, else [] (the per-view checks' messages: most need two views, where one view may
+    see the tendril in front of an object or foreshortened).
+
+    Examples
+    --------
+    >>> failing_views({"x_v1": 3.0, "x_v2": None, "x_v3": 9.0}, "x", 3, lambda x: x > 2)
+    [(1, 3.0), (3, 9.0)]
+    >>> failing_views({"x_v1": 3.0, "x_v3": 1.0}, "x", 3, lambda x: x > 2, min_views=2)
+    []
+    """
+    hits = [(v, x) for v in range(1, n_views + 1) if (x := figures.get(f"{stem}_v{v}")) is not None and fails(x)]
+    return hits if len(hits) >= min_views else []
+
+
 def open_tip_message(figures: dict, n_views: int, limit_px: float) -> str | None:
     """The message when the tendril goes on over the open board beyond the tip (``open_tip_px_v<i>``) by more
     than ``limit_px`` in one view or more, else None."""
-    hits = [(v, x) for v in range(1, n_views + 1)
-            if (x := figures.get(f"open_tip_px_v{v}")) is not None and x > limit_px]
+    hits = failing_views(figures, "open_tip_px", n_views, lambda x: x > limit_px)
     if not hits:
         return None
     return ("tip: the tendril goes on beyond the curve's tip over the open board (its skeleton and the image's tone "

@@ -36,7 +36,7 @@ import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.segmentation import grey_image
-from tendrilkit.verify_tip import wide_run_px
+from tendrilkit.verify_tip import failing_views, wide_run_px
 
 __all__ = ["tip_tone_frac", "off_colour_run_px", "tip_tone_message", "off_colour_message", "BOARD_PX", "MAX_CHROMA"]
 
@@ -209,15 +209,9 @@ def _chroma(bgr: np.ndarray) -> np.ndarray:
     return bgr / bgr.sum(axis=1, keepdims=True)
 
 
-def _two_views(figures: dict, stem: str, n_views: int, fails) -> list[tuple[int, float]]:
-    """``(view, figure)`` of the views whose ``<stem>_v<view>`` is known and fails, when two or more do, else []."""
-    hits = [(v, x) for v in range(1, n_views + 1) if (x := figures.get(f"{stem}_v{v}")) is not None and fails(x)]
-    return hits if len(hits) >= 2 else []
-
-
 def tip_tone_message(figures: dict, n_views: int, limit: float) -> str | None:
     """The message when the image ahead of the tip is as dark as the tendril in two views or more, else None."""
-    hits = _two_views(figures, "tip_tone_frac", n_views, lambda x: x > limit)
+    hits = failing_views(figures, "tip_tone_frac", n_views, lambda x: x > limit, min_views=2)
     if not hits:
         return None
     return ("tip: the image ahead of the curve's tip is as dark as the tendril (the tendril may go on, unsegmented) "
@@ -227,7 +221,7 @@ def tip_tone_message(figures: dict, n_views: int, limit: float) -> str | None:
 
 def off_colour_message(figures: dict, n_views: int, limit_px: float) -> str | None:
     """The message when the curve runs on another colour than the tendril's in two views or more, else None."""
-    hits = _two_views(figures, "off_colour_run_px", n_views, lambda x: x > limit_px)
+    hits = failing_views(figures, "off_colour_run_px", n_views, lambda x: x > limit_px, min_views=2)
     if not hits:
         return None
     return ("colour: the curve runs on pixels of another colour than the tendril's (a leaf, a shoot) in "

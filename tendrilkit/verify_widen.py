@@ -57,7 +57,7 @@ from scipy.spatial import cKDTree
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
 from tendrilkit.geometry import arc_length
 from tendrilkit.verify_self import SEPARATION_MM
-from tendrilkit.verify_tip import local_inside_px
+from tendrilkit.verify_tip import failing_views, local_inside_px
 
 __all__ = ["MAX_DISTAL_WIDENING", "distal_widening", "distal_widening_message"]
 
@@ -197,9 +197,8 @@ def distal_widening_message(figures: dict, n_views: int, limit: float) -> str | 
     ``figures``: ``distal_widening_ratio_v<i>`` (1-based views; None: not measured).
     Fails when the ratio exceeds ``limit`` in two views or more.
     """
-    values = [(v, figures.get(f"distal_widening_ratio_v{v}")) for v in range(1, n_views + 1)]
-    wide = [(v, x) for v, x in values if x is not None and x > limit]
-    if len(wide) < 2:
+    wide = failing_views(figures, "distal_widening_ratio", n_views, lambda x: x > limit, min_views=2)
+    if not wide:
         return None
     return ("widening: the curve's distal part runs on a line wider than the tendril before it (a tendril tapers; "
             "a leaf or a shoot the curve ran onto is wider) in " + ", ".join(f"view {v} ({x:.2f} x)" for v, x in wide)
