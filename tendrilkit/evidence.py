@@ -113,6 +113,12 @@ class ViewEvidence:
         return out
 
     @cached_property
+    def _distance_boxes(self) -> list:
+        """The boxes of the crop :func:`sample_distance` transformed so far: ``(r0, r1, c0, c1, D)`` (crop rows
+        ``r0:r1``, columns ``c0:c1``, their float32 distance transform), read again by later calls."""
+        return []
+
+    @cached_property
     def inside_px(self) -> np.ndarray:
         """(h, w) float32: every foreground pixel's distance to the nearest board pixel, px (0 on the board).
 
@@ -350,17 +356,50 @@ def _local_distance(ev: ViewEvidence, rows: list, cols: list, use: np.ndarray) -
 
     ``rows``, ``cols``: lists of (n,) int arrays of crop pixels, one per
     corner of the bilinear interpolation; ``use``: (n,) bool, the positions
-    whose values count (the others get 0). The positions are taken in runs of
+    whose values count (the others get 0). A position is first read from the
+    boxes an earlier call transformed (:attr:`ViewEvidence._distance_boxes`:
+    the checks read the same curve's surroundings several times) when each
+    of its pixels' values is at most that pixel's distance to the box's
+    sides inside the crop (the margin argument of :func:`sample_distance`,
+    per pixel: the same values, bit for bit). The others are taken in runs of
     :data:`LOCAL_RUN`, each run's pixels from the transform of their own box
-    grown by :data:`LOCAL_MARGIN_PX`. None when the boxes would not pay (over
-    half the ROI together) or a value exceeds the margin: then the whole
-    transform is needed.
+    grown by :data:`LOCAL_MARGIN_PX` (kept for later calls). None when the
+    new boxes would not pay (over half the ROI together) or a value exceeds
+    the margin: then the whole transform is needed.
     """
     h, w = ev.shape
     n = len(use)
+    out = [np.zeros(n, np.float32) for _ in rows]
+    todo = use.copy()
+    kept = ev._distance_boxes
+    for r0, r1, c0, c1, D in kept:
+        if not todo.any():
+            break
+        k = np.flatnonzero(todo)
+        done = np.ones(len(k), bool)
+        vals = []
+        for a, b in zip(rows, cols):
+            r, c = a[k], b[k]
+            inside = (r >= r0) & (r < r1) & (c >= c0) & (c < c1)
+            # a pixel's margin: its chessboard distance to the box's sides that are not the crop's
+            margin = np.full(len(k), np.inf)
+            if r0 > 0:
+                margin = np.minimum(margin, r - r0)
+            if r1 < h:
+                margin = np.minimum(margin, r1 - 1 - r)
+            if c0 > 0:
+                margin = np.minimum(margin, c - c0)
+            if c1 < w:
+                margin = np.minimum(margin, c1 - 1 - c)
+            v = np.where(inside, D[np.clip(r - r0, 0, r1 - r0 - 1), np.clip(c - c0, 0, c1 - c0 - 1)], np.float32(0))
+            done &= inside & (v <= margin)
+            vals.append(v)
+        for o, v in zip(out, vals):
+            o[k[done]] = v[done]
+        todo[k[done]] = False
     boxes = []
     for s in range(0, n, LOCAL_RUN):
-        u = use[s:s + LOCAL_RUN]
+        u = todo[s:s + LOCAL_RUN]
         if not u.any():
             continue
         r = np.concatenate([a[s:s + LOCAL_RUN][u] for a in rows])
@@ -368,15 +407,15 @@ def _local_distance(ev: ViewEvidence, rows: list, cols: list, use: np.ndarray) -
         m = LOCAL_MARGIN_PX
         boxes.append((s, max(int(r.min()) - m, 0), min(int(r.max()) + m + 1, h), max(int(c.min()) - m, 0),
                       min(int(c.max()) + m + 1, w)))
-    if not boxes or sum((r1 - r0) * (c1 - c0) for _, r0, r1, c0, c1 in boxes) > 0.5 * h * w:
+    if sum((r1 - r0) * (c1 - c0) for _, r0, r1, c0, c1 in boxes) > 0.5 * h * w:
         return None
-    out = [np.zeros(n, np.float32) for _ in rows]
     for s, r0, r1, c0, c1 in boxes:
         sub = np.ascontiguousarray(ev.foreground[r0:r1, c0:c1]).view(np.uint8)
         if not sub.any():
             return None
         D = cv2.distanceTransform(cv2.compare(sub, 0, cv2.CMP_EQ), cv2.DIST_L2, 5)
-        u = use[s:s + LOCAL_RUN]
+        kept.append((r0, r1, c0, c1, D))
+        u = todo[s:s + LOCAL_RUN]
         for v, a, b in zip(out, rows, cols):
             vals = D[a[s:s + LOCAL_RUN][u] - r0, b[s:s + LOCAL_RUN][u] - c0]
             if vals.max() > LOCAL_MARGIN_PX:
