@@ -334,3 +334,32 @@ def test_banded_normal_with_nan_is_the_d79ec45_numpy():
     Hd, tt, bend = _normal_inputs(rng, 10)
     tt[3, 0, 1] = np.nan
     np.testing.assert_array_equal(_banded_normal(Hd, tt, bend), _banded_normal_d79ec45(Hd, tt, bend))
+
+
+def _cone_with_np_cross(axis, max_deg, rings):
+    """The cone of mv_acquire.cone_directions as first written (np.cross, the rings' angles every call)."""
+    a = np.asarray(axis, float)
+    a = a / np.linalg.norm(a)
+    p = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    p /= np.linalg.norm(p)
+    q = np.cross(a, p)
+    out = [a]
+    for k in range(1, rings + 1):
+        th = np.radians(max_deg * k / rings)
+        n_az = max(6, int(round(2 * np.pi * np.sin(th) / np.radians(max_deg / rings))))
+        az = 2 * np.pi * (np.arange(n_az) + 0.5 * (k % 2)) / n_az
+        out.append(np.cos(th) * a + np.sin(th) * (np.cos(az)[:, None] * p + np.sin(az)[:, None] * q))
+    return np.vstack(out)
+
+
+def test_cone_directions_are_those_of_np_cross():
+    """The cone's directions, byte for byte (signed zeros too), on random axes, near-x axes and every cone used."""
+    from tendrilkit.mv_acquire import cone_directions
+
+    rng = np.random.default_rng(7)
+    axes = rng.normal(size=(300, 3)) * rng.choice([1e-3, 1.0, 1e3], size=(300, 1))
+    axes[::5, 1:] *= 1e-3  # along x: the other reference vector
+    axes = np.vstack([axes, np.eye(3), -np.eye(3)])
+    for ax in axes:
+        for deg, rings in ((30.0, 3), (30.0, 2), (25.0, 8), (20.0, 2), (12.5, 3)):
+            assert cone_directions(ax, deg, rings).tobytes() == _cone_with_np_cross(ax, deg, rings).tobytes()
