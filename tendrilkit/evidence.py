@@ -266,16 +266,17 @@ def view_evidence(
 
 def _skeleton(mask: np.ndarray, offset: np.ndarray) -> tuple[np.ndarray, float]:
     """Skeleton pixels (m, 2) full-image xy of a mask, and area / skeleton length (px)."""
-    nz = cv2.findNonZero(mask.view(np.uint8))
-    if nz is None:
+    m8 = mask.view(np.uint8)
+    area = cv2.countNonZero(m8)  # the mask's area and box without listing its pixels (cv2.findNonZero)
+    if area == 0:
         return np.zeros((0, 2)), float("nan")
-    x0, y0, w, h = cv2.boundingRect(nz)
+    x0, y0, w, h = cv2.boundingRect(m8)  # a uint8 image: the box of its nonzero pixels
     sub = mask[y0:y0 + h, x0:x0 + w]
     # cv2.findNonZero: the pixels in np.nonzero's (raster) order, several times faster on a large sparse array
     sk = cv2.findNonZero(thin_strips(sub).view(np.uint8))
     sk = np.zeros((0, 2), np.int32) if sk is None else sk.reshape(-1, 2)
     xy = (sk + [x0 + offset[0], y0 + offset[1]]).astype(float)
-    width = float(len(nz)) / max(len(xy), 1)
+    width = float(area) / max(len(xy), 1)
     return xy, width
 
 
