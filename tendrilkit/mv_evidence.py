@@ -108,9 +108,19 @@ class SkeletonEvidence:
 
     @cached_property
     def skeleton_seen_px(self) -> np.ndarray:
-        """(n_labels,) int: per component of ``skeleton_labels``, its pixels the view sees (``seen``); computed once."""
+        """(n_labels,) int: per component of ``skeleton_labels``, its pixels the view sees (``seen``); computed once.
+
+        Read at the skeleton's pixels (the labelled ones) only, not over the
+        whole crop; label 0 (the background) gets the rest of the seen pixels.
+        """
         lab = self.skeleton_labels
-        return np.bincount(lab[self.seen], minlength=int(lab.max()) + 1)
+        off = self.offset_xy
+        r = self.skeleton_xy[:, 1].astype(int) - off[1]
+        c = self.skeleton_xy[:, 0].astype(int) - off[0]
+        at = lab[r, c]
+        out = np.bincount(at[self.seen[r, c]], minlength=int(at.max(initial=0)) + 1)
+        out[0] = np.count_nonzero(self.seen) - out[1:].sum()
+        return out
 
     @cached_property
     def _grid(self):

@@ -363,3 +363,16 @@ def test_cone_directions_are_those_of_np_cross():
     for ax in axes:
         for deg, rings in ((30.0, 3), (30.0, 2), (25.0, 8), (20.0, 2), (12.5, 3)):
             assert cone_directions(ax, deg, rings).tobytes() == _cone_with_np_cross(ax, deg, rings).tobytes()
+
+
+def test_skeleton_seen_px_counts_the_whole_crop():
+    """The seen pixels per skeleton component, read at the skeleton's pixels: those of the whole crop's count."""
+    def more(img):
+        cv2.line(img, (30, 100), (170, 15), (20, 20, 20), 2)       # a second line crossing the first
+        cv2.line(img, (150, 100), (190, 110), (20, 20, 20), 2)     # a separate one
+
+    ev = _wavy_view(more)
+    lab = ev.skeleton_labels
+    assert lab.max() >= 2
+    ref = np.bincount(lab[ev.seen], minlength=int(lab.max()) + 1)
+    assert ev.skeleton_seen_px.dtype == ref.dtype and np.array_equal(ev.skeleton_seen_px, ref)
