@@ -376,3 +376,47 @@ def test_skeleton_seen_px_counts_the_whole_crop():
     assert lab.max() >= 2
     ref = np.bincount(lab[ev.seen], minlength=int(lab.max()) + 1)
     assert ev.skeleton_seen_px.dtype == ref.dtype and np.array_equal(ev.skeleton_seen_px, ref)
+
+
+def _support_on_the_whole_crop(X_mm, evidence, tol_px=3.0):
+    """multiview.curve_support as first written: the line drawn on the whole crop."""
+    from tendrilkit.multiview import _length
+    from tendrilkit.mv_acquire import point_costs
+    from tendrilkit.geometry import resample_polyline
+
+    Xd = resample_polyline(X_mm, max(int(_length(X_mm) / 0.5), 4))
+    d, seen = point_costs(evidence, Xd)
+    prec, cov = np.full(len(evidence), np.nan), np.full(len(evidence), np.nan)
+    for v, ev in enumerate(evidence):
+        if seen[v].sum() >= 3:
+            prec[v] = float(np.mean(d[v][seen[v]] <= tol_px))
+        u = ev.camera.project(Xd) - ev.offset_xy
+        drawn = np.zeros(ev.skeleton.shape, np.uint8)
+        pts = np.round(u[np.all(np.isfinite(u), axis=1)] * 4).astype(np.int32)
+        cv2.polylines(drawn, [pts], False, 1, int(2 * tol_px + 1), cv2.LINE_8, 2)
+        lab = ev.skeleton_labels
+        near = (drawn > 0) & (lab > 0)
+        touched = np.unique(lab[near])
+        touched = touched[touched > 0]
+        if len(touched) == 0:
+            cov[v] = 0.0 if seen[v].any() else np.nan
+            continue
+        comp = int(np.bincount(lab[ev.seen], minlength=int(lab.max()) + 1)[touched].sum())
+        cov[v] = float(np.count_nonzero(near & ev.seen) / max(comp, 1))
+    return prec, cov
+
+
+def test_curve_support_draws_on_the_box_it_paints(ev):
+    """Precision and coverage with the curve drawn on its box only: those of the whole crop, bit for bit."""
+    from tendrilkit.multiview import curve_support
+
+    rng = np.random.default_rng(11)
+    cam = ev.camera
+    for k in range(40):
+        # curves in front of the camera, in, across and out of the view's crop (its edge, far outside)
+        n = int(rng.integers(2, 30))
+        start = rng.uniform([-0.35, -0.2, 0.9], [0.35, 0.2, 1.1]) * (1.0 if k % 5 else 3.0)
+        X = start + np.cumsum(rng.normal(0, 0.02 if k % 3 else 0.1, (n, 3)), axis=0)
+        X_mm = X  # the camera at the world origin looking along +z
+        got, want = curve_support(X_mm, [ev]), _support_on_the_whole_crop(X_mm, [ev])
+        assert np.array_equal(got[0], want[0], equal_nan=True) and np.array_equal(got[1], want[1], equal_nan=True)
