@@ -420,3 +420,18 @@ def test_curve_support_draws_on_the_box_it_paints(ev):
         X_mm = X  # the camera at the world origin looking along +z
         got, want = curve_support(X_mm, [ev]), _support_on_the_whole_crop(X_mm, [ev])
         assert np.array_equal(got[0], want[0], equal_nan=True) and np.array_equal(got[1], want[1], equal_nan=True)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_skeleton_labels_on_the_box_are_the_whole_crops(seed):
+    """The skeleton's components labelled on its box (even start): the whole crop's labels, pixel for pixel."""
+    rng = np.random.default_rng(seed)
+
+    def more(img):
+        for _ in range(int(rng.integers(1, 6))):
+            p, q = rng.integers([20, 5], [190, 115], (2, 2))
+            cv2.line(img, tuple(int(v) for v in p), tuple(int(v) for v in q), (20, 20, 20), int(rng.integers(1, 4)))
+
+    ev = _wavy_view(more)
+    want = cv2.connectedComponents(ev.skeleton.astype(np.uint8), connectivity=8)[1]
+    assert ev.skeleton_labels.dtype == want.dtype and np.array_equal(ev.skeleton_labels, want)
