@@ -373,28 +373,29 @@ def _local_distance(ev: ViewEvidence, rows: list, cols: list, use: np.ndarray) -
     out = [np.zeros(n, np.float32) for _ in rows]
     todo = use.copy()
     kept = ev._distance_boxes
+    if kept:
+        # a position's pixels' rows and columns span (the bilinear corners: a pixel and its next)
+        rmin, rmax = np.minimum.reduce(rows), np.maximum.reduce(rows)
+        cmin, cmax = np.minimum.reduce(cols), np.maximum.reduce(cols)
     for r0, r1, c0, c1, D in kept:
-        if not todo.any():
-            break
         k = np.flatnonzero(todo)
-        done = np.ones(len(k), bool)
-        vals = []
-        for a, b in zip(rows, cols):
-            r, c = a[k], b[k]
-            inside = (r >= r0) & (r < r1) & (c >= c0) & (c < c1)
-            # a pixel's margin: its chessboard distance to the box's sides that are not the crop's
-            margin = np.full(len(k), np.inf)
-            if r0 > 0:
-                margin = np.minimum(margin, r - r0)
-            if r1 < h:
-                margin = np.minimum(margin, r1 - 1 - r)
-            if c0 > 0:
-                margin = np.minimum(margin, c - c0)
-            if c1 < w:
-                margin = np.minimum(margin, c1 - 1 - c)
-            v = np.where(inside, D[np.clip(r - r0, 0, r1 - r0 - 1), np.clip(c - c0, 0, c1 - c0 - 1)], np.float32(0))
-            done &= inside & (v <= margin)
-            vals.append(v)
+        if len(k) == 0:
+            break
+        inside = (rmin[k] >= r0) & (rmax[k] < r1) & (cmin[k] >= c0) & (cmax[k] < c1)
+        k = k[inside]
+        # the margin of all of a position's pixels: their least chessboard distance to the box's sides that are
+        # not the crop's
+        margin = np.full(len(k), np.inf)
+        if r0 > 0:
+            margin = np.minimum(margin, rmin[k] - r0)
+        if r1 < h:
+            margin = np.minimum(margin, r1 - 1 - rmax[k])
+        if c0 > 0:
+            margin = np.minimum(margin, cmin[k] - c0)
+        if c1 < w:
+            margin = np.minimum(margin, c1 - 1 - cmax[k])
+        vals = [D[a[k] - r0, b[k] - c0] for a, b in zip(rows, cols)]
+        done = np.all([v <= margin for v in vals], axis=0) if len(k) else np.zeros(0, bool)
         for o, v in zip(out, vals):
             o[k[done]] = v[done]
         todo[k[done]] = False
