@@ -47,6 +47,8 @@ def _project_brown(Xc, K, dist, distort):
 
 def _as_points(points: np.ndarray, dim: int, name: str) -> np.ndarray:
     """(n, dim) float array of ``points`` (one point may come as (dim,)); NaN allowed."""
+    if type(points) is np.ndarray and points.dtype == np.float64 and points.ndim == 2 and points.shape[1] == dim:
+        return points  # what the checks below return for it (the projections' hot path: no call for nothing)
     arr = np.asarray(points, dtype=float)
     if arr.ndim == 1 and arr.shape[0] == dim:
         arr = arr[None, :]

@@ -113,6 +113,12 @@ class ViewEvidence:
         return out
 
     @cached_property
+    def _distance_boxes(self) -> list:
+        """The boxes of the crop :func:`sample_distance` transformed so far: ``(r0, r1, c0, c1, D)`` (crop rows
+        ``r0:r1``, columns ``c0:c1``, their float32 distance transform), read again by later calls."""
+        return []
+
+    @cached_property
     def inside_px(self) -> np.ndarray:
         """(h, w) float32: every foreground pixel's distance to the nearest board pixel, px (0 on the board).
 
@@ -260,16 +266,17 @@ def view_evidence(
 
 def _skeleton(mask: np.ndarray, offset: np.ndarray) -> tuple[np.ndarray, float]:
     """Skeleton pixels (m, 2) full-image xy of a mask, and area / skeleton length (px)."""
-    nz = cv2.findNonZero(mask.view(np.uint8))
-    if nz is None:
+    m8 = mask.view(np.uint8)
+    area = cv2.countNonZero(m8)  # the mask's area and box without listing its pixels (cv2.findNonZero)
+    if area == 0:
         return np.zeros((0, 2)), float("nan")
-    x0, y0, w, h = cv2.boundingRect(nz)
+    x0, y0, w, h = cv2.boundingRect(m8)  # a uint8 image: the box of its nonzero pixels
     sub = mask[y0:y0 + h, x0:x0 + w]
     # cv2.findNonZero: the pixels in np.nonzero's (raster) order, several times faster on a large sparse array
     sk = cv2.findNonZero(thin_strips(sub).view(np.uint8))
     sk = np.zeros((0, 2), np.int32) if sk is None else sk.reshape(-1, 2)
     xy = (sk + [x0 + offset[0], y0 + offset[1]]).astype(float)
-    width = float(len(nz)) / max(len(xy), 1)
+    width = float(area) / max(len(xy), 1)
     return xy, width
 
 
@@ -350,17 +357,51 @@ def _local_distance(ev: ViewEvidence, rows: list, cols: list, use: np.ndarray) -
 
     ``rows``, ``cols``: lists of (n,) int arrays of crop pixels, one per
     corner of the bilinear interpolation; ``use``: (n,) bool, the positions
-    whose values count (the others get 0). The positions are taken in runs of
+    whose values count (the others get 0). A position is first read from the
+    boxes an earlier call transformed (:attr:`ViewEvidence._distance_boxes`:
+    the checks read the same curve's surroundings several times) when each
+    of its pixels' values is at most that pixel's distance to the box's
+    sides inside the crop (the margin argument of :func:`sample_distance`,
+    per pixel: the same values, bit for bit). The others are taken in runs of
     :data:`LOCAL_RUN`, each run's pixels from the transform of their own box
-    grown by :data:`LOCAL_MARGIN_PX`. None when the boxes would not pay (over
-    half the ROI together) or a value exceeds the margin: then the whole
-    transform is needed.
+    grown by :data:`LOCAL_MARGIN_PX` (kept for later calls). None when the
+    new boxes would not pay (over half the ROI together) or a value exceeds
+    the margin: then the whole transform is needed.
     """
     h, w = ev.shape
     n = len(use)
+    out = [np.zeros(n, np.float32) for _ in rows]
+    todo = use.copy()
+    kept = ev._distance_boxes
+    if kept:
+        # a position's pixels' rows and columns span (the bilinear corners: a pixel and its next)
+        rmin, rmax = np.minimum.reduce(rows), np.maximum.reduce(rows)
+        cmin, cmax = np.minimum.reduce(cols), np.maximum.reduce(cols)
+    for r0, r1, c0, c1, D in kept:
+        k = np.flatnonzero(todo)
+        if len(k) == 0:
+            break
+        inside = (rmin[k] >= r0) & (rmax[k] < r1) & (cmin[k] >= c0) & (cmax[k] < c1)
+        k = k[inside]
+        # the margin of all of a position's pixels: their least chessboard distance to the box's sides that are
+        # not the crop's
+        margin = np.full(len(k), np.inf)
+        if r0 > 0:
+            margin = np.minimum(margin, rmin[k] - r0)
+        if r1 < h:
+            margin = np.minimum(margin, r1 - 1 - rmax[k])
+        if c0 > 0:
+            margin = np.minimum(margin, cmin[k] - c0)
+        if c1 < w:
+            margin = np.minimum(margin, c1 - 1 - cmax[k])
+        vals = [D[a[k] - r0, b[k] - c0] for a, b in zip(rows, cols)]
+        done = np.all([v <= margin for v in vals], axis=0) if len(k) else np.zeros(0, bool)
+        for o, v in zip(out, vals):
+            o[k[done]] = v[done]
+        todo[k[done]] = False
     boxes = []
     for s in range(0, n, LOCAL_RUN):
-        u = use[s:s + LOCAL_RUN]
+        u = todo[s:s + LOCAL_RUN]
         if not u.any():
             continue
         r = np.concatenate([a[s:s + LOCAL_RUN][u] for a in rows])
@@ -368,15 +409,15 @@ def _local_distance(ev: ViewEvidence, rows: list, cols: list, use: np.ndarray) -
         m = LOCAL_MARGIN_PX
         boxes.append((s, max(int(r.min()) - m, 0), min(int(r.max()) + m + 1, h), max(int(c.min()) - m, 0),
                       min(int(c.max()) + m + 1, w)))
-    if not boxes or sum((r1 - r0) * (c1 - c0) for _, r0, r1, c0, c1 in boxes) > 0.5 * h * w:
+    if sum((r1 - r0) * (c1 - c0) for _, r0, r1, c0, c1 in boxes) > 0.5 * h * w:
         return None
-    out = [np.zeros(n, np.float32) for _ in rows]
     for s, r0, r1, c0, c1 in boxes:
         sub = np.ascontiguousarray(ev.foreground[r0:r1, c0:c1]).view(np.uint8)
         if not sub.any():
             return None
         D = cv2.distanceTransform(cv2.compare(sub, 0, cv2.CMP_EQ), cv2.DIST_L2, 5)
-        u = use[s:s + LOCAL_RUN]
+        kept.append((r0, r1, c0, c1, D))
+        u = todo[s:s + LOCAL_RUN]
         for v, a, b in zip(out, rows, cols):
             vals = D[a[s:s + LOCAL_RUN][u] - r0, b[s:s + LOCAL_RUN][u] - c0]
             if vals.max() > LOCAL_MARGIN_PX:

@@ -481,10 +481,15 @@ def curve_support(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, tol_px:
         if seen[v].sum() >= 3:
             prec[v] = float(np.mean(d[v][seen[v]] <= tol_px))
         u = ev.camera.project(Xd) - ev.offset_xy
-        drawn = np.zeros(ev.skeleton.shape, np.uint8)
         pts = np.round(u[np.all(np.isfinite(u), axis=1)] * 4).astype(np.int32)
-        cv2.polylines(drawn, [pts], False, 1, int(2 * tol_px + 1), cv2.LINE_8, 2)
-        lab = ev.skeleton_labels
+        # the line drawn on the box it can paint only (its points' box grown by its half width, inside the crop),
+        # not on the whole crop: the same pixels (the drawing moves with the box's whole-pixel offset)
+        thick = int(2 * tol_px + 1)
+        x0, y0, x1, y1 = _painted_box(pts, thick, ev.skeleton.shape)
+        drawn = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        if drawn.size:
+            cv2.polylines(drawn, [pts - np.array([4 * x0, 4 * y0], np.int32)], False, 1, thick, cv2.LINE_8, 2)
+        lab = ev.skeleton_labels[y0:y1, x0:x1]
         near = (drawn > 0) & (lab > 0)  # the skeleton's pixels are the labelled ones
         touched = np.unique(lab[near])
         touched = touched[touched > 0]
@@ -492,8 +497,23 @@ def curve_support(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, tol_px:
             cov[v] = 0.0 if seen[v].any() else np.nan
             continue
         comp = int(ev.skeleton_seen_px[touched].sum())  # the seen skeleton pixels of the touched components
-        cov[v] = float(np.count_nonzero(near & ev.seen) / max(comp, 1))
+        cov[v] = float(np.count_nonzero(near & ev.seen[y0:y1, x0:x1]) / max(comp, 1))
     return prec, cov
+
+
+def _painted_box(pts: np.ndarray, thickness: int, shape: tuple[int, int]) -> tuple[int, int, int, int]:
+    """``(x0, y0, x1, y1)``: the pixels of a crop of ``shape`` (h, w) that ``cv2.polylines`` of ``pts`` (n, 2)
+    (int32, 2 fractional bits) with ``thickness`` can paint: the points' box grown by half the thickness and
+    2 px (round caps and joins), clipped to the crop (empty without points)."""
+    h, w = shape
+    if len(pts) == 0:
+        return 0, 0, 0, 0
+    r = thickness // 2 + 2
+    x0 = max(int(np.floor(pts[:, 0].min() / 4)) - r, 0)
+    y0 = max(int(np.floor(pts[:, 1].min() / 4)) - r, 0)
+    x1 = max(min(int(np.ceil(pts[:, 0].max() / 4)) + r + 1, w), x0)
+    y1 = max(min(int(np.ceil(pts[:, 1].max() / 4)) + r + 1, h), y0)
+    return x0, y0, x1, y1
 
 
 def _score(prec: np.ndarray, cov: np.ndarray) -> float:

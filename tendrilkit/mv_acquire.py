@@ -118,6 +118,8 @@ off 15 -> 13, silent 0 -> 0.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from numba import njit
@@ -220,19 +222,42 @@ def _mean_seen(d: np.ndarray, seen: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 
 def cone_directions(axis: np.ndarray, max_deg: float, rings: int = 4) -> np.ndarray:
-    """Unit vectors (m, 3) on a cone of half-angle ``max_deg`` around ``axis`` (the axis first)."""
+    """Unit vectors (m, 3) on a cone of half-angle ``max_deg`` around ``axis`` (the axis first).
+
+    The rings' angles and azimuths depend on ``max_deg`` and ``rings`` only
+    (:func:`_cone_rings`, computed once); the cross products are written out
+    (``np.cross``'s arithmetic, bit for bit, without its cost on 3-vectors):
+    the multi-view tip's every step asks for a cone.
+    """
     a = np.asarray(axis, float)
     a = a / np.linalg.norm(a)
-    p = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    a0, a1, a2 = a
+    if abs(a0) < 0.9:  # a x (1, 0, 0)
+        p = np.array([a1 * 0.0 - a2 * 0.0, a2 * 1.0 - a0 * 0.0, a0 * 0.0 - a1 * 1.0])
+    else:  # a x (0, 1, 0)
+        p = np.array([a1 * 0.0 - a2 * 1.0, a2 * 0.0 - a0 * 0.0, a0 * 1.0 - a1 * 0.0])
     p /= np.linalg.norm(p)
-    q = np.cross(a, p)
+    p0, p1, p2 = p
+    q = np.array([a1 * p2 - a2 * p1, a2 * p0 - a0 * p2, a0 * p1 - a1 * p0])
     out = [a]
+    for cos_th, sin_th, cos_az, sin_az in _cone_rings(float(max_deg), int(rings)):
+        out.append(cos_th * a + sin_th * (cos_az * p + sin_az * q))
+    return np.vstack(out)
+
+
+@functools.lru_cache(maxsize=32)
+def _cone_rings(max_deg: float, rings: int) -> tuple:
+    """Per ring of :func:`cone_directions`: ``cos th, sin th`` and the azimuths' ``cos, sin`` as (n_az, 1) columns."""
+    out = []
     for k in range(1, rings + 1):
         th = np.radians(max_deg * k / rings)
         n_az = max(6, int(round(2 * np.pi * np.sin(th) / np.radians(max_deg / rings))))
         az = 2 * np.pi * (np.arange(n_az) + 0.5 * (k % 2)) / n_az
-        out.append(np.cos(th) * a + np.sin(th) * (np.cos(az)[:, None] * p + np.sin(az)[:, None] * q))
-    return np.vstack(out)
+        cos_az, sin_az = np.cos(az)[:, None], np.sin(az)[:, None]
+        cos_az.flags.writeable = False
+        sin_az.flags.writeable = False
+        out.append((np.cos(th), np.sin(th), cos_az, sin_az))
+    return tuple(out)
 
 
 def _local_cone(max_deg: float, rings: int = 4) -> np.ndarray:

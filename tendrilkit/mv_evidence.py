@@ -103,14 +103,39 @@ class SkeletonEvidence:
 
     @cached_property
     def skeleton_labels(self) -> np.ndarray:
-        """(h, w) int32: the 8-connected components of ``skeleton`` (0: none), computed once, when first read."""
-        return cv2.connectedComponents(self.skeleton.astype(np.uint8), connectivity=8)[1]
+        """(h, w) int32: the 8-connected components of ``skeleton`` (0: none), computed once, when first read.
+
+        Labelled on the skeleton's box, starting on an even row and column
+        (the labelling's 2 x 2 blocks and raster order, hence the labels, are
+        those of the whole crop), not on the whole crop.
+        """
+        h, w = self.skeleton.shape
+        out = np.zeros((h, w), np.int32)
+        if len(self.skeleton_xy) == 0:
+            return out
+        r = self.skeleton_xy[:, 1].astype(int) - self.offset_xy[1]
+        c = self.skeleton_xy[:, 0].astype(int) - self.offset_xy[0]
+        r0, c0 = int(r.min()) & ~1, int(c.min()) & ~1
+        r1, c1 = int(r.max()) + 1, int(c.max()) + 1
+        box = np.ascontiguousarray(self.skeleton[r0:r1, c0:c1]).view(np.uint8)
+        out[r0:r1, c0:c1] = cv2.connectedComponents(box, connectivity=8, ltype=cv2.CV_32S)[1]
+        return out
 
     @cached_property
     def skeleton_seen_px(self) -> np.ndarray:
-        """(n_labels,) int: per component of ``skeleton_labels``, its pixels the view sees (``seen``); computed once."""
+        """(n_labels,) int: per component of ``skeleton_labels``, its pixels the view sees (``seen``); computed once.
+
+        Read at the skeleton's pixels (the labelled ones) only, not over the
+        whole crop; label 0 (the background) gets the rest of the seen pixels.
+        """
         lab = self.skeleton_labels
-        return np.bincount(lab[self.seen], minlength=int(lab.max()) + 1)
+        off = self.offset_xy
+        r = self.skeleton_xy[:, 1].astype(int) - off[1]
+        c = self.skeleton_xy[:, 0].astype(int) - off[0]
+        at = lab[r, c]
+        out = np.bincount(at[self.seen[r, c]], minlength=int(at.max(initial=0)) + 1)
+        out[0] = np.count_nonzero(self.seen) - out[1:].sum()
+        return out
 
     @cached_property
     def _grid(self):

@@ -95,7 +95,7 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
             win = ev.labels[max(r[i] - rad, 0):r[i] + rad + 1, max(c[i] - rad, 0):c[i] + rad + 1]
             nz = win[win > 0]
             lab[i] = int(np.bincount(nz).argmax()) if nz.size else 0
-    counts = np.bincount(lab[lab > 0], minlength=int(ev.labels.max()) + 1)
+    counts = np.bincount(lab[lab > 0])  # per label up to the largest sampled (the others count 0: never touched)
     # components the curve runs along for at least 5 % of its on-tendril samples (a crossing's touch is not)
     touched = np.nonzero(counts >= max(3, 0.05 * len(on)))[0]
     # and every component at the base mark, the stem's too (a curve on the stem leaves the tendril unexplained;

@@ -49,7 +49,6 @@ over each other more than a line width apart), none on seeds 0-19
 
 from __future__ import annotations
 
-import bisect
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -74,6 +73,33 @@ def _resample(points_mm: np.ndarray, step_mm: float) -> np.ndarray:
     s = arc_length(points_mm)
     t = np.arange(0.0, s[-1] + 1e-9, step_mm)
     return np.column_stack([np.interp(t, s, points_mm[:, k]) for k in range(3)])
+
+
+def _suffix_medians(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The median of the finite ``values[k:]`` (NaN: none) and their count, for every k.
+
+    All at once: the finite values sorted, and for every k the ranks of the
+    middle ones among those at positions >= k counted along the sorted order
+    (the mean of the one or two middle values, as a sorted list grown from the
+    end gives them, bit for bit).
+
+    >>> _suffix_medians(np.array([3.0, np.nan, 1.0, 2.0]))
+    (array([2. , 1.5, 1.5, 2. ]), array([3, 2, 2, 1]))
+    """
+    n = len(values)
+    pos = np.flatnonzero(np.isfinite(values))
+    order = np.argsort(values[pos], kind="stable")
+    val, at = values[pos][order], pos[order]
+    cnt = np.cumsum(np.bincount(pos, minlength=n)[::-1])[::-1]  # finite values at positions >= k
+    med = np.full(n, np.nan)
+    has = cnt > 0
+    if has.any():
+        rank = np.cumsum(at[None, :] >= np.arange(n)[has, None], axis=1)  # of the sorted values, those of suffix k
+        m = cnt[has]
+        lo = np.argmax(rank >= ((m - 1) // 2 + 1)[:, None], axis=1)
+        hi = np.argmax(rank >= (m // 2 + 1)[:, None], axis=1)
+        med[has] = 0.5 * (val[lo] + val[hi])
+    return med, cnt
 
 
 def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: float = 2.0,
@@ -162,17 +188,7 @@ def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: flo
     n = len(S)
     if n < n_p + n_d:
         return None
-    # the median width of every suffix (distal stretch k..n-1), from the tip backwards
-    med_d = np.full(n, np.nan)
-    cnt_d = np.zeros(n, int)
-    kept: list[float] = []
-    for k in range(n - 1, -1, -1):
-        if np.isfinite(width[k]):
-            bisect.insort(kept, float(width[k]))
-        m = len(kept)
-        cnt_d[k] = m
-        if m:
-            med_d[k] = 0.5 * (kept[(m - 1) // 2] + kept[m // 2])
+    med_d, cnt_d = _suffix_medians(width)
     # the median width of every window of n_p samples before k (NaN sorts last)
     win = np.sort(np.lib.stride_tricks.sliding_window_view(width, n_p), axis=1)  # n - n_p + 1 windows
     cnt_p = np.isfinite(win).sum(axis=1)

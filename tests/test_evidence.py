@@ -114,3 +114,34 @@ def test_sample_distance_from_the_box_is_the_whole_transform(seed, run, monkeypa
     ref = cv2.distanceTransform(np.where(ev.foreground, np.uint8(0), np.uint8(255)), cv2.DIST_L2, 5)
     assert np.array_equal(ev.distance_px, ref)
     assert np.array_equal(ev.inside_px, cv2.distanceTransform(ev.foreground.view(np.uint8), cv2.DIST_L2, 5))
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_sample_distance_reads_again_from_the_boxes_it_made(seed, monkeypatch):
+    """A later read near the pixels of an earlier one comes from its boxes (no new transform): the same values."""
+    import cv2
+
+    import tendrilkit.evidence as evidence
+
+    img = _strokes_image(seed)
+    rng = np.random.default_rng(seed)
+    kw = dict(roi=[7, 5, 200, 150], keep_out=[60, 40, 12, 12], base_point_xy=[10, 10], opening_radius_px=0)
+    on = np.argwhere(view_evidence(img, **kw).foreground)[:, ::-1] + [7, 5]
+    first = on[rng.integers(0, len(on), 40)] + rng.normal(0, 4, (40, 2))
+    lazy, whole = view_evidence(img, **kw), view_evidence(img, **kw)
+    assert np.array_equal(sample_distance(lazy, first), sample_distance(whole, first), equal_nan=True)
+    made = len(lazy._distance_boxes)
+    calls = []
+    plain = cv2.distanceTransform
+    monkeypatch.setattr(evidence.cv2, "distanceTransform", lambda *a: calls.append(1) or plain(*a))
+    for later in (first + rng.normal(0, 1.5, first.shape),                    # beside the first: from its boxes
+                  rng.uniform([-20, -20], [240, 180], (10, 2)),               # anywhere: new boxes or the whole
+                  np.vstack([first[:5], [[np.nan, 5.0]]])):
+        assert np.array_equal(sample_distance(lazy, later), sample_distance(whole, later), equal_nan=True)
+    if "distance_px" not in lazy.__dict__ and made:
+        assert len(lazy._distance_boxes) >= made
+    lazy2 = view_evidence(img, **kw)
+    sample_distance(lazy2, first)
+    calls.clear()
+    sample_distance(lazy2, first[::-1])  # the same pixels again: no transform at all
+    assert calls == [] or "distance_px" in lazy2.__dict__

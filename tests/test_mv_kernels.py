@@ -334,3 +334,104 @@ def test_banded_normal_with_nan_is_the_d79ec45_numpy():
     Hd, tt, bend = _normal_inputs(rng, 10)
     tt[3, 0, 1] = np.nan
     np.testing.assert_array_equal(_banded_normal(Hd, tt, bend), _banded_normal_d79ec45(Hd, tt, bend))
+
+
+def _cone_with_np_cross(axis, max_deg, rings):
+    """The cone of mv_acquire.cone_directions as first written (np.cross, the rings' angles every call)."""
+    a = np.asarray(axis, float)
+    a = a / np.linalg.norm(a)
+    p = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    p /= np.linalg.norm(p)
+    q = np.cross(a, p)
+    out = [a]
+    for k in range(1, rings + 1):
+        th = np.radians(max_deg * k / rings)
+        n_az = max(6, int(round(2 * np.pi * np.sin(th) / np.radians(max_deg / rings))))
+        az = 2 * np.pi * (np.arange(n_az) + 0.5 * (k % 2)) / n_az
+        out.append(np.cos(th) * a + np.sin(th) * (np.cos(az)[:, None] * p + np.sin(az)[:, None] * q))
+    return np.vstack(out)
+
+
+def test_cone_directions_are_those_of_np_cross():
+    """The cone's directions, byte for byte (signed zeros too), on random axes, near-x axes and every cone used."""
+    from tendrilkit.mv_acquire import cone_directions
+
+    rng = np.random.default_rng(7)
+    axes = rng.normal(size=(300, 3)) * rng.choice([1e-3, 1.0, 1e3], size=(300, 1))
+    axes[::5, 1:] *= 1e-3  # along x: the other reference vector
+    axes = np.vstack([axes, np.eye(3), -np.eye(3)])
+    for ax in axes:
+        for deg, rings in ((30.0, 3), (30.0, 2), (25.0, 8), (20.0, 2), (12.5, 3)):
+            assert cone_directions(ax, deg, rings).tobytes() == _cone_with_np_cross(ax, deg, rings).tobytes()
+
+
+def test_skeleton_seen_px_counts_the_whole_crop():
+    """The seen pixels per skeleton component, read at the skeleton's pixels: those of the whole crop's count."""
+    def more(img):
+        cv2.line(img, (30, 100), (170, 15), (20, 20, 20), 2)       # a second line crossing the first
+        cv2.line(img, (150, 100), (190, 110), (20, 20, 20), 2)     # a separate one
+
+    ev = _wavy_view(more)
+    lab = ev.skeleton_labels
+    assert lab.max() >= 2
+    ref = np.bincount(lab[ev.seen], minlength=int(lab.max()) + 1)
+    assert ev.skeleton_seen_px.dtype == ref.dtype and np.array_equal(ev.skeleton_seen_px, ref)
+
+
+def _support_on_the_whole_crop(X_mm, evidence, tol_px=3.0):
+    """multiview.curve_support as first written: the line drawn on the whole crop."""
+    from tendrilkit.multiview import _length
+    from tendrilkit.mv_acquire import point_costs
+    from tendrilkit.geometry import resample_polyline
+
+    Xd = resample_polyline(X_mm, max(int(_length(X_mm) / 0.5), 4))
+    d, seen = point_costs(evidence, Xd)
+    prec, cov = np.full(len(evidence), np.nan), np.full(len(evidence), np.nan)
+    for v, ev in enumerate(evidence):
+        if seen[v].sum() >= 3:
+            prec[v] = float(np.mean(d[v][seen[v]] <= tol_px))
+        u = ev.camera.project(Xd) - ev.offset_xy
+        drawn = np.zeros(ev.skeleton.shape, np.uint8)
+        pts = np.round(u[np.all(np.isfinite(u), axis=1)] * 4).astype(np.int32)
+        cv2.polylines(drawn, [pts], False, 1, int(2 * tol_px + 1), cv2.LINE_8, 2)
+        lab = ev.skeleton_labels
+        near = (drawn > 0) & (lab > 0)
+        touched = np.unique(lab[near])
+        touched = touched[touched > 0]
+        if len(touched) == 0:
+            cov[v] = 0.0 if seen[v].any() else np.nan
+            continue
+        comp = int(np.bincount(lab[ev.seen], minlength=int(lab.max()) + 1)[touched].sum())
+        cov[v] = float(np.count_nonzero(near & ev.seen) / max(comp, 1))
+    return prec, cov
+
+
+def test_curve_support_draws_on_the_box_it_paints(ev):
+    """Precision and coverage with the curve drawn on its box only: those of the whole crop, bit for bit."""
+    from tendrilkit.multiview import curve_support
+
+    rng = np.random.default_rng(11)
+    cam = ev.camera
+    for k in range(40):
+        # curves in front of the camera, in, across and out of the view's crop (its edge, far outside)
+        n = int(rng.integers(2, 30))
+        start = rng.uniform([-0.35, -0.2, 0.9], [0.35, 0.2, 1.1]) * (1.0 if k % 5 else 3.0)
+        X = start + np.cumsum(rng.normal(0, 0.02 if k % 3 else 0.1, (n, 3)), axis=0)
+        X_mm = X  # the camera at the world origin looking along +z
+        got, want = curve_support(X_mm, [ev]), _support_on_the_whole_crop(X_mm, [ev])
+        assert np.array_equal(got[0], want[0], equal_nan=True) and np.array_equal(got[1], want[1], equal_nan=True)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_skeleton_labels_on_the_box_are_the_whole_crops(seed):
+    """The skeleton's components labelled on its box (even start): the whole crop's labels, pixel for pixel."""
+    rng = np.random.default_rng(seed)
+
+    def more(img):
+        for _ in range(int(rng.integers(1, 6))):
+            p, q = rng.integers([20, 5], [190, 115], (2, 2))
+            cv2.line(img, tuple(int(v) for v in p), tuple(int(v) for v in q), (20, 20, 20), int(rng.integers(1, 4)))
+
+    ev = _wavy_view(more)
+    want = cv2.connectedComponents(ev.skeleton.astype(np.uint8), connectivity=8)[1]
+    assert ev.skeleton_labels.dtype == want.dtype and np.array_equal(ev.skeleton_labels, want)

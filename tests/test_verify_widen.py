@@ -111,3 +111,27 @@ def test_phantom_curve_run_on_along_a_leaf_at_its_tip_is_caught(tmp_path):
     figures = [distal_widening(wrong, c, e) for c, e in zip(cams, ev)]
     assert sum(f > Thresholds().max_distal_widening for f in figures) >= 2, figures
     assert any(m.startswith("widening:") for m in verify_frame(wrong, cams, ev, {}, Thresholds()))
+
+
+def test_suffix_medians_are_those_of_a_list_grown_from_the_end():
+    """The vectorised suffix medians equal the sorted list grown from the tip backwards, bit for bit."""
+    import bisect
+
+    from tendrilkit.verify_widen import _suffix_medians
+
+    rng = np.random.default_rng(3)
+    for n in (0, 1, 2, 7, 150, 401):
+        for share in (0.0, 0.3, 1.0):
+            v = np.round(rng.uniform(1, 12, n) * 4) / 4 + rng.uniform(0, 1e-12, n) * (rng.random(n) < 0.5)
+            v[rng.random(n) < share] = np.nan
+            med, cnt = _suffix_medians(v)
+            kept: list[float] = []
+            for k in range(n - 1, -1, -1):
+                if np.isfinite(v[k]):
+                    bisect.insort(kept, float(v[k]))
+                m = len(kept)
+                assert cnt[k] == m
+                if m:
+                    assert med[k] == 0.5 * (kept[(m - 1) // 2] + kept[m // 2])
+                else:
+                    assert np.isnan(med[k])
