@@ -132,8 +132,8 @@ from tendrilkit.verify_branch import turn_branch_message, turn_branch_px
 from tendrilkit.verify_coverage import coverage_frac, tendril_radius_px
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
-from tendrilkit.verify_tip import (TIP_PX, failing_views, on_wide, open_tip_message, open_tip_px, skeleton_to_curve_px,
-                                   tip_continuation, tip_wide_fraction, wide_run_px)
+from tendrilkit.verify_tip import (TIP_PX, crossing_samples, failing_views, local_inside_px, on_wide, open_tip_message,
+                                   open_tip_px, skeleton_to_curve_px, tip_continuation, tip_wide_fraction, wide_run_px)
 from tendrilkit.verify_tone import off_colour_message, off_colour_run_px, tip_tone_frac, tip_tone_message
 from tendrilkit.verify_widen import MAX_DISTAL_WIDENING, distal_widening, distal_widening_message
 
@@ -421,7 +421,9 @@ def view_columns(n_views: int) -> list[str]:
     # the image's tone ahead of the tip and colour along the curve (issue 13, :mod:`tendrilkit.verify_tone`)
     cols += [f"{stem}_v{v}" for stem in ("tip_tone_frac", "off_colour_run_px") for v in range(1, n_views + 1)]
     # the tip continuation where the tone agrees and no object lies ahead: one view suffices (issue 13, verify_tip)
-    return cols + [f"open_tip_px_v{v}" for v in range(1, n_views + 1)]
+    cols += [f"open_tip_px_v{v}" for v in range(1, n_views + 1)]
+    # the longest stretch on wide pixels read as a crossing, left out of wide_run_px (issue 13, verify_tip)
+    return cols + [f"wide_crossing_px_v{v}" for v in range(1, n_views + 1)]
 
 
 def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
@@ -525,7 +527,11 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             out[f"base_on_tendril_frac_v{v + 1}"] = base_on_tendril(ev, dense[keep], d[keep], tolerance_px,
                                                                      inside=inside_px, near=at_base)
             out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(wide, seen & (d <= tolerance_px))
-            out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, seen & (d <= tolerance_px))
+            # a region the curve crosses (enters and leaves on the same thin line, straight on: a leaf the
+            # tendril passes behind) is no clutter it runs along (verify_tip.crossing_samples)
+            crossing = crossing_samples(dense, wide, on_mask, local_inside_px(ev, dense, inside_px))
+            out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide & ~crossing, on_mask)
+            out[f"wide_crossing_px_v{v + 1}"] = wide_run_px(crossing, on_mask)
             out[f"beyond_tip_px_v{v + 1}"] = beyond_tip_px(ev, dense, inside_px, radius_px, cov_tol=coverage_tolerance_px,
                                                            tol=tolerance_px, wide_ratio=WIDE_RATIO, sk_dist=sk_dist)
             out[f"tip_object_px_v{v + 1}"] = tip_object_px(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO,
