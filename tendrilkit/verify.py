@@ -61,7 +61,11 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         Longest stretch of the projected curve, px, on pixels wider than the
         tendril (:func:`tendrilkit.verify_tip.wide_run_px`): a curve running
         along clutter merged with the tendril (a shoot alongside it, a leaf),
-        where the images do not show the tendril's line.
+        where the images do not show the tendril's line. A region the curve
+        crosses (:func:`tendrilkit.verify_tip.crossing_samples`: enters and
+        leaves it on the same thin line, straight on; a leaf the tendril
+        passes behind) is left out; its longest stretch is
+        ``wide_crossing_px_v<i>`` (the last columns).
     ``self_distance_mm``, ``beyond_tip_px_v<i>``
         The curve's nearest approach to itself (:mod:`tendrilkit.verify_self`)
         and the tendril met ahead of its tip (:mod:`tendrilkit.verify_beyond`).
@@ -282,7 +286,9 @@ class Thresholds:
         most 46 px); the curves that pass every other check but run along a
         shoot merged with the tendril (seed 67, 1.7 mm mean, 7 mm max) or
         skip a coil over a leaf along clutter (seeds 21, 63, 76: 1.7-7.6 mm)
-        102-230 px.
+        102-230 px. Right curves crossing a leaf the tendril passes behind
+        run 110-166 px on it in every view (development seeds 9248, 9254,
+        9269, 9282, 9800): such crossings are left out of the figure.
     min_self_distance_frac : float
         Smallest distance between two parts of the curve over 5 mm apart
         along it (``self_distance_mm``), in line widths (1.0): a tendril

@@ -615,11 +615,12 @@ def test_every_checks_figure_is_a_frames_column(scene):
     cols = view_columns(2)
     for stem in ("tip_object_px", "turn_branch_px", "distal_widening_ratio"):
         assert [f"{stem}_v1", f"{stem}_v2"] == [c for c in cols if c.startswith(stem)]
-    assert cols[-12:-6] == ["tip_object_px_v1", "tip_object_px_v2", "turn_branch_px_v1", "turn_branch_px_v2",
+    assert cols[-14:-8] == ["tip_object_px_v1", "tip_object_px_v2", "turn_branch_px_v1", "turn_branch_px_v2",
                             "distal_widening_ratio_v1", "distal_widening_ratio_v2"]  # added at the table's end
-    assert cols[-6:-2] == ["tip_tone_frac_v1", "tip_tone_frac_v2", "off_colour_run_px_v1",
+    assert cols[-8:-4] == ["tip_tone_frac_v1", "tip_tone_frac_v2", "off_colour_run_px_v1",
                            "off_colour_run_px_v2"]  # and the tone and colour figures after them
-    assert cols[-2:] == ["open_tip_px_v1", "open_tip_px_v2"]  # then the open tip's
+    assert cols[-4:-2] == ["open_tip_px_v1", "open_tip_px_v2"]  # then the open tip's
+    assert cols[-2:] == ["wide_crossing_px_v1", "wide_crossing_px_v2"]  # then the merged check's crossings
     q = verify_curve(_tendril_mm(), cams, ev)
     assert set(cols) <= set(q)
     assert q["distal_widening_ratio_v1"] is not None and q["distal_widening_ratio_v1"] <= Thresholds().max_distal_widening
