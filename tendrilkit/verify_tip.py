@@ -28,10 +28,22 @@ import numpy as np
 from tendrilkit.evidence import ViewEvidence
 
 __all__ = ["TIP_PX", "tip_continuation", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction", "wide_run_px",
-           "open_tip_px", "open_tip_message", "failing_views"]
+           "crossing_samples", "local_inside_px", "open_tip_px", "open_tip_message", "failing_views"]
 
 #: The curve's tip, in :func:`tip_wide_fraction`: its last this many pixels of projection (px).
 TIP_PX = 20
+
+#: A crossing (:func:`crossing_samples`): the largest angle between the line's direction before or after a
+#: region wider than the tendril and the chord across it (degrees).
+MAX_CROSSING_TURN_DEG = 30.0
+
+#: A crossing: the largest ratio of the line's widths (median local inside distance) on the two sides.
+MAX_CROSSING_WIDTH_RATIO = 1.5
+
+#: A crossing: the region's depth across the curve (twice the largest local inside distance over the stretch)
+#: over the stretch's length, at least. Development seeds 9240-9299 (stretches over 40 px): leaves the right
+#: curves cross 0.43-1.05, bands of a shoot merged alongside the tendril 0.07-0.26.
+MIN_CROSSING_DEPTH_FRAC = 0.35
 
 
 def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *,
@@ -168,6 +180,103 @@ def wide_run_px(wide: np.ndarray, on: np.ndarray) -> float:
     d = np.diff(x)
     starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
     return float((ends - starts).max(initial=0))
+
+
+def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Starts and ends (exclusive) of the runs of True in a 1D bool array."""
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+
+
+def crossing_samples(dense_xy: np.ndarray, wide: np.ndarray, on: np.ndarray, local_px: np.ndarray, *,
+                     side_px: int = TIP_PX, max_turn_deg: float = MAX_CROSSING_TURN_DEG,
+                     max_width_ratio: float = MAX_CROSSING_WIDTH_RATIO,
+                     min_depth_frac: float = MIN_CROSSING_DEPTH_FRAC) -> np.ndarray:
+    """(n,) bool: the wide samples (:func:`on_wide`) where the curve crosses a region wider than the tendril.
+
+    A tendril passing behind a leaf (or in front of it, dark on dark) runs
+    over the leaf's wide pixels, as does a curve running on along a leaf or a
+    shoot merged with the tendril; what tells a crossing is that the curve
+    comes out on the other side on the same thin line, going on as it went
+    in. A stretch of the projected curve is a crossing when
+
+    * its wide samples are separated by fewer than ``side_px`` thin samples
+      (on the dark pixels, not wide), and ``side_px`` thin samples lie
+      before it and after it: the curve enters the region and leaves it (a
+      curve ending in it, along a leaf past the tip, does not);
+    * the line before and the line after run straight through it: the
+      directions of the ``side_px`` samples before and after each within
+      ``max_turn_deg`` of the chord joining the two sides (a curve taking a
+      turn inside the region, onto another line, is no crossing);
+    * the line is as wide on both sides: median local inside distance
+      (``local_px``, :func:`local_inside_px`) of the two sides within
+      ``max_width_ratio`` of each other (a curve coming out on a shoot's
+      thicker line is on another object);
+    * the region is deep across the curve, not a band along it: twice the
+      largest local inside distance over the stretch at least
+      ``min_depth_frac`` times its length (a shoot merged alongside the
+      tendril makes a band a few tendril widths wide, as long as they run
+      together).
+
+    Parameters
+    ----------
+    dense_xy : (n, 2) float array
+        The projected curve resampled every pixel, base to tip, px.
+    wide, on : (n,) bool arrays
+        Samples on pixels wider than the tendril; samples on the dark pixels
+        (seen by the view).
+    local_px : (n,) float array
+        Each sample's local inside distance, px.
+
+    Examples
+    --------
+    >>> xy = np.column_stack([np.arange(100.0), np.zeros(100)])
+    >>> wide = np.zeros(100, bool); wide[40:60] = True
+    >>> on = np.ones(100, bool); local = np.where(wide, 9.0, 3.0)  # a region 18 px deep over 20 px
+    >>> int(crossing_samples(xy, wide, on, local).sum())  # enters and leaves on the same straight line
+    20
+    >>> int(crossing_samples(xy, wide, on, np.where(wide, 3.2, 3.0)).sum())  # a band 6.4 px deep along it
+    0
+    >>> wide[40:] = True  # runs on to the tip: no crossing
+    >>> int(crossing_samples(xy, wide, on, np.where(wide, 9.0, 3.0)).sum())
+    0
+    """
+    n = len(dense_xy)
+    out = np.zeros(n, bool)
+    thin = on & ~wide
+    starts, ends = _runs(wide & on)
+    if not len(starts):
+        return out
+    # a stretch: wide runs with fewer than side_px thin samples between them (a leaf's pale vein, two
+    # leaves close together)
+    t_starts, t_ends = _runs(thin)
+    solid = np.zeros(n, bool)  # thin stretches of side_px samples or more
+    for a, b in zip(t_starts, t_ends):
+        if b - a >= side_px:
+            solid[a:b] = True
+    cos_max = np.cos(np.radians(max_turn_deg))
+    for a, b in zip(*_runs(~solid)):
+        if not (wide[a:b] & on[a:b]).any():
+            continue
+        if a < side_px or b + side_px > n or not (solid[a - side_px:a].all() and solid[b:b + side_px].all()):
+            continue  # not entered and left on the thin line (at the curve's base or tip)
+        before = dense_xy[a - 1] - dense_xy[a - side_px]
+        after = dense_xy[b + side_px - 1] - dense_xy[b]
+        chord = dense_xy[b] - dense_xy[a - 1]
+        norms = [np.linalg.norm(x) for x in (before, after, chord)]
+        if min(norms) <= 0:
+            continue
+        before, after, chord = before / norms[0], after / norms[1], chord / norms[2]
+        if float(before @ chord) < cos_max or float(after @ chord) < cos_max:
+            continue
+        w0 = float(np.median(local_px[a - side_px:a]))
+        w1 = float(np.median(local_px[b:b + side_px]))
+        if min(w0, w1) <= 0 or max(w0, w1) > max_width_ratio * min(w0, w1):
+            continue
+        if 2.0 * float(local_px[a:b].max()) < min_depth_frac * (b - a):
+            continue  # a band along the curve (a shoot merged alongside the tendril), not a region it crosses
+        out[a:b] = wide[a:b]
+    return out
 
 
 def open_tip_px(continuation_px: float | None, tone_frac: float | None, object_px: float | None, *,

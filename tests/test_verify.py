@@ -310,16 +310,49 @@ def test_curve_on_clutter_merged_with_the_tendril_is_doubtful():
     """Where a shoot merges with the tendril the images do not show its line: a long stretch of it is flagged."""
     cams, ev = _scene(_merged(0.45, 0.55))            # about 25 px merged: the rest of the curve is seen
     q = verify_curve(_tendril_mm(), cams, ev)
-    assert 10 <= q["wide_run_px_v1"] <= 40 and 10 <= q["wide_run_px_v2"] <= 40
+    # as deep as it is long: read as a crossing (verify_tip.crossing_samples), under the limit either way
+    assert all(10 <= max(q[f"wide_run_px_v{v}"], q[f"wide_crossing_px_v{v}"]) <= 40 for v in (1, 2))
     assert q["tip_wide_frac_v1"] == 0.0
     assert image_check_messages(q, 2, Thresholds()) == []
     cams, ev = _scene(_merged(0.2, 0.6))              # about 95 px merged (under half: the median width is the tendril's)
     q = verify_curve(_tendril_mm(), cams, ev)
     assert q["wide_run_px_v1"] > 80 and q["wide_run_px_v2"] > 80
+    assert q["wide_crossing_px_v1"] == 0 and q["wide_crossing_px_v2"] == 0   # a band along the curve: no crossing
     msgs = image_check_messages(q, 2, Thresholds())
     assert any(m.startswith("merged: the curve runs on pixels wider than the tendril") and "view 2" in m for m in msgs)
     one = {**q, "wide_run_px_v2": 10.0}               # one view only (the tendril in front of a leaf there)
     assert not any(m.startswith("merged") for m in image_check_messages(one, 2, Thresholds()))
+
+
+def _leaf_across(frac, half_axes_px=(48, 70)):
+    """A leaf (a dark ellipse) over the tendril at ``frac`` of its samples, its long axis across the tendril."""
+    def draw(img, cam):
+        T = _tendril_mm()
+        i = int(frac * 199)
+        c = cam.project(T[i][None])[0]
+        d = cam.project(T[min(i + 5, 199)][None])[0] - cam.project(T[max(i - 5, 0)][None])[0]
+        ang = float(np.degrees(np.arctan2(d[1], d[0])))
+        cv2.ellipse(img, (int(c[0]), int(c[1])), half_axes_px, ang, 0, 360, (30, 30, 30), -1)
+    return draw
+
+
+def test_curve_crossing_a_leaf_is_not_merged_clutter():
+    """A tendril passing behind a leaf: the curve enters and leaves it on the same thin line, straight on."""
+    cams, ev = _scene(_leaf_across(0.5))
+    q = verify_curve(_tendril_mm(), cams, ev)
+    for v in (1, 2):  # about 90 px over the leaf: over the merged check's limit, which read it as clutter before
+        assert q[f"wide_crossing_px_v{v}"] > 80 and q[f"wide_run_px_v{v}"] == 0
+    assert not any(m.startswith("merged") for m in image_check_messages(q, 2, Thresholds()))
+    # a curve ending in the leaf (stopped in it, or run on along it past the tip) crosses nothing
+    T = _tendril_mm()
+    q = verify_curve(T[:101], cams, ev)
+    assert q["wide_crossing_px_v1"] == 0 and q["wide_run_px_v1"] > 20
+    # a curve that turns inside the leaf onto another line is no crossing either
+    bent = T[:101].copy()
+    turn = np.cross(T[100] - T[90], [0.0, 0.0, 1.0])
+    out = T[100] + np.linspace(0.1, 12.0, 60)[:, None] * turn / np.linalg.norm(turn)
+    q = verify_curve(np.vstack([bent, out]), cams, ev)
+    assert q["wide_crossing_px_v1"] == 0 or q["wide_crossing_px_v2"] == 0
 
 
 def _twig(at_frac):
@@ -582,11 +615,12 @@ def test_every_checks_figure_is_a_frames_column(scene):
     cols = view_columns(2)
     for stem in ("tip_object_px", "turn_branch_px", "distal_widening_ratio"):
         assert [f"{stem}_v1", f"{stem}_v2"] == [c for c in cols if c.startswith(stem)]
-    assert cols[-12:-6] == ["tip_object_px_v1", "tip_object_px_v2", "turn_branch_px_v1", "turn_branch_px_v2",
+    assert cols[-14:-8] == ["tip_object_px_v1", "tip_object_px_v2", "turn_branch_px_v1", "turn_branch_px_v2",
                             "distal_widening_ratio_v1", "distal_widening_ratio_v2"]  # added at the table's end
-    assert cols[-6:-2] == ["tip_tone_frac_v1", "tip_tone_frac_v2", "off_colour_run_px_v1",
+    assert cols[-8:-4] == ["tip_tone_frac_v1", "tip_tone_frac_v2", "off_colour_run_px_v1",
                            "off_colour_run_px_v2"]  # and the tone and colour figures after them
-    assert cols[-2:] == ["open_tip_px_v1", "open_tip_px_v2"]  # then the open tip's
+    assert cols[-4:-2] == ["open_tip_px_v1", "open_tip_px_v2"]  # then the open tip's
+    assert cols[-2:] == ["wide_crossing_px_v1", "wide_crossing_px_v2"]  # then the merged check's crossings
     q = verify_curve(_tendril_mm(), cams, ev)
     assert set(cols) <= set(q)
     assert q["distal_widening_ratio_v1"] is not None and q["distal_widening_ratio_v1"] <= Thresholds().max_distal_widening
