@@ -46,6 +46,10 @@ hypothesis was a median 1.1 mm from the truth where lost (over 1 mm in 65 of
 along the middle view's line of sight moves the others' projections by about
 1.3 px, within ``ON_PX``); the truth itself turned under 10 degrees over those
 4 mm in 74 (a turn past the cone is the offset, not the tendril's bend).
+Validation seeds 1040-1079 (240 frames, totals): ``no step`` 91 frames, 11 at
+the end; of 80 others: board 35 (all pale), covered 21 (15 pale), off
+skeleton 14 (8 pale), one board 7 (all pale), seen 3; a median 1.3 mm from the
+truth where lost.
 """
 
 from __future__ import annotations
