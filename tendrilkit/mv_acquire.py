@@ -114,6 +114,34 @@ same cell as the other's): 34.7 % (10 gained, 19 lost, ``ok`` off 14); 45
 degrees: 34.2 %, ``ok`` off 19; validation seeds 9300-9339 (240 frames, the
 re-run with the fit): all three 48.3 -> 47.1 % (6 gained, 9 lost), ``ok``
 off 15 -> 13, silent 0 -> 0.
+
+Why the truth-following hypothesis had no acceptable step (``benchmarks/diagnose_nostep.py``, the same
+123 dev frames, main 45cdcbe): in 6 no hypothesis was on the truth from the first step, 15 lost it within
+3 mm of its end; of the 102 others, the truth's next millimetres show the board in two views or more in 51
+(pale tendrils the segmentation misses over 2-97 mm, median 15), in one view while two others see them on
+their skeletons in 17 (a pale tendril beside a darker object, missed in that view over 3-29 mm: its board
+vetoes every step), are dark but off the skeletons in 17 (the tendril merged with a stem's or a leaf's blob,
+crossings), covered or outside the ROIs in 5, on two views' skeletons in 12 (coils' passes, the hypothesis
+1-2 mm beside the truth). Where lost, the hypothesis ran a median 1.1 mm from the truth (65 of 102 over
+1 mm; the views are 15 and 30 degrees apart: a millimetre in depth moves the others' projections by about
+1.3 px, within ``ON_PX``), so the truth's next node lies past the cone although it turns under 10 degrees
+there in 74. With a tolerance of 3 mm instead of 2 mm (``diagnose_beam``), the chosen hypothesis follows the
+truth to its end in 122 frames (94), ``no step`` 135 of the 238 others. Validation seeds 1040-1079 (240
+frames, totals): ``no step`` 91, 11 at the end; of 80: board in two views 35, covered 21, off the skeletons
+14, one view's board 7, seen 3; 65 of the 80 in pale-tendril scenes.
+Tried and not kept (``rerun_multiview.py --no-fit``, dev seeds 9240-9299; before: all three 37.2 %, within
+0.5 mm 64.7 %, ``ok`` off 9): (a) one view showing the board does not veto a step where two others see new
+skeleton pixels (the step costs as one no two views see, the view left out), at most 3 steps in a row:
+all three 36.7 %, within 0.5 mm 60.0 % (0 frames gained, 2 lost); at most 1: 36.7 %, 61.9 % (2 gained,
+4 lost); (b) a view showing the board on a light band across a dark object (:func:`light_band`) neither
+sees nor contradicts a step: 35.6 %, ``ok`` off 15 (5 gained, 11 lost: seed 9273's beam walks across the
+gaps between the stem and the leaves); also in a blind step's look ahead: 35.3 %. Each keeps the
+truth-following hypothesis alive past a pale stretch in a few frames (gains on 9260 frames 0-1, 9251 frames
+1-2) and lets wrong ones run on in more. The lever is the evidence: on the 13 dev scenes with such pale losses (78
+frames), the pale segmentation options (``local_exclude_dark``, ``line_width_px`` 11) take the chosen
+hypothesis to the truth's end in 16 frames (0 without), ``no step`` 71 -> 38 (board 51 -> 21, one board
+17 -> 11); end to end (``--no-fit``) all three 6.4 -> 21.8 %, within 0.5 mm 67.9 -> 61.5 %, ``ok`` off 0 -> 2
+(scenes chosen for their losses: not a general figure).
 """
 
 from __future__ import annotations
@@ -142,8 +170,11 @@ STOP_PX = 4.0
 TURN_PX = 0.5
 #: A callable ``_TRACE(event, **values)`` that :func:`grow_curve` calls after every step's pruning (``"step"``: the
 #: hypotheses, each candidate's hypothesis row ``own`` and tip ``pts``, the acceptable candidates best first
-#: ``ranked``, those the cell filter keeps ``diverse``, those kept ``kept``) and with its finished hypotheses
-#: (``"ends"``); ``None`` in use (``benchmarks/diagnose_beam.py`` sets it).
+#: ``ranked``, those the cell filter keeps ``diverse``, those kept ``kept``; per candidate its ``cost``, ``ok``, the
+#: evidence at its end and midpoint ``m_end``, ``m_mid``, ``vis``, ``confirmed``, ``contradicted``, ``tail``,
+#: ``blind_tail``, the self-return penalty ``self_near``, ``dirs``; per view and end then midpoint ``d``, ``seen``,
+#: ``bg``) and with its finished hypotheses (``"ends"``); ``None`` in use (``benchmarks/diagnose_beam.py`` and
+#: ``diagnose_nostep.py`` set it).
 _TRACE = None
 #: A place a view shows as board with dark pixels within this on both sides across the tendril's direction is a
 #: light band across a dark object (a pale tendril over the stem or a leaf), not the open board (pixels).
@@ -473,6 +504,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             da, sa = point_costs(evidence, ahead.reshape(-1, 3))
             ma, na = _mean_seen(da, sa)
             cost[blind] = 0.5 * (NEUTRAL_PX + np.where(na >= 2, ma, NEUTRAL_PX).reshape(-1, len(look)).mean(axis=1))
+        self_near = np.zeros(N, bool)
         if not first:  # bending
             turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1)))
             cost = cost + TURN_PX * (turn / cone_deg) ** 2
@@ -482,6 +514,8 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
                 sel = slice(h * len(local), (h + 1) * len(local))
                 dd = _nearest_distance(pts[sel], old)
                 cost[sel] += np.where(dd < 1.2, 5.0, 0.0)
+                if _TRACE is not None:
+                    self_near[sel] = dd < 1.2
         tail = np.where(confirmed, 0, np.array([h[2] for h in hyps])[own] + 1)
         # steps no two views see (keep-out box, occlusion): at most max_unseen_steps in a row; steps the views
         # see on pixels the curve explained already (passes over each other in two views): three times more
@@ -506,7 +540,9 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
                     break
         idx = np.asarray(kept, int)
         if _TRACE is not None:
-            _TRACE("step", hyps=hyps, own=own, pts=pts, ranked=ranked, diverse=diverse, kept=idx)
+            _TRACE("step", hyps=hyps, own=own, pts=pts, ranked=ranked, diverse=diverse, kept=idx, cost=cost, ok=ok,
+                   m_end=m_end, m_mid=m_mid, vis=vis, confirmed=confirmed, contradicted=contradicted,
+                   blind_tail=blind_tail, tail=tail, self_near=self_near, dirs=dirs, d=d, seen=seen, bg=bg)
         # claim what each kept hypothesis explained two steps back (all at once: one projection per view)
         parents = [hyps[own[i]] for i in idx]
         grown = [k for k, h in enumerate(parents) if len(h[0]) >= 3]

@@ -496,3 +496,35 @@ def test_beam_trace_changes_nothing_and_follows_the_coil(coil):
     assert r["event"] in ("no step", "survives") and r["truth_mm"] - r["chosen_follows_mm"] <= 3, r
     # a truth the curve cannot follow (shifted 5 mm sideways) is lost at once
     assert trace_frame(ev, B, truth + [0.0, 0.0, 5.0])["chosen_follows_mm"] == 0
+
+
+def test_nostep_census_reads_the_step_that_the_truth_takes(coil):
+    """``benchmarks/diagnose_nostep.py``: the trace's cost figures are those the growth decides on (an acceptable
+    step costs at most ``STOP_PX`` and no view shows the board there); on the coil the truth-following
+    hypothesis is not lost before the truth's end; a truth 5 mm beside the curve has no hypothesis on it."""
+    import tendrilkit.mv_acquire as A
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from diagnose_nostep import trace_frame
+
+    X, images, cams, exp = coil
+    ev = _evidence(images, cams, exp)
+    B = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=8.0)
+    steps = []
+
+    def on(event, **v):
+        if event == "step":
+            steps.append(v)
+
+    A._TRACE = on
+    try:
+        A.grow_curve(ev, B)
+    finally:
+        A._TRACE = None
+    for v in steps:
+        assert (v["cost"][v["ok"]] <= A.STOP_PX).all() and not v["contradicted"][v["ok"]].any()
+        N = len(v["pts"])
+        assert np.array_equal(v["contradicted"], v["bg"][:, :N].any(axis=0) | v["bg"][:, N:].any(axis=0))
+    truth = resample_polyline(X, step=1.0)
+    r = trace_frame(ev, B, truth, 2.0)
+    assert r["event"] == "" or r["truth_left_mm"] <= 3, r
+    assert trace_frame(ev, B, truth + [0.0, 0.0, 5.0], 2.0)["event"] in ("no parent", "lost other")
