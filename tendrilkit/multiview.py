@@ -102,6 +102,10 @@ MAX_COVER_GAP_MM = 40.0
 #: acquisition's beam stopped at the gap, the rest of the tendril is the extension's to follow (dev seed 9248: a
 #: leaf over 17 mm of a 191 mm tendril 82 mm from the base; with 60 mm the curve stopped 30 mm short).
 BRIDGE_EXTEND_MM = 200.0
+#: The acquisition's finished hypotheses fitted and weighed by the final choice (``_choose_acquired``), and the
+#: beam score (pixels per step) a degree of a local kink costs: 30 degrees as much as 7 steps on the skeletons.
+CHOICE_CANDIDATES = 8
+KINK_PX_PER_DEG = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -496,6 +500,71 @@ def curve_support(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, tol_px:
     return prec, cov
 
 
+def local_kink_deg(X_mm: np.ndarray, *, chord_mm: float = 3.0, near_mm: float = 3.0, far_mm: float = 10.0) -> float:
+    """The sharpest turn of a curve beyond the turns around it (degrees): where it takes a junction.
+
+    At every node the turn between the chords ``chord_mm`` before and after
+    it, less the median turn of the nodes ``near_mm`` to ``far_mm`` before and
+    after: a coil turns steadily (its turns are alike over a few mm), a
+    path that leaves the tendril at a crossing onto a shoot, a petiole or
+    another tendril turns at one place.
+
+    Parameters
+    ----------
+    X_mm : (m, 3) float array
+        Nodes about 1 mm apart (:func:`reconstruct_multiview`'s curves).
+
+    Returns
+    -------
+    float
+        0 for a curve too short to tell.
+    """
+    X = np.asarray(X_mm, float)
+    w = max(int(round(chord_mm / max(_segment(X), 1e-9))), 1) if len(X) >= 2 else 1
+    if len(X) <= 2 * w + 1:
+        return 0.0
+    a = X[w:-w] - X[:-2 * w]
+    b = X[2 * w:] - X[w:-w]
+    c = np.einsum("ij,ij->i", a, b) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-12)
+    turn = np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
+    seg = max(_segment(X), 1e-9)
+    lo, hi = int(round(near_mm / seg)), int(round(far_mm / seg))
+    excess = []
+    for i in range(len(turn)):
+        ring = np.r_[turn[max(i - hi, 0):max(i - lo, 0)], turn[i + lo + 1:i + hi + 1]]
+        excess.append(turn[i] - (float(np.median(ring)) if ring.size else 0.0))
+    return float(max(excess))
+
+
+def tip_runs_on(X_mm: np.ndarray, evidence: list[SkeletonEvidence]) -> int:
+    """How many views show their skeleton 1-3 mm straight on past the tip (a free tip: at most one).
+
+    The fit extends a tip while two views see the extension on skeleton pixels
+    the curve has not explained yet; a tip with two views' skeleton straight
+    on stopped for another reason (pixels it explained already: it ran back
+    along itself or onto a structure it crossed).
+    """
+    X = np.asarray(X_mm, float)
+    t = X[-1] - X[max(len(X) - 4, 0)]
+    t = t / max(np.linalg.norm(t), 1e-9)
+    d, seen = point_costs(evidence, X[-1] + np.outer([1.0, 2.0, 3.0], t))
+    return int(((d <= ON_PX) & seen).any(axis=1).sum())
+
+
+def _choose_acquired(curves: list[np.ndarray], scores: list[float], evidence: list[SkeletonEvidence]) -> np.ndarray:
+    """The acquisition's final choice among its best finished hypotheses, each fitted on every view.
+
+    Among those with a free tip (:func:`tip_runs_on`: at most one view shows the skeleton going on; all if none
+    has), the least beam score plus ``KINK_PX_PER_DEG`` per degree of :func:`local_kink_deg`: the beam's score
+    prefers the longest curve the views explain, and a path that leaves the tendril at a crossing runs on along
+    the other structure; the kink where it left it is paid for.
+    """
+    if len(curves) == 1:
+        return curves[0]
+    free = [k for k, X in enumerate(curves) if tip_runs_on(X, evidence) <= 1] or list(range(len(curves)))
+    return curves[min(free, key=lambda k: scores[k] + KINK_PX_PER_DEG * local_kink_deg(curves[k]))]
+
+
 def _score(prec: np.ndarray, cov: np.ndarray) -> float:
     """Mean over the views that see the curve of precision x coverage."""
     s = prec * cov
@@ -579,12 +648,13 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
         elif shrink < 1.0 - max_shrink:
             note = f"tracking lost (length {100 * (shrink - 1):.0f} % from the previous frame): acquired afresh"
     if not cands or note:
-        G = grow_curve(evidence, B)
-        if len(G) < 3:
+        grown = [(G, sc) for G, sc in grow_curve(evidence, B, candidates=CHOICE_CANDIDATES) if len(G) >= 3]
+        if not grown:
             if not cands:
                 raise TendrilLostError("no curve from the base that two views explain")
         else:
-            X = _fit(G, evidence, B, segment_mm)
+            X = _choose_acquired([_fit(G, evidence, B, segment_mm) for G, _ in grown], [sc for _, sc in grown],
+                                 evidence)
             prec, cov = curve_support(X, evidence)
             cands.append({"mode": "acquired", "nodes_mm": X, "precision": prec, "coverage": cov,
                           "score": _score(prec, cov)})

@@ -143,6 +143,9 @@ TURN_PX = 0.5
 #: ``ranked``, those the cell filter keeps ``diverse``, those kept ``kept``) and with its finished hypotheses
 #: (``"ends"``); ``None`` in use (``benchmarks/diagnose_beam.py`` sets it).
 _TRACE = None
+#: Finished hypotheses whose tips lie closer than this are one candidate for the final choice (mm; ``grow_curve``'s
+#: ``candidates``).
+SAME_TIP_MM = 4.0
 #: A place a view shows as board with dark pixels within this on both sides across the tendril's direction is a
 #: light band across a dark object (a pale tendril over the stem or a leaf), not the open board (pixels).
 BAND_PX = 6.0
@@ -376,7 +379,7 @@ def _one_per_cell_and_way(P_mm: np.ndarray, dirs: np.ndarray, cell_mm: float) ->
 
 def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm: float = 2.0, beam: int = 8,
                n_seeds: int = 6, cone_deg: float = 40.0, max_length_mm: float = 400.0,
-               max_unseen_steps: int = 6) -> np.ndarray:
+               max_unseen_steps: int = 6, candidates: int = 1):
     """Grow the tendril's 3D curve from the base by a beam search on every view's evidence.
 
     Parameters
@@ -399,17 +402,26 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         occlusion) before a hypothesis ends; three times as many steps
         that the views see on pixels the curve explained already (passes
         running over each other in two views).
+    candidates : int
+        With more than one: the finished hypotheses the choice weighs, up to
+        this many (see Returns).
 
     Returns
     -------
     (m, 3) float array
         The best hypothesis's nodes, ``step_mm`` apart, base first (at least
         the base and one step; trailing unseen steps removed).
+    list of ((m, 3) float array, float)
+        With ``candidates`` over one: nodes and score (lower is better) of
+        the best hypothesis and of the next best, in score order, among the
+        eligible ones (those the best is chosen from), each ending at least
+        ``SAME_TIP_MM`` from every tip listed before it.
     """
     B = np.asarray(base_mm, float)
     seeds = _seeds(evidence, B, n_seeds)
     if len(seeds) == 0:
-        return np.vstack([B, B])  # nothing any two views agree on
+        none_ = np.vstack([B, B])  # nothing any two views agree on
+        return none_ if candidates <= 1 else [(none_, 0.0)]
     # a hypothesis: (nodes list, score, unconfirmed tail, last direction, claims, blind tail)
     none = [np.zeros(len(ev.skeleton_xy), bool) for ev in evidence]
     hyps = [([B], 0.0, 0, d, none, 0) for d in seeds]
@@ -516,7 +528,15 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     best = min(inside or ends, key=lambda t: t[1])
     if _TRACE is not None:
         _TRACE("ends", ends=ends, cut=cut, best=best)
-    return np.asarray(best[0], float)
+    if candidates <= 1:
+        return np.asarray(best[0], float)
+    listed = [best]
+    for e in sorted(inside or ends, key=lambda t: t[1]):
+        if len(listed) == candidates:
+            break
+        if all(np.linalg.norm(np.asarray(e[0][-1]) - np.asarray(o[0][-1])) >= SAME_TIP_MM for o in listed):
+            listed.append(e)
+    return [(np.asarray(n, float), float(sc)) for n, sc in listed]
 
 
 def light_band(evidence: list[SkeletonEvidence], A_mm: np.ndarray, P_mm: np.ndarray, *,
