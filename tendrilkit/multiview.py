@@ -102,10 +102,12 @@ MAX_COVER_GAP_MM = 40.0
 #: acquisition's beam stopped at the gap, the rest of the tendril is the extension's to follow (dev seed 9248: a
 #: leaf over 17 mm of a 191 mm tendril 82 mm from the base; with 60 mm the curve stopped 30 mm short).
 BRIDGE_EXTEND_MM = 200.0
-#: The acquisition's finished hypotheses fitted and weighed by the final choice (``_choose_acquired``), and the
-#: beam score (pixels per step) a degree of a local kink costs: 30 degrees as much as 7 steps on the skeletons.
-CHOICE_CANDIDATES = 8
+#: The final choice of the acquisition (``_choose_acquired``): its best finished hypotheses weighed, each refined;
+#: the beam score (pixels per step) a degree of a local kink costs (30 degrees as much as 7 steps on the
+#: skeletons); at most this many fitted to the end (tip extended, refined again) in that order, looking for a free tip.
+CHOICE_CANDIDATES = 6
 KINK_PX_PER_DEG = 0.5
+CHOICE_FITS = 3
 
 
 @dataclass(frozen=True, eq=False)
@@ -551,18 +553,28 @@ def tip_runs_on(X_mm: np.ndarray, evidence: list[SkeletonEvidence]) -> int:
     return int(((d <= ON_PX) & seen).any(axis=1).sum())
 
 
-def _choose_acquired(curves: list[np.ndarray], scores: list[float], evidence: list[SkeletonEvidence]) -> np.ndarray:
-    """The acquisition's final choice among its best finished hypotheses, each fitted on every view.
+def _choose_acquired(grown: list, evidence: list[SkeletonEvidence], B: np.ndarray, segment_mm: float) -> np.ndarray:
+    """The acquisition's final choice among its best finished hypotheses, fitted on every view.
 
-    Among those with a free tip (:func:`tip_runs_on`: at most one view shows the skeleton going on; all if none
-    has), the least beam score plus ``KINK_PX_PER_DEG`` per degree of :func:`local_kink_deg`: the beam's score
-    prefers the longest curve the views explain, and a path that leaves the tendril at a crossing runs on along
-    the other structure; the kink where it left it is paid for.
+    ``grown``: (nodes, beam score) of ``grow_curve``'s candidates, the beam's own choice first. The beam's score
+    prefers the longest curve the views explain, and a path that leaves the tendril at a crossing (onto a shoot,
+    a petiole, another tendril, a coil's other pass) runs on along the other structure: each candidate, refined
+    on every view, pays ``KINK_PX_PER_DEG`` per degree of its :func:`local_kink_deg` (where it left the
+    tendril); in that order, the first whose fitted tip is free (:func:`tip_runs_on`: at most one view shows the
+    skeleton going on) among the first ``CHOICE_FITS`` is the tendril, or the first if none is. Each candidate is refined once (a few ms); the
+    tip's extension and the final refinement (most of a fit's cost) only as far as the order goes.
     """
-    if len(curves) == 1:
-        return curves[0]
-    free = [k for k, X in enumerate(curves) if tip_runs_on(X, evidence) <= 1] or list(range(len(curves)))
-    return curves[min(free, key=lambda k: scores[k] + KINK_PX_PER_DEG * local_kink_deg(curves[k]))]
+    if len(grown) == 1:
+        return _fit(grown[0][0], evidence, B, segment_mm)
+    refined = [refine_curve(_resample(G, segment_mm), evidence, base_mm=B, segment_mm=segment_mm) for G, _ in grown]
+    order = sorted(range(len(grown)), key=lambda k: grown[k][1] + KINK_PX_PER_DEG * local_kink_deg(refined[k]))
+    first = None
+    for k in order[:CHOICE_FITS]:
+        X = _fit(refined[k], evidence, B, segment_mm, refined=True)
+        if tip_runs_on(X, evidence) <= 1:
+            return X
+        first = X if first is None else first
+    return first
 
 
 def _score(prec: np.ndarray, cov: np.ndarray) -> float:
@@ -572,8 +584,8 @@ def _score(prec: np.ndarray, cov: np.ndarray) -> float:
     return float(s.mean()) if s.size else 0.0
 
 
-def _fit(X0, evidence, B, segment_mm, prior_mm=0.0, max_length_mm=np.inf):
-    X = refine_curve(_resample(X0, segment_mm), evidence, base_mm=B, segment_mm=segment_mm)
+def _fit(X0, evidence, B, segment_mm, prior_mm=0.0, max_length_mm=np.inf, refined=False):
+    X = X0 if refined else refine_curve(_resample(X0, segment_mm), evidence, base_mm=B, segment_mm=segment_mm)
     X = adjust_tip(X, evidence, prior_mm=prior_mm, max_length_mm=max_length_mm)
     X = _resample(X, segment_mm)
     # 30 iterations: along the directions no view constrains (the tangent in the plane of the camera centres)
@@ -653,8 +665,7 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
             if not cands:
                 raise TendrilLostError("no curve from the base that two views explain")
         else:
-            X = _choose_acquired([_fit(G, evidence, B, segment_mm) for G, _ in grown], [sc for _, sc in grown],
-                                 evidence)
+            X = _choose_acquired(grown, evidence, B, segment_mm)
             prec, cov = curve_support(X, evidence)
             cands.append({"mode": "acquired", "nodes_mm": X, "precision": prec, "coverage": cov,
                           "score": _score(prec, cov)})
