@@ -102,12 +102,11 @@ MAX_COVER_GAP_MM = 40.0
 #: acquisition's beam stopped at the gap, the rest of the tendril is the extension's to follow (dev seed 9248: a
 #: leaf over 17 mm of a 191 mm tendril 82 mm from the base; with 60 mm the curve stopped 30 mm short).
 BRIDGE_EXTEND_MM = 200.0
-#: The final choice of the acquisition (``_choose_acquired``): its best finished hypotheses weighed, each refined;
-#: the beam score (pixels per step) a degree of a local kink costs (30 degrees as much as 7 steps on the
-#: skeletons); at most this many fitted to the end (tip extended, refined again) in that order, looking for a free tip.
+#: The final choice of the acquisition (``_choose_acquired``): its best finished hypotheses weighed, each refined,
+#: and the beam score (pixels per step) a degree of a local kink costs (30 degrees as much as 15 steps on the
+#: skeletons).
 CHOICE_CANDIDATES = 6
-KINK_PX_PER_DEG = 0.5
-CHOICE_FITS = 3
+KINK_PX_PER_DEG = 1.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -538,43 +537,20 @@ def local_kink_deg(X_mm: np.ndarray, *, chord_mm: float = 3.0, near_mm: float = 
     return float(max(excess))
 
 
-def tip_runs_on(X_mm: np.ndarray, evidence: list[SkeletonEvidence]) -> int:
-    """How many views show their skeleton 1-3 mm straight on past the tip (a free tip: at most one).
-
-    The fit extends a tip while two views see the extension on skeleton pixels
-    the curve has not explained yet; a tip with two views' skeleton straight
-    on stopped for another reason (pixels it explained already: it ran back
-    along itself or onto a structure it crossed).
-    """
-    X = np.asarray(X_mm, float)
-    t = X[-1] - X[max(len(X) - 4, 0)]
-    t = t / max(np.linalg.norm(t), 1e-9)
-    d, seen = point_costs(evidence, X[-1] + np.outer([1.0, 2.0, 3.0], t))
-    return int(((d <= ON_PX) & seen).any(axis=1).sum())
-
-
 def _choose_acquired(grown: list, evidence: list[SkeletonEvidence], B: np.ndarray, segment_mm: float) -> np.ndarray:
-    """The acquisition's final choice among its best finished hypotheses, fitted on every view.
+    """The acquisition's final choice among its best finished hypotheses, each refined on every view.
 
     ``grown``: (nodes, beam score) of ``grow_curve``'s candidates, the beam's own choice first. The beam's score
     prefers the longest curve the views explain, and a path that leaves the tendril at a crossing (onto a shoot,
     a petiole, another tendril, a coil's other pass) runs on along the other structure: each candidate, refined
-    on every view, pays ``KINK_PX_PER_DEG`` per degree of its :func:`local_kink_deg` (where it left the
-    tendril); in that order, the first whose fitted tip is free (:func:`tip_runs_on`: at most one view shows the
-    skeleton going on) among the first ``CHOICE_FITS`` is the tendril, or the first if none is. Each candidate is refined once (a few ms); the
-    tip's extension and the final refinement (most of a fit's cost) only as far as the order goes.
+    on every view (a few ms), pays ``KINK_PX_PER_DEG`` per degree of its :func:`local_kink_deg` (where it left the
+    tendril); the least is fitted to the end (tip extended, refined again).
     """
     if len(grown) == 1:
         return _fit(grown[0][0], evidence, B, segment_mm)
     refined = [refine_curve(_resample(G, segment_mm), evidence, base_mm=B, segment_mm=segment_mm) for G, _ in grown]
-    order = sorted(range(len(grown)), key=lambda k: grown[k][1] + KINK_PX_PER_DEG * local_kink_deg(refined[k]))
-    first = None
-    for k in order[:CHOICE_FITS]:
-        X = _fit(refined[k], evidence, B, segment_mm, refined=True)
-        if tip_runs_on(X, evidence) <= 1:
-            return X
-        first = X if first is None else first
-    return first
+    k = min(range(len(grown)), key=lambda k: grown[k][1] + KINK_PX_PER_DEG * local_kink_deg(refined[k]))
+    return _fit(refined[k], evidence, B, segment_mm, refined=True)
 
 
 def _score(prec: np.ndarray, cov: np.ndarray) -> float:

@@ -540,7 +540,6 @@ def test_acquisition_keeps_the_tendril_at_a_junction_onto_a_longer_branch():
     chose it, 35 mm off at the tip); the final choice pays for the kink where it leaves the tendril and keeps
     the tendril, within the issue's figures. The candidates: the beam's own choice first, tips apart."""
     import tendrilkit.mv_acquire as A
-    from tendrilkit.multiview import tip_runs_on
 
     X, ev, B = _tendril_with_a_branch()
     cands = A.grow_curve(ev, B, candidates=6)
@@ -551,7 +550,3 @@ def test_acquisition_keeps_the_tendril_at_a_junction_onto_a_longer_branch():
     r = reconstruct_multiview(ev, B)
     e = _errors(resample_polyline(r.nodes_mm, 200), X)
     assert e["mean"] <= 0.5 and e["max"] <= 2.0 and e["base"] <= 2.0 and e["tip"] <= 2.0, e
-    # the tendril's tip is free; a curve stopped 10 mm short of it has the skeleton straight on in every view
-    assert tip_runs_on(r.nodes_mm, ev) <= 1
-    short = resample_polyline(X, step=1.0)[:-10]
-    assert tip_runs_on(short, ev) >= 2
