@@ -58,8 +58,12 @@ Tracking (:func:`reconstruct_multiview`)
     and coverage (skeleton pixels of the touched components explained). When
     there is no previous curve, or the check fails, the curve is acquired
     from the base (:func:`tendrilkit.mv_acquire.grow_curve`) and the better
-    of the two is kept. A curve under ``STUB_MM`` that runs out of two views'
-    ROIs is a stem stub, not the tendril: the frame fails.
+    of the two is kept. Of the acquisition's best few finished hypotheses
+    (tips apart), each refined on every view, the one whose beam score plus
+    a cost per degree of its sharpest local turn (:func:`local_kink_deg`:
+    where a path leaves the tendril at a junction) is least is the tendril.
+    A curve under ``STUB_MM`` that runs out of two views' ROIs is a stem
+    stub, not the tendril: the frame fails.
 """
 
 from __future__ import annotations
@@ -79,7 +83,7 @@ from tendrilkit.mv_acquire import (ON_PX, TURN_PX, advance, bridge_gap, claim, c
 from tendrilkit.mv_evidence import SkeletonEvidence, skeleton_distance
 from tendrilkit.triangulation import triangulate
 
-__all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "reconstruct_multiview",
+__all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "local_kink_deg", "reconstruct_multiview",
            "base_point_from_marks", "distance_table"]
 
 

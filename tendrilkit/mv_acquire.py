@@ -114,6 +114,19 @@ same cell as the other's): 34.7 % (10 gained, 19 lost, ``ok`` off 14); 45
 degrees: 34.2 %, ``ok`` off 19; validation seeds 9300-9339 (240 frames, the
 re-run with the fit): all three 48.3 -> 47.1 % (6 gained, 9 lost), ``ok``
 off 15 -> 13, silent 0 -> 0.
+
+The final choice (issue 12, 2026-11-30, ``benchmarks/diagnose_choice.py`` on
+dev seeds 9240-9299): the beam's choice is right on all three criteria in
+119 of 360 frames (acquisition alone), another of its 8 best finished
+hypotheses (tips 4 mm apart) while it is not in 35. ``grow_curve``'s
+``candidates`` lists them for :func:`tendrilkit.multiview.reconstruct_multiview`,
+which weighs their local kinks. Tried and not kept: also preferring, among
+the 8 fitted to the end, those with a free tip (at most one view's skeleton
+1-3 mm straight on past the fitted tip): dev 136 of 360 right (18 gained, 1
+lost), end to end (``rerun_multiview.py --no-fit``) all three 37.2 -> 41.9 %,
+``ok`` off 9 -> 7; but on validation seeds 1000-1039 (``bench_generalize``,
+240 frames) all three 34.2 -> 32.9 % (3 gained, 6 lost), mean <= 0.5 mm
+60.0 -> 63.3 %, ``ok`` off 6 -> 7, and 236 against 97 ms per frame.
 """
 
 from __future__ import annotations
