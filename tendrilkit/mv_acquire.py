@@ -120,7 +120,14 @@ dev seeds 9240-9299): the beam's choice is right on all three criteria in
 119 of 360 frames (acquisition alone), another of its 8 best finished
 hypotheses (tips 4 mm apart) while it is not in 35. ``grow_curve``'s
 ``candidates`` lists them for :func:`tendrilkit.multiview.reconstruct_multiview`,
-which weighs their local kinks. Tried and not kept: also preferring, among
+which weighs their local kinks (6 listed): end to end (``rerun_multiview.py
+--no-fit``) all three 37.2 -> 39.2 % (8 gained, 1 lost), mean <= 0.5 mm 64.7
+-> 69.7 %, max <= 2 mm 53.1 -> 58.1 %, ``ok`` off 9 -> 9; validation seeds
+1000-1039: all three 34.2 -> 34.2 % (3 gained, 3 lost), mean <= 0.5 mm 60.0
+-> 62.1 %, ``ok`` off 6 -> 7. With it, more diversity again: per kept
+parent, its best child heading 30 degrees off its best kept one, two such
+kept beyond the beam (the other branch of a junction): dev 38.6 % (19
+gained, 14 lost), ``ok`` off 11: not kept. Tried and not kept: also preferring, among
 the 8 fitted to the end, those with a free tip (at most one view's skeleton
 1-3 mm straight on past the fitted tip): dev 136 of 360 right (18 gained, 1
 lost), end to end (``rerun_multiview.py --no-fit``) all three 37.2 -> 41.9 %,
