@@ -534,11 +534,15 @@ def local_kink_deg(X_mm: np.ndarray, *, chord_mm: float = 3.0, near_mm: float = 
     turn = np.degrees(np.arccos(np.clip(c, -1.0, 1.0)))
     seg = max(_segment(X), 1e-9)
     lo, hi = int(round(near_mm / seg)), int(round(far_mm / seg))
-    excess = []
-    for i in range(len(turn)):
-        ring = np.r_[turn[max(i - hi, 0):max(i - lo, 0)], turn[i + lo + 1:i + hi + 1]]
-        excess.append(turn[i] - (float(np.median(ring)) if ring.size else 0.0))
-    return float(max(excess))
+    # per node the turns lo + 1 to hi nodes before and after it (NaN beyond the ends)
+    pad = np.r_[np.full(hi, np.nan), turn, np.full(hi, np.nan)]
+    i = np.arange(len(turn))[:, None] + hi
+    ring = pad[np.c_[i - np.arange(hi, lo, -1), i + np.arange(lo + 1, hi + 1)]]
+    some = np.isfinite(ring).any(axis=1)
+    around = np.zeros(len(turn))
+    if some.any():
+        around[some] = np.nanmedian(ring[some], axis=1)
+    return float(np.max(turn - around))
 
 
 def _choose_acquired(grown: list, evidence: list[SkeletonEvidence], B: np.ndarray, segment_mm: float) -> np.ndarray:

@@ -124,7 +124,8 @@ which weighs their local kinks (6 listed): end to end (``rerun_multiview.py
 --no-fit``) all three 37.2 -> 39.2 % (8 gained, 1 lost), mean <= 0.5 mm 64.7
 -> 69.7 %, max <= 2 mm 53.1 -> 58.1 %, ``ok`` off 9 -> 9; validation seeds
 1000-1039: all three 34.2 -> 34.2 % (3 gained, 3 lost), mean <= 0.5 mm 60.0
--> 62.1 %, ``ok`` off 6 -> 7. With it, more diversity again: per kept
+-> 62.1 %, ``ok`` off 6 -> 7; ``reconstruct_multiview`` 97 -> 118 ms per frame
+(dev 9240-9269, half the frames acquired). With it, more diversity again: per kept
 parent, its best child heading 30 degrees off its best kept one, two such
 kept beyond the beam (the other branch of a junction): dev 38.6 % (19
 gained, 14 lost), ``ok`` off 11: not kept. Tried and not kept: also preferring, among
