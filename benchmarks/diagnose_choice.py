@@ -28,8 +28,9 @@ tendril (onto a shoot, a petiole, a second tendril, the tip's run-on onto
 something it touches); the beam score plus 1 px per degree of that excess:
 128 right (9 gained, 0 lost); also preferring a free tip (at most one view's
 skeleton 1-3 mm straight on): 136 (18 gained, 1 lost) but not kept (worse on
-validation seeds, see :mod:`tendrilkit.multiview`'s ``KINK_PX_PER_DEG``).
-""""""
+validation seeds, see :mod:`tendrilkit.multiview`'s ``KINK_PX_PER_DEG`` and
+:mod:`tendrilkit.mv_acquire`'s notes).
+"""
 
 from __future__ import annotations
 
