@@ -122,7 +122,8 @@ hypotheses (tips 4 mm apart) while it is not in 35. ``grow_curve``'s
 ``candidates`` lists them for :func:`tendrilkit.multiview.reconstruct_multiview`,
 which weighs their local kinks (6 listed): end to end (``rerun_multiview.py
 --no-fit``) all three 37.2 -> 39.2 % (8 gained, 1 lost), mean <= 0.5 mm 64.7
--> 69.7 %, max <= 2 mm 53.1 -> 58.1 %, ``ok`` off 9 -> 9; validation seeds
+-> 69.7 %, max <= 2 mm 53.1 -> 58.1 %, ``ok`` off 9 -> 9, silent 0 (the same
+with the fit: ``ok`` 102 -> 101 frames, 90 -> 89 of them right on all three); validation seeds
 1000-1039: all three 34.2 -> 34.2 % (3 gained, 3 lost), mean <= 0.5 mm 60.0
 -> 62.1 %, ``ok`` off 6 -> 7; ``reconstruct_multiview`` 97 -> 118 ms per frame
 (dev 9240-9269, half the frames acquired). With it, more diversity again: per kept
