@@ -142,6 +142,27 @@ frames), the pale segmentation options (``local_exclude_dark``, ``line_width_px`
 hypothesis to the truth's end in 16 frames (0 without), ``no step`` 71 -> 38 (board 51 -> 21, one board
 17 -> 11); end to end (``--no-fit``) all three 6.4 -> 21.8 %, within 0.5 mm 67.9 -> 61.5 %, ``ok`` off 0 -> 2
 (scenes chosen for their losses: not a general figure).
+The final choice (issue 12, 2026-11-30, ``benchmarks/diagnose_choice.py`` on
+dev seeds 9240-9299): the beam's choice is right on all three criteria in
+119 of 360 frames (acquisition alone), another of its 8 best finished
+hypotheses (tips 4 mm apart) while it is not in 35. ``grow_curve``'s
+``candidates`` lists them for :func:`tendrilkit.multiview.reconstruct_multiview`,
+which weighs their local kinks (6 listed): end to end (``rerun_multiview.py
+--no-fit``) all three 37.2 -> 39.2 % (8 gained, 1 lost), mean <= 0.5 mm 64.7
+-> 69.7 %, max <= 2 mm 53.1 -> 58.1 %, ``ok`` off 9 -> 9, silent 0 (the same
+with the fit: ``ok`` 102 -> 101 frames, 90 -> 89 of them right on all three); validation seeds
+1000-1039: all three 34.2 -> 34.2 % (3 gained, 3 lost), mean <= 0.5 mm 60.0
+-> 62.1 %, ``ok`` off 6 -> 7; ``reconstruct_multiview`` 97 -> 118 ms per frame
+(dev 9240-9269, half the frames acquired). With it, more diversity again: per kept
+parent, its best child heading 30 degrees off its best kept one, two such
+kept beyond the beam (the other branch of a junction): dev 38.6 % (19
+gained, 14 lost), ``ok`` off 11: not kept. Tried and not kept: also preferring, among
+the 8 fitted to the end, those with a free tip (at most one view's skeleton
+1-3 mm straight on past the fitted tip): dev 136 of 360 right (18 gained, 1
+lost), end to end (``rerun_multiview.py --no-fit``) all three 37.2 -> 41.9 %,
+``ok`` off 9 -> 7; but on validation seeds 1000-1039 (``bench_generalize``,
+240 frames) all three 34.2 -> 32.9 % (3 gained, 6 lost), mean <= 0.5 mm
+60.0 -> 63.3 %, ``ok`` off 6 -> 7, and 236 against 97 ms per frame.
 """
 
 from __future__ import annotations
@@ -176,6 +197,9 @@ TURN_PX = 0.5
 #: ``bg``) and with its finished hypotheses (``"ends"``); ``None`` in use (``benchmarks/diagnose_beam.py`` and
 #: ``diagnose_nostep.py`` set it).
 _TRACE = None
+#: Finished hypotheses whose tips lie closer than this are one candidate for the final choice (mm; ``grow_curve``'s
+#: ``candidates``).
+SAME_TIP_MM = 4.0
 #: A place a view shows as board with dark pixels within this on both sides across the tendril's direction is a
 #: light band across a dark object (a pale tendril over the stem or a leaf), not the open board (pixels).
 BAND_PX = 6.0
@@ -432,7 +456,7 @@ def _one_per_cell_and_way(P_mm: np.ndarray, dirs: np.ndarray, cell_mm: float) ->
 
 def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm: float = 2.0, beam: int = 8,
                n_seeds: int = 6, cone_deg: float = 40.0, max_length_mm: float = 400.0,
-               max_unseen_steps: int = 6) -> np.ndarray:
+               max_unseen_steps: int = 6, candidates: int = 1):
     """Grow the tendril's 3D curve from the base by a beam search on every view's evidence.
 
     Parameters
@@ -455,17 +479,26 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         occlusion) before a hypothesis ends; three times as many steps
         that the views see on pixels the curve explained already (passes
         running over each other in two views).
+    candidates : int
+        With more than one: the finished hypotheses the choice weighs, up to
+        this many (see Returns).
 
     Returns
     -------
     (m, 3) float array
         The best hypothesis's nodes, ``step_mm`` apart, base first (at least
         the base and one step; trailing unseen steps removed).
+    list of ((m, 3) float array, float)
+        With ``candidates`` over one: nodes and score (lower is better) of
+        the best hypothesis and of the next best, in score order, among the
+        eligible ones (those the best is chosen from), each ending at least
+        ``SAME_TIP_MM`` from every tip listed before it.
     """
     B = np.asarray(base_mm, float)
     seeds = _seeds(evidence, B, n_seeds)
     if len(seeds) == 0:
-        return np.vstack([B, B])  # nothing any two views agree on
+        none_ = np.vstack([B, B])  # nothing any two views agree on
+        return none_ if candidates <= 1 else [(none_, 0.0)]
     # a hypothesis: (nodes list, score, unconfirmed tail, last direction, claims, blind tail)
     none = [np.zeros(len(ev.skeleton_xy), bool) for ev in evidence]
     hyps = [([B], 0.0, 0, d, none, 0) for d in seeds]
@@ -577,7 +610,15 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     best = min(inside or ends, key=lambda t: t[1])
     if _TRACE is not None:
         _TRACE("ends", ends=ends, cut=cut, best=best)
-    return np.asarray(best[0], float)
+    if candidates <= 1:
+        return np.asarray(best[0], float)
+    listed = [best]
+    for e in sorted(inside or ends, key=lambda t: t[1]):
+        if len(listed) == candidates:
+            break
+        if all(np.linalg.norm(np.asarray(e[0][-1]) - np.asarray(o[0][-1])) >= SAME_TIP_MM for o in listed):
+            listed.append(e)
+    return [(np.asarray(n, float), float(sc)) for n, sc in listed]
 
 
 def light_band(evidence: list[SkeletonEvidence], A_mm: np.ndarray, P_mm: np.ndarray, *,
