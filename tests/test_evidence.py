@@ -127,21 +127,19 @@ def test_sample_distance_reads_again_from_the_boxes_it_made(seed, monkeypatch):
     rng = np.random.default_rng(seed)
     kw = dict(roi=[7, 5, 200, 150], keep_out=[60, 40, 12, 12], base_point_xy=[10, 10], opening_radius_px=0)
     on = np.argwhere(view_evidence(img, **kw).foreground)[:, ::-1] + [7, 5]
-    first = on[rng.integers(0, len(on), 40)] + rng.normal(0, 4, (40, 2))
+    # a short stretch of a stroke: a box far smaller than half the crop, so the first read makes boxes
+    first = on[rng.integers(0, len(on))] + rng.normal(0, 3, (20, 2))
     lazy, whole = view_evidence(img, **kw), view_evidence(img, **kw)
+    assert whole.distance_px.shape == whole.foreground.shape  # the whole crop's transform, made at once
     assert np.array_equal(sample_distance(lazy, first), sample_distance(whole, first), equal_nan=True)
-    made = len(lazy._distance_boxes)
+    assert "distance_px" not in lazy.__dict__ and len(lazy._distance_boxes) >= 1
     calls = []
     plain = cv2.distanceTransform
     monkeypatch.setattr(evidence.cv2, "distanceTransform", lambda *a: calls.append(1) or plain(*a))
-    for later in (first + rng.normal(0, 1.5, first.shape),                    # beside the first: from its boxes
+    inner = first[::2] + rng.uniform(-0.5, 0.5, (10, 2))  # among the first read's pixels: from its boxes
+    assert np.array_equal(sample_distance(lazy, inner), sample_distance(whole, inner), equal_nan=True)
+    assert calls == [] and "distance_px" not in lazy.__dict__
+    for later in (first + rng.normal(0, 1.5, first.shape),                    # beside the first: its boxes or new
                   rng.uniform([-20, -20], [240, 180], (10, 2)),               # anywhere: new boxes or the whole
                   np.vstack([first[:5], [[np.nan, 5.0]]])):
         assert np.array_equal(sample_distance(lazy, later), sample_distance(whole, later), equal_nan=True)
-    if "distance_px" not in lazy.__dict__ and made:
-        assert len(lazy._distance_boxes) >= made
-    lazy2 = view_evidence(img, **kw)
-    sample_distance(lazy2, first)
-    calls.clear()
-    sample_distance(lazy2, first[::-1])  # the same pixels again: no transform at all
-    assert calls == [] or "distance_px" in lazy2.__dict__
