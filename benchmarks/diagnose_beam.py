@@ -46,10 +46,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 TOL_MM = 2.0
 
 
-def _follows(nodes: np.ndarray, truth: np.ndarray) -> int:
+def _follows(nodes: np.ndarray, truth: np.ndarray, tol_mm: float = TOL_MM) -> int:
     """How far (rows of ``truth``, 1 mm apart) the nodes follow the truth before the first one off it."""
     d = np.linalg.norm(np.asarray(nodes, float)[:, None] - truth[None], axis=2)
-    off = np.flatnonzero(d.min(axis=1) > TOL_MM)
+    off = np.flatnonzero(d.min(axis=1) > tol_mm)
     last = (off[0] if len(off) else len(d)) - 1
     return int(np.argmin(d[max(last, 0)]))
 
@@ -100,9 +100,10 @@ def trace_frame(evidence, base_mm: np.ndarray, truth_mm: np.ndarray) -> dict:
             "truth_mm": len(truth_mm) - 1}
 
 
-def _nodes_on(nodes, truth_mm) -> bool:
+def _nodes_on(nodes, truth_mm, tol_mm: float = TOL_MM) -> bool:
+    """Every node within ``tol_mm`` of the truth."""
     d = np.linalg.norm(np.asarray(nodes, float)[:, None] - truth_mm[None], axis=2)
-    return bool(d.min(axis=1).max() <= TOL_MM)
+    return bool(d.min(axis=1).max() <= tol_mm)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -65,17 +65,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-
-def _nodes_on(nodes, truth_mm, tol_mm) -> bool:
-    d = np.linalg.norm(np.asarray(nodes, float)[:, None] - truth_mm[None], axis=2)
-    return bool(d.min(axis=1).max() <= tol_mm)
-
-
-def _follows(nodes, truth_mm, tol_mm) -> int:
-    d = np.linalg.norm(np.asarray(nodes, float)[:, None] - truth_mm[None], axis=2)
-    off = np.flatnonzero(d.min(axis=1) > tol_mm)
-    last = (off[0] if len(off) else len(d)) - 1
-    return int(np.argmin(d[max(last, 0)]))
+from diagnose_beam import _follows, _nodes_on  # noqa: E402  (the same reading of "on the truth")
 
 
 def _truth_views(evidence, P_mm):
