@@ -342,11 +342,14 @@ def rim_lines(ev: ViewEvidence, inside_px: np.ndarray, radius_px: float, path_xy
     itself (the tendril between two leaves close together), grown by the
     core's reach ``R = ceil(wide_ratio * radius_px) + 2`` px (the object's
     margin). Its rim: the ring of pixels ``R`` to ``R + L`` px from the
-    core and path, ``L = ceil(2 * radius_px) + 2``. The thin pixels: dark
+    core and path, ``L = ceil(4 * radius_px) + 2`` (18 px for a 5 px line:
+    the part of a pointed leaf's apex the growing leaves out stays inside it
+    down to about 14 deg half angle; with ``2 * radius_px`` such an apex
+    counted as a line). The thin pixels: dark
     pixels farther than ``R`` from every core pixel (not part of any wide
     object). A line leaving the rim: an 8-connected component of thin pixels
     in the ring reaching both its inner and its outer edge (a leaf's pointed
-    apex the growing leaves out, or a speck, reaches only one). The work is
+    apex, or a speck, reaches only one). The work is
     done on the region's box (plus ``R + L + 1`` px); None when that box
     runs past the ROI crop (a line may leave where the view cannot see) or
     the half width is unknown.
@@ -369,7 +372,7 @@ def rim_lines(ev: ViewEvidence, inside_px: np.ndarray, radius_px: float, path_xy
         return None
     thr = wide_ratio * radius_px
     reach = int(np.ceil(thr)) + 2
-    ring = int(np.ceil(2.0 * radius_px)) + 2
+    ring = int(np.ceil(4.0 * radius_px)) + 2
     h, w = inside_px.shape
     off = ev.roi_offset_xy
     r = np.rint(path_xy[:, 1] - off[1]).astype(int)

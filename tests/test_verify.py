@@ -350,6 +350,23 @@ def test_curve_crossing_a_leaf_is_not_merged_clutter():
     assert q["wide_crossing_px_v1"] == 0 and q["wide_run_px_v1"] > 20
 
 
+def test_curve_crossing_a_pointed_leaf_is_not_merged_clutter():
+    """A leaf with pointed ends (a rhombus 60 px along the tendril, 240 px across it, its apexes 14 deg half angle):
+    the apexes are no lines leaving its rim (verify_tip.rim_lines), so the crossing is left out."""
+    def rhombus(img, cam):
+        T = _tendril_mm()
+        c = cam.project(T[99][None])[0]
+        d = cam.project(T[104][None])[0] - cam.project(T[94][None])[0]
+        d /= np.linalg.norm(d)
+        n = np.array([-d[1], d[0]])
+        pts = np.array([c + 30 * d, c + 120 * n, c - 30 * d, c - 120 * n])
+        cv2.fillPoly(img, [np.round(pts * 16).astype(np.int32)], (30, 30, 30), cv2.LINE_AA, 4)
+    cams, ev = _scene(rhombus)
+    q = verify_curve(_tendril_mm(), cams, ev)
+    for v in (1, 2):
+        assert q[f"wide_crossing_px_v{v}"] > 10 and q[f"wide_run_px_v{v}"] < 50
+
+
 def _line_mm(X, width):
     """Draws the world polyline ``X`` (mm) as a dark line ``width`` px wide."""
     def draw(img, cam):
