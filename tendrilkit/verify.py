@@ -61,10 +61,11 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         Longest stretch of the projected curve, px, on pixels wider than the
         tendril (:func:`tendrilkit.verify_tip.wide_run_px`): a curve running
         along clutter merged with the tendril (a shoot alongside it, a leaf),
-        where the images do not show the tendril's line. A region the curve
-        crosses (:func:`tendrilkit.verify_tip.crossing_samples`: enters and
-        leaves it on the same thin line, straight on; a leaf the tendril
-        passes behind) is left out; its longest stretch is
+        where the images do not show the tendril's line. The deep middle of a
+        region the curve crosses (:func:`tendrilkit.verify_tip.crossing_samples`:
+        enters and leaves it on a thin line, straight on, no other thin line
+        leaving its rim; a leaf the tendril passes behind) is left out, neither
+        counted nor breaking a run; its longest run is
         ``wide_crossing_px_v<i>`` (the last columns).
     ``self_distance_mm``, ``beyond_tip_px_v<i>``
         The curve's nearest approach to itself (:mod:`tendrilkit.verify_self`)
@@ -126,6 +127,7 @@ Defaults (``verification:`` section of the experiment; :class:`Thresholds`)
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -137,7 +139,8 @@ from tendrilkit.verify_coverage import coverage_frac, tendril_radius_px
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
 from tendrilkit.verify_tip import (TIP_PX, crossing_samples, failing_views, local_inside_px, on_wide, open_tip_message,
-                                   open_tip_px, skeleton_to_curve_px, tip_continuation, tip_wide_fraction, wide_run_px)
+                                   open_tip_px, rim_lines, skeleton_to_curve_px, tip_continuation, tip_wide_fraction,
+                                   wide_run_px)
 from tendrilkit.verify_tone import off_colour_message, off_colour_run_px, tip_tone_frac, tip_tone_message
 from tendrilkit.verify_widen import MAX_DISTAL_WIDENING, distal_widening, distal_widening_message
 
@@ -533,10 +536,13 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             out[f"base_on_tendril_frac_v{v + 1}"] = base_on_tendril(ev, dense[keep], d[keep], tolerance_px,
                                                                      inside=inside_px, near=at_base)
             out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(wide, seen & (d <= tolerance_px))
-            # a region the curve crosses (enters and leaves on the same thin line, straight on: a leaf the
-            # tendril passes behind) is no clutter it runs along (verify_tip.crossing_samples)
-            crossing = crossing_samples(dense, wide, on_mask, local_inside_px(ev, dense, inside_px))
-            out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide & ~crossing, on_mask)
+            # the deep middle of a region the curve crosses (enters and leaves on the same thin line, straight
+            # on, no other thin line leaving it: a leaf the tendril passes behind) is no clutter it runs along
+            # (verify_tip.crossing_samples); the wide pieces on both sides of it count as one run
+            crossing = crossing_samples(dense, wide, on_mask, local_inside_px(ev, dense, inside_px),
+                                        count_lines=partial(rim_lines, ev, inside_px, radius_px,
+                                                            wide_ratio=WIDE_RATIO))
+            out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, on_mask, exempt=crossing)
             out[f"wide_crossing_px_v{v + 1}"] = wide_run_px(crossing, on_mask)
             out[f"beyond_tip_px_v{v + 1}"] = beyond_tip_px(ev, dense, inside_px, radius_px, cov_tol=coverage_tolerance_px,
                                                            tol=tolerance_px, wide_ratio=WIDE_RATIO, sk_dist=sk_dist)

@@ -22,13 +22,14 @@ tendril (:mod:`tendrilkit.verify` applies both in every view):
 from __future__ import annotations
 
 import heapq
+from collections.abc import Callable
 
 import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
 
 __all__ = ["TIP_PX", "tip_continuation", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction", "wide_run_px",
-           "crossing_samples", "local_inside_px", "open_tip_px", "open_tip_message", "failing_views"]
+           "crossing_samples", "rim_lines", "local_inside_px", "open_tip_px", "open_tip_message", "failing_views"]
 
 #: The curve's tip, in :func:`tip_wide_fraction`: its last this many pixels of projection (px).
 TIP_PX = 20
@@ -44,6 +45,16 @@ MAX_CROSSING_WIDTH_RATIO = 1.5
 #: over the stretch's length, at least. Development seeds 9240-9299 (stretches over 40 px): leaves the right
 #: curves cross 0.43-1.05, bands of a shoot merged alongside the tendril 0.07-0.26.
 MIN_CROSSING_DEPTH_FRAC = 0.35
+
+#: A crossing leaves out only its deep samples: local inside distance above this many times the line's on the
+#: two sides (w, the tendril's half width, about 4 px for a 5 px line). A band a shoot merged alongside the
+#: tendril makes stays counted up to about 7 tendril widths wide (the test scenes' 15 px band: 2.2 w). A leaf's
+#: entry and exit ramps (wide, not yet 5.5 w deep) stay counted too, about 2 x (5.5 - 1.5) w / sin(angle) px:
+#: 36-41 px for a curve square to the leaf's edge (test scene), about 50 px at 45 deg, 70 px at 30 deg, under
+#: the merged limit (80 px) down to about 30 deg. A small leaf on a band (radius 25 px on a 92 px band, 15 px
+#: wide) leaves out 9 px: the band's pieces on both sides count as one run of 83 px (:func:`wide_run_px`); with
+#: 5.0 w it left out 14 px (78 px, under the limit).
+MIN_CROSSING_DEEP_RATIO = 5.5
 
 
 def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *,
@@ -174,12 +185,27 @@ def tip_wide_fraction(wide: np.ndarray, on: np.ndarray, *, tip_px: int = TIP_PX)
     return float(np.mean(tip)) if len(tip) else None
 
 
-def wide_run_px(wide: np.ndarray, on: np.ndarray) -> float:
-    """The longest run of consecutive samples (px) on the dark pixels and ``wide`` (:func:`on_wide`)."""
-    x = np.concatenate([[0], (wide & on).astype(np.int8), [0]])
-    d = np.diff(x)
-    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
-    return float((ends - starts).max(initial=0))
+def wide_run_px(wide: np.ndarray, on: np.ndarray, *, exempt: np.ndarray | None = None) -> float:
+    """The longest run of consecutive samples (px) on the dark pixels and ``wide`` (:func:`on_wide`).
+
+    ``exempt`` (n,) bool, optional: samples left out (a region the curve crosses, :func:`crossing_samples`);
+    they neither count nor break a run: the wide pieces on both sides of a leaf crossed on a band add up.
+
+    Examples
+    --------
+    >>> wide = np.zeros(100, bool); wide[10:60] = True; on = np.ones(100, bool)
+    >>> ex = np.zeros(100, bool); ex[30:40] = True
+    >>> wide_run_px(wide, on), wide_run_px(wide, on, exempt=ex)
+    (50.0, 40.0)
+    """
+    counted = wide & on
+    if exempt is None:
+        exempt = np.zeros(len(counted), bool)
+    counted = counted & ~exempt
+    best = 0
+    for a, b in zip(*_runs(counted | exempt)):
+        best = max(best, int(counted[a:b].sum()))
+    return float(best)
 
 
 def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -189,16 +215,19 @@ def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def crossing_samples(dense_xy: np.ndarray, wide: np.ndarray, on: np.ndarray, local_px: np.ndarray, *,
-                     side_px: int = TIP_PX, max_turn_deg: float = MAX_CROSSING_TURN_DEG,
-                     max_width_ratio: float = MAX_CROSSING_WIDTH_RATIO,
-                     min_depth_frac: float = MIN_CROSSING_DEPTH_FRAC) -> np.ndarray:
-    """(n,) bool: the wide samples (:func:`on_wide`) where the curve crosses a region wider than the tendril.
+                     count_lines: Callable[[np.ndarray], int | None] | None = None, side_px: int = TIP_PX,
+                     max_turn_deg: float = MAX_CROSSING_TURN_DEG, max_width_ratio: float = MAX_CROSSING_WIDTH_RATIO,
+                     min_depth_frac: float = MIN_CROSSING_DEPTH_FRAC,
+                     min_deep_ratio: float = MIN_CROSSING_DEEP_RATIO) -> np.ndarray:
+    """(n,) bool: the deep wide samples (:func:`on_wide`) where the curve crosses a region wider than the tendril.
 
     A tendril passing behind a leaf (or in front of it, dark on dark) runs
     over the leaf's wide pixels, as does a curve running on along a leaf or a
-    shoot merged with the tendril; what tells a crossing is that the curve
-    comes out on the other side on the same thin line, going on as it went
-    in. A stretch of the projected curve is a crossing when
+    shoot merged with the tendril, or a curve going straight across a leaf
+    onto another thin line (a twig) where the tendril bends away. What tells
+    a crossing is that the tendril's line goes in and comes out and nothing
+    else thin leaves the region, the curve going on as it went in. A stretch
+    of the projected curve is a crossing when
 
     * its wide samples are separated by fewer than ``side_px`` thin samples
       (on the dark pixels, not wide), and ``side_px`` thin samples lie
@@ -210,13 +239,24 @@ def crossing_samples(dense_xy: np.ndarray, wide: np.ndarray, on: np.ndarray, loc
       turn inside the region, onto another line, is no crossing);
     * the line is as wide on both sides: median local inside distance
       (``local_px``, :func:`local_inside_px`) of the two sides within
-      ``max_width_ratio`` of each other (a curve coming out on a shoot's
+      ``max_width_ratio`` of each other (a curve coming out on a thinner or
       thicker line is on another object);
     * the region is deep across the curve, not a band along it: twice the
       largest local inside distance over the stretch at least
       ``min_depth_frac`` times its length (a shoot merged alongside the
       tendril makes a band a few tendril widths wide, as long as they run
-      together).
+      together);
+    * exactly two thin lines leave the region's rim, the way in and the way
+      out (``count_lines`` of the stretch's samples from its first wide
+      sample to its last, :func:`rim_lines`): a third (a twig the curve may
+      have taken straight on while the tendril bends away inside the
+      region) or a rim it cannot read (None) is no crossing. Without
+      ``count_lines`` (None) this test is skipped.
+
+    Of a crossing only the deep samples are left out: local inside distance
+    above ``min_deep_ratio`` times the mean of the two sides' (the region's
+    entry and exit ramps and a band the region lies on stay counted,
+    :data:`MIN_CROSSING_DEEP_RATIO`).
 
     Parameters
     ----------
@@ -227,14 +267,21 @@ def crossing_samples(dense_xy: np.ndarray, wide: np.ndarray, on: np.ndarray, loc
         (seen by the view).
     local_px : (n,) float array
         Each sample's local inside distance, px.
+    count_lines : callable, optional
+        ``count_lines(path_xy)`` with ``path_xy`` (m, 2) the stretch's
+        samples from its first wide one to its last: the number of thin
+        lines leaving the rim of the region they lie on, None where it
+        cannot tell (:func:`rim_lines` of the view).
 
     Examples
     --------
     >>> xy = np.column_stack([np.arange(100.0), np.zeros(100)])
     >>> wide = np.zeros(100, bool); wide[40:60] = True
-    >>> on = np.ones(100, bool); local = np.where(wide, 9.0, 3.0)  # a region 18 px deep over 20 px
-    >>> int(crossing_samples(xy, wide, on, local).sum())  # enters and leaves on the same straight line
-    20
+    >>> on = np.ones(100, bool); local = np.where(wide, 20 - 2 * np.abs(np.arange(100) - 49.5), 2.0)  # 38 px deep
+    >>> int(crossing_samples(xy, wide, on, local).sum())  # in and out on the same straight line: its middle (> 11 px)
+    8
+    >>> int(crossing_samples(xy, wide, on, local, count_lines=lambda p: 3).sum())  # a third line leaves the rim
+    0
     >>> int(crossing_samples(xy, wide, on, np.where(wide, 3.2, 3.0)).sum())  # a band 6.4 px deep along it
     0
     >>> wide[40:] = True  # runs on to the tip: no crossing
@@ -256,7 +303,8 @@ def crossing_samples(dense_xy: np.ndarray, wide: np.ndarray, on: np.ndarray, loc
             solid[a:b] = True
     cos_max = np.cos(np.radians(max_turn_deg))
     for a, b in zip(*_runs(~solid)):
-        if not (wide[a:b] & on[a:b]).any():
+        w_idx = np.flatnonzero(wide[a:b] & on[a:b])
+        if not len(w_idx):
             continue
         if a < side_px or b + side_px > n or not (solid[a - side_px:a].all() and solid[b:b + side_px].all()):
             continue  # not entered and left on the thin line (at the curve's base or tip)
@@ -275,8 +323,90 @@ def crossing_samples(dense_xy: np.ndarray, wide: np.ndarray, on: np.ndarray, loc
             continue
         if 2.0 * float(local_px[a:b].max()) < min_depth_frac * (b - a):
             continue  # a band along the curve (a shoot merged alongside the tendril), not a region it crosses
-        out[a:b] = wide[a:b]
+        deep = wide[a:b] & on[a:b] & (local_px[a:b] > min_deep_ratio * 0.5 * (w0 + w1))
+        if not deep.any():
+            continue
+        if count_lines is not None and count_lines(dense_xy[a + w_idx[0]:a + w_idx[-1] + 1]) != 2:
+            continue  # another thin line leaves the region (the curve may have taken it), or unreadable
+        out[a:b] = deep
     return out
+
+
+def rim_lines(ev: ViewEvidence, inside_px: np.ndarray, radius_px: float, path_xy: np.ndarray, *,
+              wide_ratio: float = 1.5) -> int | None:
+    """The number of thin lines leaving the rim of the wide region a stretch of the curve lies on (None: unknown).
+
+    The region: the components of the view's core pixels (inside distance
+    above ``wide_ratio * radius_px``) that the curve's samples ``path_xy``
+    touch (within their 3 x 3 pixels, as :func:`on_wide`), with the path
+    itself (the tendril between two leaves close together), grown by the
+    core's reach ``R = ceil(wide_ratio * radius_px) + 2`` px (the object's
+    margin). Its rim: the ring of pixels ``R`` to ``R + L`` px from the
+    core and path, ``L = ceil(4 * radius_px) + 2`` (18 px for a 5 px line:
+    the part of a pointed leaf's apex the growing leaves out stays inside it
+    down to about 14 deg half angle; with ``2 * radius_px`` such an apex
+    counted as a line). The thin pixels: dark
+    pixels farther than ``R`` from every core pixel (not part of any wide
+    object). A line leaving the rim: an 8-connected component of thin pixels
+    in the ring reaching both its inner and its outer edge (a leaf's pointed
+    apex, or a speck, reaches only one). The work is
+    done on the region's box (plus ``R + L + 1`` px); None when that box
+    runs past the ROI crop (a line may leave where the view cannot see) or
+    the half width is unknown.
+
+    Parameters
+    ----------
+    ev : ViewEvidence
+    inside_px : (h, w) float32 array
+        Distance of every foreground pixel of the ROI crop to the background, px.
+    radius_px : float
+        The tendril's half width in this view, px.
+    path_xy : (m, 2) float array
+        The curve's samples over the region, full-image px.
+    wide_ratio : float
+        As :func:`on_wide`.
+    """
+    from scipy import ndimage
+
+    if not (np.isfinite(radius_px) and radius_px > 0) or len(path_xy) == 0:
+        return None
+    thr = wide_ratio * radius_px
+    reach = int(np.ceil(thr)) + 2
+    ring = int(np.ceil(4.0 * radius_px)) + 2
+    h, w = inside_px.shape
+    off = ev.roi_offset_xy
+    r = np.rint(path_xy[:, 1] - off[1]).astype(int)
+    c = np.rint(path_xy[:, 0] - off[0]).astype(int)
+    if r.min() < 0 or c.min() < 0 or r.max() >= h or c.max() >= w:
+        return None
+    core = inside_px > thr
+    labels, _ = ndimage.label(core, structure=np.ones((3, 3), bool))
+    touched = np.unique(np.concatenate([labels[np.clip(r + dr, 0, h - 1), np.clip(c + dc, 0, w - 1)]
+                                        for dr in (-1, 0, 1) for dc in (-1, 0, 1)]))
+    touched = touched[touched > 0]
+    r0, r1, c0, c1 = r.min(), r.max() + 1, c.min(), c.max() + 1
+    boxes = ndimage.find_objects(labels)
+    for k in touched:
+        sr, sc = boxes[k - 1]
+        r0, r1, c0, c1 = min(r0, sr.start), max(r1, sr.stop), min(c0, sc.start), max(c1, sc.stop)
+    m = reach + ring + 1
+    r0, r1, c0, c1 = r0 - m, r1 + m, c0 - m, c1 + m
+    if r0 < 0 or c0 < 0 or r1 > h or c1 > w:
+        return None  # the rim runs past the ROI crop: lines may leave where the view cannot see
+    lab = labels[r0:r1, c0:c1]
+    seed = np.isin(lab, touched)
+    seed[r - r0, c - c0] = True
+    d_region = ndimage.distance_transform_edt(~seed)
+    d_core = ndimage.distance_transform_edt(~core[r0:r1, c0:c1])
+    thin = (inside_px[r0:r1, c0:c1] > 0) & (d_core > reach)
+    band = thin & (d_region > reach) & (d_region <= reach + ring)
+    comps, n = ndimage.label(band, structure=np.ones((3, 3), bool))
+    if n == 0:
+        return 0
+    idx = np.arange(1, n + 1)
+    inner = ndimage.minimum(d_region, comps, idx)
+    outer = ndimage.maximum(d_region, comps, idx)
+    return int(np.sum((inner <= reach + 1.5) & (outer >= reach + ring - 1.5)))
 
 
 def open_tip_px(continuation_px: float | None, tone_frac: float | None, object_px: float | None, *,
