@@ -24,6 +24,7 @@ from __future__ import annotations
 import heapq
 from collections.abc import Callable
 
+import cv2
 import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
@@ -246,11 +247,13 @@ def crossing_samples(dense_xy: np.ndarray, wide: np.ndarray, on: np.ndarray, loc
       ``min_depth_frac`` times its length (a shoot merged alongside the
       tendril makes a band a few tendril widths wide, as long as they run
       together);
-    * exactly two thin lines leave the region's rim, the way in and the way
-      out (``count_lines`` of the stretch's samples from its first wide
-      sample to its last, :func:`rim_lines`): a third (a twig the curve may
-      have taken straight on while the tendril bends away inside the
-      region) or a rim it cannot read (None) is no crossing. Without
+    * exactly two thin lines leave the region's rim where the tendril may
+      go, the way in and the way out (``count_lines`` of the stretch's
+      samples from its first wide sample to its last, :func:`rim_lines`:
+      a stalk leading to the stem, or a stub, is not counted): a third (a
+      twig the curve may have taken straight on while the tendril bends
+      away inside the region) or a rim it cannot read (None) is no
+      crossing. Without
       ``count_lines`` (None) this test is skipped.
 
     Of a crossing only the deep samples are left out: local inside distance
@@ -332,6 +335,12 @@ def crossing_samples(dense_xy: np.ndarray, wide: np.ndarray, on: np.ndarray, loc
     return out
 
 
+#: Another thin line leaving a crossed region's rim and ending free is a place the tendril may have gone on to its tip
+#: (:func:`rim_lines`) unless its pixels number under this fraction of the longer line the curve enters or leaves by (a
+#: leaf's stalk, a bud: dev seed 9248's leaf, a 45 px stub beside a tendril going on 150 px and more).
+MIN_FREE_LINE_FRAC = 0.5
+
+
 def rim_lines(ev: ViewEvidence, inside_px: np.ndarray, radius_px: float, path_xy: np.ndarray, *,
               wide_ratio: float = 1.5) -> int | None:
     """The number of thin lines leaving the rim of the wide region a stretch of the curve lies on (None: unknown).
@@ -349,10 +358,16 @@ def rim_lines(ev: ViewEvidence, inside_px: np.ndarray, radius_px: float, path_xy
     pixels farther than ``R`` from every core pixel (not part of any wide
     object). A line leaving the rim: an 8-connected component of thin pixels
     in the ring reaching both its inner and its outer edge (a leaf's pointed
-    apex, or a speck, reaches only one). The work is
-    done on the region's box (plus ``R + L + 1`` px); None when that box
-    runs past the ROI crop (a line may leave where the view cannot see) or
-    the half width is unknown.
+    apex, or a speck, reaches only one). Of more than two, the two nearest
+    the curve's first and last samples are its way in and out; another
+    counts only where the tendril may have gone on along it to a free tip:
+    not where its thin line leads to another wide object (a leaf's stalk to
+    the stem, a shoot) or to the ROI crop's edge, nor where it has fewer
+    than ``MIN_FREE_LINE_FRAC`` times the pixels of the longer of the
+    curve's two lines (a stalk's stub, a bud). The work is done on the
+    region's box (plus ``R + L + 1`` px) clipped to the ROI crop (a line
+    leaving where the view cannot see leads out of the ROI); None when the
+    half width is unknown or the curve's way in and out are one line.
 
     Parameters
     ----------
@@ -390,9 +405,8 @@ def rim_lines(ev: ViewEvidence, inside_px: np.ndarray, radius_px: float, path_xy
         sr, sc = boxes[k - 1]
         r0, r1, c0, c1 = min(r0, sr.start), max(r1, sr.stop), min(c0, sc.start), max(c1, sc.stop)
     m = reach + ring + 1
-    r0, r1, c0, c1 = r0 - m, r1 + m, c0 - m, c1 + m
-    if r0 < 0 or c0 < 0 or r1 > h or c1 > w:
-        return None  # the rim runs past the ROI crop: lines may leave where the view cannot see
+    # clipped to the ROI crop: a line leaving where the view cannot see leads out of the ROI, as one reaching its edge
+    r0, r1, c0, c1 = max(r0 - m, 0), min(r1 + m, h), max(c0 - m, 0), min(c1 + m, w)
     lab = labels[r0:r1, c0:c1]
     seed = np.isin(lab, touched)
     seed[r - r0, c - c0] = True
@@ -406,7 +420,41 @@ def rim_lines(ev: ViewEvidence, inside_px: np.ndarray, radius_px: float, path_xy
     idx = np.arange(1, n + 1)
     inner = ndimage.minimum(d_region, comps, idx)
     outer = ndimage.maximum(d_region, comps, idx)
-    return int(np.sum((inner <= reach + 1.5) & (outer >= reach + ring - 1.5)))
+    lines = idx[(inner <= reach + 1.5) & (outer >= reach + ring - 1.5)]
+    if len(lines) <= 2:
+        return int(len(lines))
+    # more than two: the lines the curve enters and leaves by (nearest its first and last samples) and the others;
+    # another line that leads to another wide object (a petiole to the stem, a shoot) or out of the ROI is no
+    # place the tendril can have gone on to its free tip
+    ends = [np.array([r[0] - r0, c[0] - c0]), np.array([r[-1] - r0, c[-1] - c0])]
+    used = set()
+    for e in ends:
+        d = [float(np.min(np.hypot(*(np.argwhere(comps == k) - e).T))) for k in lines]
+        used.add(int(lines[int(np.argmin(d))]))
+    if len(used) < 2:
+        return None
+    other = core & ~np.isin(labels, touched)  # the wide objects not crossed here
+    thin_all = (inside_px > 0) & (cv2.distanceTransform((~core).astype(np.uint8), cv2.DIST_L2, 5) > reach)
+    _, thin_lab = cv2.connectedComponents(thin_all.astype(np.uint8), connectivity=8)
+    d_other = cv2.distanceTransform((~other).astype(np.uint8), cv2.DIST_L2, 5)
+
+    def line_px(k):  # the thin pixels of the line a rim piece belongs to
+        y, x = np.argwhere(comps == k)[0]
+        return np.nonzero(thin_lab == thin_lab[y + r0, x + c0])
+
+    way_out = max(len(line_px(k)[0]) for k in used)  # the longer of the curve's two lines: the one it goes on along
+    free = 0
+    for k in lines:
+        if int(k) in used:
+            continue
+        rows, cols = line_px(k)
+        border = rows.min() == 0 or cols.min() == 0 or rows.max() == h - 1 or cols.max() == w - 1
+        if border or float(d_other[rows, cols].min()) <= reach + 1.5:
+            continue  # it leads to another wide object or out of the ROI
+        if len(rows) < MIN_FREE_LINE_FRAC * way_out:
+            continue  # a stub (a leaf's stalk, a bud) far shorter than the line the curve goes on along
+        free += 1
+    return 2 + free
 
 
 def open_tip_px(continuation_px: float | None, tone_frac: float | None, object_px: float | None, *,

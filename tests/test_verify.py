@@ -431,6 +431,43 @@ def test_curve_across_a_leaf_onto_a_twig_is_no_crossing():
     assert _merged_message(q)
 
 
+def _leaf_with_stalk(stalk_px):
+    """:func:`_leaf_across` at half the tendril with a thin line of ``stalk_px`` leaving its rim across the tendril
+    (a leaf's stalk)."""
+    leaf = _leaf_across(0.5)
+
+    def draw(img, cam):
+        leaf(img, cam)
+        T = _tendril_mm()
+        c = cam.project(T[99][None])[0]
+        d = cam.project(T[104][None])[0] - cam.project(T[94][None])[0]
+        n = np.array([-d[1], d[0]]) / np.linalg.norm(d)
+        a, b = c + 68 * n, c + (72 + stalk_px) * n
+        cv2.line(img, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), (30, 30, 30), 5, cv2.LINE_AA)
+    return draw
+
+
+def test_curve_crossing_a_leaf_with_a_stalk_is_not_merged_clutter():
+    """A third line at the leaf's rim that ends free but is far shorter than the line the curve goes on along (a
+    leaf's stalk, 20 px against the tendril's 70 px beyond the leaf) is no place the tendril went: still a crossing
+    (MIN_FREE_LINE_FRAC); a line as long as the tendril's is, as in the twig case above."""
+    import tendrilkit.verify_tip as VT
+
+    q = verify_curve(_tendril_mm(), *_scene(_leaf_with_stalk(60)))
+    assert q["wide_crossing_px_v1"] == 0 and _merged_message(q)
+    cams, ev = _scene(_leaf_with_stalk(20))
+    q = verify_curve(_tendril_mm(), cams, ev)
+    for v in (1, 2):
+        assert q[f"wide_crossing_px_v{v}"] > 40 and q[f"wide_run_px_v{v}"] < 50
+    assert not _merged_message(q)
+    # read as a line the tendril may have taken (no length rule): no crossing, flagged as before crossings were
+    import pytest
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(VT, "MIN_FREE_LINE_FRAC", 0.0)
+        q = verify_curve(_tendril_mm(), cams, ev)
+    assert q["wide_crossing_px_v1"] == 0 and _merged_message(q)
+
+
 def test_leaf_on_a_merged_band_does_not_waive_the_band():
     """A small leaf (25 px radius) on a 92 px band of a shoot merged with the tendril: only the leaf's deep middle
     is left out; the band's pieces on both sides count as one run, over the limit."""
