@@ -106,12 +106,35 @@ def _nodes_on(nodes, truth_mm, tol_mm: float = TOL_MM) -> bool:
     return bool(d.min(axis=1).max() <= tol_mm)
 
 
-def main(argv: list[str] | None = None) -> int:
-    from tendrilkit.geometry import resample_polyline
+def cached_frames(out: Path, start: int, stop: int):
+    """Every processed frame of ``out``'s scenes with seeds in [start, stop) and cached evidence (two views or more):
+    ``(scene, frame, evidence, base point mm, true curve mm)``, scenes by kind and seed (shared by the diagnose_*
+    scripts)."""
     from tendrilkit.io import read_cameras
     from tendrilkit.multiview import base_point_from_marks
     from tendrilkit.params import load_experiment
     from tendrilkit.phantom import read_ground_truth
+
+    scenes = [d for d in out.glob("*-*") if (d / "result-multiview" / "frames.csv").is_file()]
+    for folder in sorted(scenes, key=lambda d: (d.name.rsplit("-", 1)[0], int(d.name.rsplit("-", 1)[1]))):
+        if not start <= int(folder.name.rsplit("-", 1)[1]) < stop:
+            continue
+        exp = load_experiment(folder / "scene" / "experiment.yaml")
+        cams = read_cameras(folder / "result-multiview" / "cameras.json")
+        gt = read_ground_truth(folder / "scene")
+        base = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=exp.correspondence.max_distance_px)
+        for f in sorted(int(x) for x in pd.read_csv(folder / "result-multiview" / "frames.csv").frame):
+            cached = out / "evidence-cache" / f"{folder.name}-{f}.pkl"
+            if not cached.is_file():
+                continue
+            _, evidence, _ = pickle.loads(cached.read_bytes())
+            evidence = [e for e in evidence if e is not None]
+            if len(evidence) >= 2:
+                yield folder.name, f, evidence, base, np.asarray(gt.curves[f], float)
+
+
+def main(argv: list[str] | None = None) -> int:
+    from tendrilkit.geometry import resample_polyline
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("out", type=Path)
@@ -122,24 +145,9 @@ def main(argv: list[str] | None = None) -> int:
     if stop > 10000:
         p.error("seeds 10000 and above are reserved for the final benchmark")
     rows = []
-    scenes = [d for d in a.out.glob("*-*") if (d / "result-multiview" / "frames.csv").is_file()]
-    for folder in sorted(scenes, key=lambda d: (d.name.rsplit("-", 1)[0], int(d.name.rsplit("-", 1)[1]))):
-        if not start <= int(folder.name.rsplit("-", 1)[1]) < stop:
-            continue
-        exp = load_experiment(folder / "scene" / "experiment.yaml")
-        cams = read_cameras(folder / "result-multiview" / "cameras.json")
-        gt = read_ground_truth(folder / "scene")
-        base = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=exp.correspondence.max_distance_px)
-        for f in sorted(int(x) for x in pd.read_csv(folder / "result-multiview" / "frames.csv").frame):
-            cached = a.out / "evidence-cache" / f"{folder.name}-{f}.pkl"
-            if not cached.is_file():
-                continue
-            _, evidence, _ = pickle.loads(cached.read_bytes())
-            evidence = [e for e in evidence if e is not None]
-            if len(evidence) < 2:
-                continue
-            truth = resample_polyline(np.asarray(gt.curves[f], float), step=1.0)
-            rows.append({"scene": folder.name, "frame": f, **trace_frame(evidence, base, truth)})
+    for scene, f, evidence, base, curve in cached_frames(a.out, start, stop):
+        truth = resample_polyline(curve, step=1.0)
+        rows.append({"scene": scene, "frame": f, **trace_frame(evidence, base, truth)})
     t = pd.DataFrame(rows)
     if a.csv:
         t.to_csv(a.csv, index=False)

@@ -43,6 +43,9 @@ import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from diagnose_beam import cached_frames  # noqa: E402  (the scenes' cached evidence, as diagnose_beam reads it)
 
 CURVES: list = []
 #: A finished hypothesis whose tip lies within this of a better one's is the same curve (mm).
@@ -171,11 +174,6 @@ def frame_rows(evidence, base_mm: np.ndarray, truth: np.ndarray, top: int) -> li
 
 
 def main(argv: list[str] | None = None) -> int:
-    from tendrilkit.geometry import resample_polyline
-    from tendrilkit.io import read_cameras
-    from tendrilkit.multiview import base_point_from_marks
-    from tendrilkit.params import load_experiment
-    from tendrilkit.phantom import read_ground_truth
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("out", type=Path)
@@ -187,26 +185,10 @@ def main(argv: list[str] | None = None) -> int:
     if stop > 10000:
         p.error("seeds 10000 and above are reserved for the final benchmark")
     rows = []
-    scenes = [d for d in a.out.glob("*-*") if (d / "result-multiview" / "frames.csv").is_file()]
-    for folder in sorted(scenes, key=lambda d: (d.name.rsplit("-", 1)[0], int(d.name.rsplit("-", 1)[1]))):
-        if not start <= int(folder.name.rsplit("-", 1)[1]) < stop:
-            continue
-        exp = load_experiment(folder / "scene" / "experiment.yaml")
-        cams = read_cameras(folder / "result-multiview" / "cameras.json")
-        gt = read_ground_truth(folder / "scene")
-        base = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=exp.correspondence.max_distance_px)
-        for f in sorted(int(x) for x in pd.read_csv(folder / "result-multiview" / "frames.csv").frame):
-            cached = a.out / "evidence-cache" / f"{folder.name}-{f}.pkl"
-            if not cached.is_file():
-                continue
-            _, evidence, _ = pickle.loads(cached.read_bytes())
-            evidence = [e for e in evidence if e is not None]
-            if len(evidence) < 2:
-                continue
-            truth = np.asarray(gt.curves[f], float)
-            for r in frame_rows(evidence, base, truth, a.top):
-                rows.append({"scene": folder.name, "frame": f, "truth_mm": float(
-                    np.linalg.norm(np.diff(truth, axis=0), axis=1).sum()), **r})
+    for scene, f, evidence, base, truth in cached_frames(a.out, start, stop):
+        for r in frame_rows(evidence, base, truth, a.top):
+            rows.append({"scene": scene, "frame": f, "truth_mm": float(
+                np.linalg.norm(np.diff(truth, axis=0), axis=1).sum()), **r})
     t = pd.DataFrame(rows)
     if a.csv:
         t.to_csv(a.csv, index=False, float_format="%.4f")

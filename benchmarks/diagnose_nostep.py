@@ -55,7 +55,6 @@ truth where lost.
 from __future__ import annotations
 
 import argparse
-import pickle
 import sys
 from pathlib import Path
 
@@ -65,7 +64,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from diagnose_beam import _follows, _nodes_on  # noqa: E402  (the same reading of "on the truth")
+from diagnose_beam import _follows, _nodes_on, cached_frames  # noqa: E402  (the same reading of "on the truth")
 
 
 def _truth_views(evidence, P_mm):
@@ -172,10 +171,6 @@ def cause(r) -> str:
 
 def main(argv=None) -> int:
     from tendrilkit.geometry import resample_polyline
-    from tendrilkit.io import read_cameras
-    from tendrilkit.multiview import base_point_from_marks
-    from tendrilkit.params import load_experiment
-    from tendrilkit.phantom import read_ground_truth
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("out", type=Path)
@@ -187,25 +182,9 @@ def main(argv=None) -> int:
     if stop > 10000:
         p.error("seeds 10000 and above are reserved for the final benchmark")
     rows = []
-    scenes = [d for d in a.out.glob("*-*") if (d / "result-multiview" / "frames.csv").is_file()]
-    for folder in sorted(scenes, key=lambda d: int(d.name.rsplit("-", 1)[1])):
-        if not start <= int(folder.name.rsplit("-", 1)[1]) < stop:
-            continue
-        exp = load_experiment(folder / "scene" / "experiment.yaml")
-        cams = read_cameras(folder / "result-multiview" / "cameras.json")
-        gt = read_ground_truth(folder / "scene")
-        base = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=exp.correspondence.max_distance_px)
-        for f in sorted(int(x) for x in pd.read_csv(folder / "result-multiview" / "frames.csv").frame):
-            cached = a.out / "evidence-cache" / f"{folder.name}-{f}.pkl"
-            if not cached.is_file():
-                continue
-            _, evidence, _ = pickle.loads(cached.read_bytes())
-            evidence = [e for e in evidence if e is not None]
-            if len(evidence) < 2:
-                continue
-            truth = resample_polyline(np.asarray(gt.curves[f], float), step=1.0)
-            st = trace_frame(evidence, base, truth, a.tol_mm)
-            rows.append({"scene": folder.name, "frame": f, **st})
+    for scene, f, evidence, base, curve in cached_frames(a.out, start, stop):
+        truth = resample_polyline(curve, step=1.0)
+        rows.append({"scene": scene, "frame": f, **trace_frame(evidence, base, truth, a.tol_mm)})
     t = pd.DataFrame(rows)
     ns = t[(t.event == "no step")].copy()
     ns = ns[ns.at_mm.notna()] if "at_mm" in ns else ns.iloc[:0]
