@@ -106,6 +106,23 @@ def _nodes_on(nodes, truth_mm, tol_mm: float = TOL_MM) -> bool:
     return bool(d.min(axis=1).max() <= tol_mm)
 
 
+def diagnose_parser(doc: str) -> argparse.ArgumentParser:
+    """The diagnose_* scripts' common arguments: ``OUT``, ``--seeds START:STOP``, ``--csv FILE``."""
+    p = argparse.ArgumentParser(description=doc.splitlines()[0])
+    p.add_argument("out", type=Path)
+    p.add_argument("--seeds", required=True, help="START:STOP (stop exclusive)")
+    p.add_argument("--csv", type=Path, default=None)
+    return p
+
+
+def seed_range(p: argparse.ArgumentParser, seeds: str) -> tuple[int, int]:
+    """``START:STOP`` read; seeds 10000 and above (the held-out benchmark's) refused."""
+    start, stop = (int(x) for x in seeds.split(":"))
+    if stop > 10000:
+        p.error("seeds 10000 and above are reserved for the final benchmark")
+    return start, stop
+
+
 def cached_frames(out: Path, start: int, stop: int):
     """Every processed frame of ``out``'s scenes with seeds in [start, stop) and cached evidence (two views or more):
     ``(scene, frame, evidence, base point mm, true curve mm)``, scenes by kind and seed (shared by the diagnose_*
@@ -136,14 +153,9 @@ def cached_frames(out: Path, start: int, stop: int):
 def main(argv: list[str] | None = None) -> int:
     from tendrilkit.geometry import resample_polyline
 
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("out", type=Path)
-    p.add_argument("--seeds", required=True, help="START:STOP (stop exclusive)")
-    p.add_argument("--csv", type=Path, default=None)
+    p = diagnose_parser(__doc__)
     a = p.parse_args(argv)
-    start, stop = (int(x) for x in a.seeds.split(":"))
-    if stop > 10000:
-        p.error("seeds 10000 and above are reserved for the final benchmark")
+    start, stop = seed_range(p, a.seeds)
     rows = []
     for scene, f, evidence, base, curve in cached_frames(a.out, start, stop):
         truth = resample_polyline(curve, step=1.0)

@@ -34,7 +34,6 @@ validation seeds, see :mod:`tendrilkit.multiview`'s ``KINK_PX_PER_DEG`` and
 
 from __future__ import annotations
 
-import argparse
 import pickle
 import sys
 from pathlib import Path
@@ -45,7 +44,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from diagnose_beam import cached_frames  # noqa: E402  (the scenes' cached evidence, as diagnose_beam reads it)
+from diagnose_beam import cached_frames, diagnose_parser, seed_range  # noqa: E402  (the scenes' cached evidence, as diagnose_beam reads it)
 
 CURVES: list = []
 #: A finished hypothesis whose tip lies within this of a better one's is the same curve (mm).
@@ -175,15 +174,10 @@ def frame_rows(evidence, base_mm: np.ndarray, truth: np.ndarray, top: int) -> li
 
 def main(argv: list[str] | None = None) -> int:
 
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("out", type=Path)
-    p.add_argument("--seeds", required=True, help="START:STOP (stop exclusive)")
-    p.add_argument("--csv", type=Path, default=None)
+    p = diagnose_parser(__doc__)
     p.add_argument("--top", type=int, default=6)
     a = p.parse_args(argv)
-    start, stop = (int(x) for x in a.seeds.split(":"))
-    if stop > 10000:
-        p.error("seeds 10000 and above are reserved for the final benchmark")
+    start, stop = seed_range(p, a.seeds)
     rows = []
     for scene, f, evidence, base, truth in cached_frames(a.out, start, stop):
         for r in frame_rows(evidence, base, truth, a.top):

@@ -54,7 +54,6 @@ truth where lost.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -64,7 +63,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from diagnose_beam import _follows, _nodes_on, cached_frames  # noqa: E402  (the same reading of "on the truth")
+from diagnose_beam import _follows, _nodes_on, cached_frames, diagnose_parser, seed_range  # noqa: E402  (the same reading of "on the truth")
 
 
 def _truth_views(evidence, P_mm):
@@ -172,15 +171,10 @@ def cause(r) -> str:
 def main(argv=None) -> int:
     from tendrilkit.geometry import resample_polyline
 
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("out", type=Path)
-    p.add_argument("--seeds", required=True)
-    p.add_argument("--csv", type=Path, default=None)
+    p = diagnose_parser(__doc__)
     p.add_argument("--tol-mm", type=float, default=2.0)
     a = p.parse_args(argv)
-    start, stop = (int(x) for x in a.seeds.split(":"))
-    if stop > 10000:
-        p.error("seeds 10000 and above are reserved for the final benchmark")
+    start, stop = seed_range(p, a.seeds)
     rows = []
     for scene, f, evidence, base, curve in cached_frames(a.out, start, stop):
         truth = resample_polyline(curve, step=1.0)

@@ -668,8 +668,10 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
         elif shrink < 1.0 - max_shrink:
             note = f"tracking lost (length {100 * (shrink - 1):.0f} % from the previous frame): acquired afresh"
     if not cands or note:
-        grown = grow_curve(evidence, B, candidates=CHOICE_CANDIDATES)
-        grown = [(G, sc) for G, sc in (grown if CHOICE_CANDIDATES > 1 else [(grown, 0.0)]) if len(G) >= 3]
+        # (nodes, beam score) of the hypotheses the final choice weighs: the beam's own choice alone by default
+        grown = (grow_curve(evidence, B, candidates=CHOICE_CANDIDATES) if CHOICE_CANDIDATES > 1
+                 else [(grow_curve(evidence, B), 0.0)])
+        grown = [(G, sc) for G, sc in grown if len(G) >= 3]
         if not grown:
             if not cands:
                 raise TendrilLostError("no curve from the base that two views explain")

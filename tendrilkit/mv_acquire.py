@@ -537,7 +537,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             da, sa = point_costs(evidence, ahead.reshape(-1, 3))
             ma, na = _mean_seen(da, sa)
             cost[blind] = 0.5 * (NEUTRAL_PX + np.where(na >= 2, ma, NEUTRAL_PX).reshape(-1, len(look)).mean(axis=1))
-        self_near = np.zeros(N, bool)
+        self_near = np.zeros(N, bool) if _TRACE is not None else None  # the trace's only
         if not first:  # bending
             turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1)))
             cost = cost + TURN_PX * (turn / cone_deg) ** 2

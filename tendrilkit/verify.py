@@ -519,7 +519,8 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             out[f"coverage_frac_v{v + 1}"] = coverage_frac(ev, dense[seen], d[seen], tolerance_px,
                                                            coverage_tolerance_px, inside_px, radius_px,
                                                            near=at_base)
-            wide = on_wide(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO)
+            local_px = local_inside_px(ev, dense, inside_px)  # the merged check's and the crossing's
+            wide = on_wide(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO, local_px=local_px)
             on_mask = seen & (d <= tolerance_px)
             # the skeleton shows the tendril's middle only where its line is seen: on pixels wider than the
             # tendril (a leaf it passes in front of) the skeleton is the blob's, not the tendril's
@@ -539,7 +540,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             # the deep middle of a region the curve crosses (enters and leaves on the same thin line, straight
             # on, no other thin line leaving it: a leaf the tendril passes behind) is no clutter it runs along
             # (verify_tip.crossing_samples); the wide pieces on both sides of it count as one run
-            crossing = crossing_samples(dense, wide, on_mask, local_inside_px(ev, dense, inside_px),
+            crossing = crossing_samples(dense, wide, on_mask, local_px,
                                         count_lines=partial(rim_lines, ev, inside_px, radius_px,
                                                             wide_ratio=WIDE_RATIO))
             out[f"wide_run_px_v{v + 1}"] = wide_run_px(wide, on_mask, exempt=crossing)

@@ -122,7 +122,7 @@ def skeleton_to_curve_px(sk_xy: np.ndarray, dense_xy: np.ndarray, cov_tol: float
 
 
 def on_wide(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray, radius_px: float, *,
-            wide_ratio: float = 1.5) -> np.ndarray:
+            wide_ratio: float = 1.5, local_px: np.ndarray | None = None) -> np.ndarray:
     """(n,) bool: which samples of the projected curve lie on pixels wider than the tendril.
 
     A sample is on wide pixels when the largest inside distance (distance to
@@ -143,10 +143,13 @@ def on_wide(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray, radiu
     radius_px : float
         The tendril's half width in this view, px (NaN: unknown, nothing is wide).
     wide_ratio : float
+    local_px : (n,) float array, optional
+        :func:`local_inside_px` of the samples, when the caller has it already.
     """
     if not (np.isfinite(radius_px) and radius_px > 0) or len(dense_xy) == 0:
         return np.zeros(len(dense_xy), bool)
-    return local_inside_px(ev, dense_xy, inside_px) > wide_ratio * radius_px
+    local = local_inside_px(ev, dense_xy, inside_px) if local_px is None else local_px
+    return local > wide_ratio * radius_px
 
 
 def local_inside_px(ev: ViewEvidence, xy: np.ndarray, inside_px: np.ndarray) -> np.ndarray:
@@ -434,13 +437,17 @@ def rim_lines(ev: ViewEvidence, inside_px: np.ndarray, radius_px: float, path_xy
     if len(used) < 2:
         return None
     other = core & ~np.isin(labels, touched)  # the wide objects not crossed here
-    thin_all = (inside_px > 0) & (cv2.distanceTransform((~core).astype(np.uint8), cv2.DIST_L2, 5) > reach)
+    # the thin pixels over the whole crop, as ``thin`` on the box (exact distances to the core: the same pixels)
+    thin_all = (inside_px > 0) & (cv2.distanceTransform((~core).astype(np.uint8), cv2.DIST_L2,
+                                                        cv2.DIST_MASK_PRECISE) > reach)
     _, thin_lab = cv2.connectedComponents(thin_all.astype(np.uint8), connectivity=8)
-    d_other = cv2.distanceTransform((~other).astype(np.uint8), cv2.DIST_L2, 5)
+    d_other = cv2.distanceTransform((~other).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
 
-    def line_px(k):  # the thin pixels of the line a rim piece belongs to
-        y, x = np.argwhere(comps == k)[0]
-        return np.nonzero(thin_lab == thin_lab[y + r0, x + c0])
+    def line_px(k):  # the thin pixels of the line a rim piece belongs to (none if the two readings disagree)
+        ys, xs = np.nonzero(comps == k)
+        labs = thin_lab[ys + r0, xs + c0]
+        labs = labs[labs > 0]
+        return np.nonzero(thin_lab == labs[0]) if len(labs) else (np.zeros(0, int), np.zeros(0, int))
 
     way_out = max(len(line_px(k)[0]) for k in used)  # the longer of the curve's two lines: the one it goes on along
     free = 0
@@ -448,6 +455,8 @@ def rim_lines(ev: ViewEvidence, inside_px: np.ndarray, radius_px: float, path_xy
         if int(k) in used:
             continue
         rows, cols = line_px(k)
+        if not len(rows):
+            return None  # cannot tell where this line goes
         border = rows.min() == 0 or cols.min() == 0 or rows.max() == h - 1 or cols.max() == w - 1
         if border or float(d_other[rows, cols].min()) <= reach + 1.5:
             continue  # it leads to another wide object or out of the ROI
