@@ -9,7 +9,7 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from tendrilkit.segmentation.faint import faint_pixels
+from tendrilkit.segmentation.faint import drop_wide_beside, faint_pixels
 from tendrilkit.segmentation.lines import bridge_line_gaps, light_line_pixels, lines_in_front
 
 __all__ = ["LabelledForeground", "label_foreground", "grey_image", "foreground_roi", "faint_options"]
@@ -219,9 +219,15 @@ def foreground_roi(
             faint[b0:b1, a0:a1] = 0
         if local_margin_px > 0:
             faint = cv2.bitwise_and(faint, cv2.compare(near, 0, cv2.CMP_EQ))
+        if local_exclude_dark:  # a pale part of an object beside its dark pixels (taped stem) is no tendril
+            faint = drop_wide_beside(faint, near, width_px=max(int(local_window_px), 3))
         fg = cv2.bitwise_or(fg, faint)
     if line_width_px > 0:  # 4c: a pale line in front of a darker object (lighter than it, darker than the board)
-        lines = light_line_pixels(grey, fg, width_px=int(line_width_px), contrast=max(float(local_contrast), 0.05))
+        seen = fg
+        if keep_out is not None and a1 > a0 and b1 > b0:  # the box is painted, not a light gap through the node
+            seen = fg.copy()
+            seen[b0:b1, a0:a1] = 255
+        lines = light_line_pixels(grey, seen, width_px=int(line_width_px), contrast=max(float(local_contrast), 0.05))
         fg = lines_in_front(fg, lines, dark)
     if bridge_gap_px > 0:  # 4d: a line broken where it crosses another joined across the gap
         fg = bridge_line_gaps(fg, gap_px=int(bridge_gap_px))
