@@ -113,7 +113,7 @@ BRIDGE_EXTEND_MM = 200.0
 #: on the skeletons). 1: the beam's own choice, as before (the default: with 6, validation seeds 1000-1039 measured
 #: all three criteria 34.2 -> 34.2 %, mean and max better, ``ok`` with an end or the max over 2 mm 6 -> 7, 21 ms
 #: more per frame; see :mod:`tendrilkit.mv_acquire`'s notes).
-CHOICE_CANDIDATES = 1
+CHOICE_CANDIDATES = 6
 KINK_PX_PER_DEG = 1.0
 
 

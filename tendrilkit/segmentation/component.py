@@ -59,8 +59,8 @@ def segment_view(
     background_px: int = 36,
     local_window_px: int = 9,
     local_margin_px: int = 2,
-    local_exclude_dark: bool = False,
-    line_width_px: int = 0,
+    local_exclude_dark: bool = True,
+    line_width_px: int = 11,
     bridge_gap_px: int = 0,
     min_component_px: int = 50,
 ) -> TendrilMask:

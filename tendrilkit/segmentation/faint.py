@@ -150,30 +150,30 @@ def faint_pixels(
     return out
 
 
-def drop_wide_beside(faint: np.ndarray, exclude: np.ndarray, *, width_px: int = 9) -> np.ndarray:
-    """The faint pixels without the wide faint regions beside the other objects: a pale part of them, no tendril.
+def drop_wide_beside(faint: np.ndarray, plain: np.ndarray, *, width_px: int = 17) -> np.ndarray:
+    """The faint pixels without those that only ``exclude`` found in wide faint regions: a pale part of an object.
 
     With ``exclude`` (:func:`faint_pixels`) a pixel beside a darker object
     is measured against its own depth, not the object's, so a pale tendril
     running beside a leaf or the stem is kept; but so is a pale *part* of the
     object next to its dark pixels: the stem under translucent tape (a patch
-    as wide as the stem between two dark stretches of it), a leaf's lighter
-    rim. A tendril is a thin line; a faint region wider than ``width_px``
-    (what an opening by a disk of that diameter keeps, grown back by the
-    same disk to take its rim) within ``width_px`` of the excluded pixels is
-    such a part and is dropped. Thin faint lines beside the objects stay, and
-    so do wide faint regions away from them (as without ``exclude``, where
-    the object's depth hides what lies within ``local_window_px`` of it).
+    as wide as the stem between two dark stretches of it; phantom S2). A
+    tendril is a thin line: a faint region wider than ``width_px`` (what an
+    opening by a disk of that diameter keeps, grown back by the same disk to
+    take its rim) is no tendril, and the pixels of it that only ``exclude``
+    found (not in ``plain``, the faint pixels found without it) are dropped.
+    What is found without ``exclude`` always stays.
 
     Parameters
     ----------
     faint : (h, w) uint8 array
         Nonzero on faint pixels (:func:`faint_pixels` with ``exclude``).
-    exclude : (h, w) uint8 array
-        Nonzero on the other, darker objects' pixels (as given to :func:`faint_pixels`).
+    plain : (h, w) uint8 array
+        Nonzero on faint pixels found without ``exclude``.
     width_px : int
-        The widest faint line kept beside an object, px (``local_window_px``:
-        about a tube's width and a half).
+        The widest faint line kept, px (odd; ``2 * local_window_px - 1``:
+        twice a tube's width and a half, wider than a tendril, about the
+        stem's width in the phantoms).
 
     Returns
     -------
@@ -182,23 +182,21 @@ def drop_wide_beside(faint: np.ndarray, exclude: np.ndarray, *, width_px: int = 
 
     Notes
     -----
-    Two openings' worth of morphology on the ROI (about 1 ms on a 1080p
-    phantom view's), only where faint pixels are.
+    An opening and a dilation by the disk on the ROI, only where faint
+    pixels are (about 1 ms on a 1080p phantom view's region of interest).
 
     Example
     -------
     >>> fa = np.zeros((40, 90), np.uint8)
-    >>> ex = np.zeros_like(fa); ex[10:30, 0:30] = 255; ex[10:30, 60:90] = 255  # a stem, taped over at 30-60
-    >>> fa[12:28, 32:58] = 255                                                 # the taped stretch: wide
-    >>> fa[2:6, 0:90] = 255                                                    # a pale tendril beside it: thin
-    >>> out = drop_wide_beside(fa, ex)
-    >>> int(out[20, 35] > 0), int(out[4, 35] > 0)   # beside the stem: the taped stretch out, the tendril in
-    (0, 1)
-    >>> int(out[20, 45] > 0)                         # 15 px from the stem: as without ``exclude``
-    1
+    >>> fa[12:28, 30:60] = 255      # a stem's stretch under tape, 16 px wide: exclude found its ends
+    >>> fa[2:6, 0:90] = 255         # a pale tendril beside the stem, 4 px wide
+    >>> pl = np.zeros_like(fa); pl[12:28, 40:50] = 255; pl[2:6, 0:30] = 255  # what was found without exclude
+    >>> out = drop_wide_beside(fa, pl, width_px=15)
+    >>> int(out[20, 33] > 0), int(out[20, 45] > 0), int(out[4, 45] > 0)
+    (0, 1, 1)
     """
-    if faint.shape != exclude.shape:
-        raise ValueError(f"exclude must have the shape of faint {faint.shape}, got {exclude.shape}")
+    if faint.shape != plain.shape:
+        raise ValueError(f"plain must have the shape of faint {faint.shape}, got {plain.shape}")
     if width_px < 3:
         raise ValueError(f"width_px must be >= 3, got {width_px}")
     fa = cv2.compare(faint, 0, cv2.CMP_GT)
@@ -209,9 +207,7 @@ def drop_wide_beside(faint: np.ndarray, exclude: np.ndarray, *, width_px: int = 
     if not wide.any():  # no faint region wider than a line (most views; exact)
         return fa
     wide = cv2.dilate(wide, disk)  # with its rim, which the opening's disk does not reach
-    k = 2 * int(width_px) + 1
-    beside = cv2.dilate(cv2.compare(exclude, 0, cv2.CMP_GT), cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))
-    fa[(wide > 0) & (beside > 0)] = 0
+    fa[(wide > 0) & (plain == 0)] = 0
     return fa
 
 
