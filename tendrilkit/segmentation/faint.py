@@ -150,7 +150,7 @@ def faint_pixels(
     return out
 
 
-def drop_wide_beside(faint: np.ndarray, plain: np.ndarray, *, width_px: int = 17) -> np.ndarray:
+def drop_wide_beside(faint: np.ndarray, plain: np.ndarray, *, width_px: int = 9) -> np.ndarray:
     """The faint pixels without those that only ``exclude`` found in wide faint regions: a pale part of an object.
 
     With ``exclude`` (:func:`faint_pixels`) a pixel beside a darker object
@@ -158,11 +158,12 @@ def drop_wide_beside(faint: np.ndarray, plain: np.ndarray, *, width_px: int = 17
     running beside a leaf or the stem is kept; but so is a pale *part* of the
     object next to its dark pixels: the stem under translucent tape (a patch
     as wide as the stem between two dark stretches of it; phantom S2). A
-    tendril is a thin line: a faint region wider than ``width_px`` (what an
-    opening by a disk of that diameter keeps, grown back by the same disk to
-    take its rim) is no tendril, and the pixels of it that only ``exclude``
-    found (not in ``plain``, the faint pixels found without it) are dropped.
-    What is found without ``exclude`` always stays.
+    tendril is a thin line: in a faint region wider than ``width_px`` (what
+    an opening by a disk of that diameter keeps, grown back by the same disk
+    to take its rim) the pixels that only ``exclude`` found (not in
+    ``plain``, the faint pixels found without it) are dropped: there the
+    object's depth rules, as without ``exclude``. What is found without
+    ``exclude`` always stays.
 
     Parameters
     ----------
@@ -171,9 +172,9 @@ def drop_wide_beside(faint: np.ndarray, plain: np.ndarray, *, width_px: int = 17
     plain : (h, w) uint8 array
         Nonzero on faint pixels found without ``exclude``.
     width_px : int
-        The widest faint line kept, px (odd; ``2 * local_window_px - 1``:
-        twice a tube's width and a half, wider than a tendril, about the
-        stem's width in the phantoms).
+        The widest faint line kept whole, px (``local_window_px``: about a
+        tube's width and a half; the taped stretch of the phantoms' stem,
+        its rim left out, is 11-13 px wide in phantom S2's view 3).
 
     Returns
     -------
@@ -191,7 +192,7 @@ def drop_wide_beside(faint: np.ndarray, plain: np.ndarray, *, width_px: int = 17
     >>> fa[12:28, 30:60] = 255      # a stem's stretch under tape, 16 px wide: exclude found its ends
     >>> fa[2:6, 0:90] = 255         # a pale tendril beside the stem, 4 px wide
     >>> pl = np.zeros_like(fa); pl[12:28, 40:50] = 255; pl[2:6, 0:30] = 255  # what was found without exclude
-    >>> out = drop_wide_beside(fa, pl, width_px=15)
+    >>> out = drop_wide_beside(fa, pl)
     >>> int(out[20, 33] > 0), int(out[20, 45] > 0), int(out[4, 45] > 0)
     (0, 1, 1)
     """

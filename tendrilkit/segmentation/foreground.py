@@ -215,14 +215,15 @@ def foreground_roi(
         faint = faint_pixels(grey, local_contrast=local_contrast, local_noise_k=local_noise_k,
                              background_px=background_px, local_window_px=local_window_px,
                              exclude=near if local_exclude_dark else None)
-        if local_exclude_dark:  # a pale part of an object beside its dark pixels (taped stem) is no tendril
-            plain = faint_pixels(grey, local_contrast=local_contrast, local_noise_k=local_noise_k,
-                                 background_px=background_px, local_window_px=local_window_px)
-            faint = drop_wide_beside(faint, plain, width_px=2 * int(local_window_px) - 1)
         if keep_out is not None and a1 > a0 and b1 > b0:
             faint[b0:b1, a0:a1] = 0
         if local_margin_px > 0:
             faint = cv2.bitwise_and(faint, cv2.compare(near, 0, cv2.CMP_EQ))
+        if local_exclude_dark:  # a pale part of an object beside its dark pixels (taped stem) is no tendril
+            plain = faint_pixels(grey, local_contrast=local_contrast, local_noise_k=local_noise_k,
+                                 background_px=background_px, local_window_px=local_window_px)
+            faint = drop_wide_beside(cv2.bitwise_and(faint, cv2.compare(near, 0, cv2.CMP_EQ)), plain,
+                                     width_px=max(int(local_window_px), 3))
         fg = cv2.bitwise_or(fg, faint)
     if line_width_px > 0:  # 4c: a pale line in front of a darker object (lighter than it, darker than the board)
         lines = light_line_pixels(grey, fg, width_px=int(line_width_px), contrast=max(float(local_contrast), 0.05))
