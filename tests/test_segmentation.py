@@ -234,9 +234,8 @@ def test_local_exclude_dark_keeps_a_pale_tendril_where_it_passes_a_leaf():
     along &= truth
     away = truth.copy()
     away[:, 100:301] = False  # far from the leaf
-    before = segment_view(img, local_exclude_dark=False, **marks).foreground.foreground > 0  # the former default
+    before = segment_view(img, **marks).foreground.foreground > 0
     after = segment_view(img, local_exclude_dark=True, **marks).foreground.foreground > 0
-    assert np.array_equal(after, segment_view(img, **marks).foreground.foreground > 0)  # the default
     assert before[away].mean() > 0.5 and after[away].mean() > 0.5  # the pale line is found away from the leaf
     assert before[along].mean() < 0.2  # the leaf's depth and its pull on the background drop it there
     assert after[along].mean() > 0.5  # measured against the board beside it: kept
@@ -293,48 +292,3 @@ def test_faint_pixels_with_exclude_equal_their_definition_on_every_pixel():
     assert got[55:66].any()  # the pale arc
     with pytest.raises(ValueError, match="exclude"):
         faint_pixels(grey, exclude=exclude[:10])
-
-
-def taped_stem_scene(*, seed=1):
-    """A dark stem 17 px wide, taped over for 40 px (translucent: blue 0.7 of the board's there), a pale tendril 4 px
-    wide running beside it 6 px above its top edge, then away."""
-    h, w = 300, 400
-    img = np.full((h, w, 3), (215.0, 225.0, 230.0), np.float32)
-    stem = np.zeros((h, w), np.uint8)
-    cv2.line(stem, (0, 170), (400, 170), 255, 17)
-    tape = np.zeros((h, w), np.uint8)
-    tape[140:200, 180:220] = 255
-    tube = np.zeros((h, w), np.uint8)
-    cv2.line(tube, (60, 153), (340, 153), 255, 4)
-    cv2.line(tube, (340, 153), (390, 60), 255, 4)
-    for mask, colour in ((stem, (40.0, 120.0, 60.0)), (stem & tape, (150.0, 205.0, 200.0)), (tube, (172.0, 200.0, 190.0))):
-        a = cv2.GaussianBlur(mask.astype(np.float32) / 255.0, (0, 0), 0.7)[..., None]
-        img = img * (1 - a) + np.array(colour, np.float32) * a
-    img += np.random.default_rng(seed).normal(0.0, 2.0, img.shape).astype(np.float32)
-    return np.clip(img, 0, 255).astype(np.uint8), stem > 0, tape > 0, tube > 0
-
-
-def test_local_exclude_dark_leaves_out_the_stem_under_translucent_tape(monkeypatch):
-    """The taped stretch of the stem (a pale part of it, as wide as the stem) is no pale tendril beside the stem:
-    what only the board-beside rule finds of it (its ends next to the dark stem) is dropped; what the plain rule
-    finds stays; the pale tendril running beside the stem is kept (phantom S2, view 3: the stem's taped stretches
-    joined to it made its coverage check fail)."""
-    import tendrilkit.segmentation.foreground as F
-    from tendrilkit.segmentation.faint import drop_wide_beside
-
-    img, stem, tape, tube = taped_stem_scene()
-    marks = dict(roi=(0, 0, 400, 300), keep_out=None, base_point_xy=(60, 153))
-    plain = segment_view(img, **marks, local_exclude_dark=False).foreground.foreground > 0
-    beside = segment_view(img, **marks, local_exclude_dark=True).foreground.foreground > 0
-    with monkeypatch.context() as m:  # the board-beside rule without the wide regions' drop
-        m.setattr(F, "drop_wide_beside", lambda faint, plain, width_px: faint)
-        unruled = segment_view(img, **marks, local_exclude_dark=True).foreground.foreground > 0
-    ends = stem & tape & unruled & ~plain  # the taped stretch's ends next to the dark stem: only that rule takes them
-    assert ends.sum() > 100
-    assert beside[ends].mean() < 0.25, (ends.sum(), beside[ends].sum())  # most: a few rim pixels stay
-    assert not (plain & ~beside & stem & tape).any()  # what the plain rule finds of the stretch stays
-    assert beside[tube].mean() > 0.8 and beside[tube].mean() >= plain[tube].mean()
-    with pytest.raises(ValueError, match="plain"):
-        drop_wide_beside(stem.view(np.uint8), stem[:10].view(np.uint8))
-    with pytest.raises(ValueError, match="width_px"):
-        drop_wide_beside(stem.view(np.uint8), stem.view(np.uint8), width_px=1)

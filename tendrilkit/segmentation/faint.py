@@ -6,7 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["faint_pixels", "drop_wide_beside"]
+__all__ = ["faint_pixels"]
 
 _BAND_ROWS = 64  # rows per band of faint_pixels' float work
 
@@ -148,68 +148,6 @@ def faint_pixels(
         out[y0:y1, bx:bx + bw] = cv2.bitwise_and(cv2.compare(depth, c, cv2.CMP_GT),
                                                  cv2.compare(depth, half, cv2.CMP_GT))[y0 - e0:y1 - e0]
     return out
-
-
-def drop_wide_beside(faint: np.ndarray, plain: np.ndarray, *, width_px: int = 9) -> np.ndarray:
-    """The faint pixels without those that only ``exclude`` found in wide faint regions: a pale part of an object.
-
-    With ``exclude`` (:func:`faint_pixels`) a pixel beside a darker object
-    is measured against its own depth, not the object's, so a pale tendril
-    running beside a leaf or the stem is kept; but so is a pale *part* of the
-    object next to its dark pixels: the stem under translucent tape (a patch
-    as wide as the stem between two dark stretches of it; phantom S2). A
-    tendril is a thin line: in a faint region wider than ``width_px`` (what
-    an opening by a disk of that diameter keeps, grown back by the same disk
-    to take its rim) the pixels that only ``exclude`` found (not in
-    ``plain``, the faint pixels found without it) are dropped: there the
-    object's depth rules, as without ``exclude``. What is found without
-    ``exclude`` always stays.
-
-    Parameters
-    ----------
-    faint : (h, w) uint8 array
-        Nonzero on faint pixels (:func:`faint_pixels` with ``exclude``).
-    plain : (h, w) uint8 array
-        Nonzero on faint pixels found without ``exclude``.
-    width_px : int
-        The widest faint line kept whole, px (``local_window_px``: about a
-        tube's width and a half; the taped stretch of the phantoms' stem,
-        its rim left out, is 11-13 px wide in phantom S2's view 3).
-
-    Returns
-    -------
-    (h, w) uint8 array
-        255 on the faint pixels kept, 0 elsewhere (a new array).
-
-    Notes
-    -----
-    An opening and a dilation by the disk on the ROI, only where faint
-    pixels are (about 1 ms on a 1080p phantom view's region of interest).
-
-    Example
-    -------
-    >>> fa = np.zeros((40, 90), np.uint8)
-    >>> fa[12:28, 30:60] = 255      # a stem's stretch under tape, 16 px wide: exclude found its ends
-    >>> fa[2:6, 0:90] = 255         # a pale tendril beside the stem, 4 px wide
-    >>> pl = np.zeros_like(fa); pl[12:28, 40:50] = 255; pl[2:6, 0:30] = 255  # what was found without exclude
-    >>> out = drop_wide_beside(fa, pl)
-    >>> int(out[20, 33] > 0), int(out[20, 45] > 0), int(out[4, 45] > 0)
-    (0, 1, 1)
-    """
-    if faint.shape != plain.shape:
-        raise ValueError(f"plain must have the shape of faint {faint.shape}, got {plain.shape}")
-    if width_px < 3:
-        raise ValueError(f"width_px must be >= 3, got {width_px}")
-    fa = cv2.compare(faint, 0, cv2.CMP_GT)
-    if not fa.any():
-        return fa
-    disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(width_px) | 1,) * 2)
-    wide = cv2.morphologyEx(fa, cv2.MORPH_OPEN, disk)
-    if not wide.any():  # no faint region wider than a line (most views; exact)
-        return fa
-    wide = cv2.dilate(wide, disk)  # with its rim, which the opening's disk does not reach
-    fa[(wide > 0) & (plain == 0)] = 0
-    return fa
 
 
 def _fill_from_board(small: np.ndarray, hole: np.ndarray) -> np.ndarray:
