@@ -9,7 +9,7 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from tendrilkit.segmentation.faint import faint_pixels
+from tendrilkit.segmentation.faint import drop_unanchored, faint_pixels
 from tendrilkit.segmentation.lines import bridge_line_gaps, light_line_pixels, lines_in_front
 
 __all__ = ["LabelledForeground", "label_foreground", "grey_image", "foreground_roi", "faint_options"]
@@ -219,6 +219,10 @@ def foreground_roi(
             faint[b0:b1, a0:a1] = 0
         if local_margin_px > 0:
             faint = cv2.bitwise_and(faint, cv2.compare(near, 0, cv2.CMP_EQ))
+        if local_exclude_dark:  # a pale part of an object beside it (a taped stretch of the stem) is no tendril
+            plain = faint_pixels(grey, local_contrast=local_contrast, local_noise_k=local_noise_k,
+                                 background_px=background_px, local_window_px=local_window_px)
+            faint = drop_unanchored(faint, plain)
         fg = cv2.bitwise_or(fg, faint)
     if line_width_px > 0:  # 4c: a pale line in front of a darker object (lighter than it, darker than the board)
         lines = light_line_pixels(grey, fg, width_px=int(line_width_px), contrast=max(float(local_contrast), 0.05))
