@@ -131,8 +131,8 @@ def foreground_roi(
     background_px: int = 36,
     local_window_px: int = 9,
     local_margin_px: int = 2,
-    local_exclude_dark: bool = False,
-    line_width_px: int = 0,
+    local_exclude_dark: bool = True,
+    line_width_px: int = 11,
     bridge_gap_px: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Steps 1-4 of :func:`segment_view`: every dark pixel of the ROI, before any choice of component.
@@ -263,8 +263,8 @@ def label_foreground(
     background_px: int = 36,
     local_window_px: int = 9,
     local_margin_px: int = 2,
-    local_exclude_dark: bool = False,
-    line_width_px: int = 0,
+    local_exclude_dark: bool = True,
+    line_width_px: int = 11,
     bridge_gap_px: int = 0,
 ) -> LabelledForeground:
     """Steps 1-5 of :func:`segment_view`: the ROI's dark pixels (:func:`foreground_roi`) and their components.
