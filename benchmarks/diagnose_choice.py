@@ -1,6 +1,6 @@
 """The acquisition's finished hypotheses against the truth: what a final choice among them could read (issue 12).
 
-    .venv/bin/python benchmarks/diagnose_choice.py OUT --seeds A:B [--csv FILE] [--top 6]
+    .venv/bin/python benchmarks/diagnose_choice.py OUT --seeds A:B [--csv FILE] [--top 6] [--set ...]
 
 ``OUT`` is a ``benchmarks/bench_generalize.py --method multiview`` folder with
 ``evidence-cache/`` (``benchmarks/rerun_multiview.py`` fills it). Every

@@ -1,6 +1,6 @@
 """Why the beam's truth-following hypothesis has no acceptable step (issue 12: ``diagnose_beam``'s ``no step``).
 
-    .venv/bin/python benchmarks/diagnose_nostep.py OUT --seeds A:B [--csv FILE] [--tol-mm 2]
+    .venv/bin/python benchmarks/diagnose_nostep.py OUT --seeds A:B [--csv FILE] [--tol-mm 2] [--set ...]
 
 ``OUT`` as :mod:`benchmarks.diagnose_beam` (a ``bench_generalize`` folder with
 ``evidence-cache/``). Every processed frame's acquisition is run again with

@@ -115,14 +115,6 @@ BRIDGE_EXTEND_MM = 200.0
 #: more per frame; see :mod:`tendrilkit.mv_acquire`'s notes).
 CHOICE_CANDIDATES = 1
 KINK_PX_PER_DEG = 1.0
-#: The tip's extension and the refinement of the whole curve alternate up to this many times while the extension
-#: gains ``TIP_GAIN_MM`` or more: the extension steps 0.5 mm at a time from its own last step and drifts in depth
-#: (the tangent in the plane of the camera centres, which the views hardly tell), most past a gap it crossed
-#: (1.5-4 mm off the truth after a covered gap on dev seed 1068), until no two views see its next step and it stops
-#: on the tendril; refitted on every view, the curve lies on the tendril again and the extension goes on (dev seeds
-#: 1040-1079 in the pale+kink configuration, see the README: all three criteria 41.2 -> 42.1 %).
-TIP_PASSES = 3
-TIP_GAIN_MM = 2.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -608,13 +600,6 @@ def _fit(X0, evidence, B, segment_mm, prior_mm=0.0, max_length_mm=np.inf, refine
     # only the bending and length terms move the nodes, and slowly (the site S3 phantom's frame 26: 2.2 mm off
     # after 10, 0.3 mm after 60)
     X = refine_curve(X, evidence, base_mm=B, segment_mm=_segment(X), cap_px=(8.0, 6.0), iterations=30, huber_px=3.0)
-    for _ in range(TIP_PASSES - 1):  # extend again from the refitted curve while that gains (TIP_PASSES)
-        Y = adjust_tip(X, evidence, prior_mm=prior_mm, max_length_mm=max_length_mm)
-        if _length(Y) < _length(X) + TIP_GAIN_MM:
-            break
-        Y = _resample(Y, segment_mm)
-        X = refine_curve(Y, evidence, base_mm=B, segment_mm=_segment(Y), cap_px=(8.0, 6.0), iterations=30,
-                         huber_px=3.0)
     return X
 
 
