@@ -163,6 +163,39 @@ lost), end to end (``rerun_multiview.py --no-fit``) all three 37.2 -> 41.9 %,
 ``ok`` off 9 -> 7; but on validation seeds 1000-1039 (``bench_generalize``,
 240 frames) all three 34.2 -> 32.9 % (3 gained, 6 lost), mean <= 0.5 mm
 60.0 -> 63.3 %, ``ok`` off 6 -> 7, and 236 against 97 ms per frame.
+
+Why frames are wrong in the pale+kink configuration (issue 12, 2026-12-01; ``local_exclude_dark``,
+``line_width_px`` 11, ``multiview.CHOICE_CANDIDATES = 6``; dev seeds 1040-1079, 240 frames, all three 41.2 %;
+the diagnose scripts with ``--set``). 130 of the 141 wrong frames were acquired (the previous frame not ``ok``:
+40 of 170 acquired frames right, 59 of 70 tracked ones). The chosen hypothesis follows the truth to its end in
+71 frames, a finished one in 77 (``diagnose_beam``); of the 169 others the truth-following hypothesis lost its
+cell in 98 (58 to a sibling), had no step in 55, ranked beyond the beam in 12. In the 69 wrong acquired frames
+lost at the cell filter the winner lay a median 2.2 mm from the truth and the truth's own child 1.8 mm (the
+hypothesis had run beside the truth, in depth, before), half of them on unconfirmed steps (the neutral cost:
+covered, pale). ``diagnose_nostep``'s board cause fell from 35 frames (the default segmentation, 0ae3e4c's
+notes) to 2. Where the final curve leaves the truth (136 wrong frames not failed; what the views show of the
+truth's next 1-3 mm there): covered or outside the ROIs in two views 40 (16 stop there: a coil or the tip over
+a leaf, seeds 1065, 1071), dark but off the skeletons 40 (a pale tendril beside a darker shoot or leaf, the
+merged blob's skeleton between them: seeds 1053, 1064, 1066, 1067), on two views' skeletons 31 (crossings: the
+beam and the choice), one view's board 10, the truth's last 3 mm 10 (tips 2-4 mm off), the board 5: most of
+the losses are evidence the segmentation does not give (the tendril over or beside a darker object). Within
+0.5 mm fell with the pale options (67.1 -> 65.4 %; the options alone 26 frames lost, 12 gained): of the 23
+frames lost, 19 are curves that had stopped 24-84 mm along the tendril (within 0.5 mm mean) and now run past
+that point and leave the truth (off the skeletons 9, covered 3, crossings 4, board 3), 3 are seed 1068's (the
+extension past a covered gap drifts in depth and stops, see (b) below), 1 a skeleton that now follows a shoot
+beside the tendril (seed 1053).
+Tried there and not kept (``rerun_multiview.py`` on those seeds, the same harness): (a) the beam's step cost
+where three views see a place robust to one view (a merged blob's skeleton 4-5 px beside the tendril): the
+worst view dropped, all three 41.2 -> 39.2 %, ``ok`` off 9 -> 18; the worst capped at ``ON_PX``: 39.2 %
+(within 0.5 mm 65.4 -> 69.2 %), ``ok`` off 16 (wrong branches get cheaper too: the third view is what holds
+the depth). (b) The tip's extension and the whole curve's refinement alternated (``multiview._fit``, up to 3
+extensions while one gains 2 mm: the extension drifts 1.5-4 mm in depth past a covered gap and stops, seed
+1068 frame 1 at 77 of 151 mm; refitted, it goes on to the tip): dev 1040-1079 41.2 -> 42.1 % (ends 46.7 ->
+49.2 %, ``ok`` off 9 -> 12: curves now whole with the max 2.0-2.4 mm in the gap), dev 9240-9299 41.9 -> 43.1 %
+(``ok`` off 13 -> 13); validation seeds 1140-1159 (``bench_generalize``, 120 frames) 35.0 -> 35.0 %, within
+0.5 mm 66.7 -> 61.7 %, max 50.8 -> 45.8 %, ends 40.8 -> 43.3 %, silent 3 -> 5 (curves that had stopped short
+run on onto other structures, two of them ``ok``). Only after a crossed gap: dev 1040-1079 41.7 % (``--no-fit``),
+9240-9299 42.2 %, validation identical.
 """
 
 from __future__ import annotations

@@ -466,6 +466,22 @@ def test_bridge_gap_crosses_a_pale_tendril_over_the_stem():
     assert bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0) is None
 
 
+def test_diagnose_scripts_read_the_evidence_cached_with_the_segmentation_options():
+    """``--set`` of the diagnose_* scripts names the cache folder as ``rerun_multiview.py --set`` writes it (other
+    sections share the default cache); a wrong item is refused as there."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from diagnose_beam import cache_name, diagnose_parser
+
+    assert cache_name([]) == "evidence-cache"
+    assert cache_name(["reconstruction.chunk_frames=3"]) == "evidence-cache"
+    assert cache_name(["segmentation.local_exclude_dark=true", "segmentation.line_width_px=11"]) == \
+        "evidence-cache-segmentation.line_width_px=11-segmentation.local_exclude_dark=True"
+    a = diagnose_parser("x").parse_args(["out", "--seeds", "0:1", "--set", "segmentation.line_width_px=11"])
+    assert cache_name(a.set) == "evidence-cache-segmentation.line_width_px=11"
+    with pytest.raises(ValueError):
+        cache_name(["line_width_px=11"])
+
+
 def test_beam_trace_changes_nothing_and_follows_the_coil(coil):
     """``mv_acquire._TRACE`` (``benchmarks/diagnose_beam.py``) sees every step's pruning and the finished
     hypotheses without changing the curve; on the coil the truth-following hypothesis is never lost."""
