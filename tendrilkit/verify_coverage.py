@@ -27,6 +27,9 @@ BORDER_PX = 2
 #: at a crossing), not a part of the tendril the curve missed.
 MIN_BRANCH_PX = 8
 
+#: Whether a segment running out of the ROI (left out) may be the other arm of a line crossing the curve.
+CROSSING_BORDER_ARMS = True
+
 
 def tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, cov_tol: float) -> float:
     """The tendril's half width in this view, px: median inside distance of the skeleton pixels along the curve.
@@ -135,7 +138,8 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
     edge = np.zeros(img.shape, bool)
     edge[fr - r0, fc - c0] = np.minimum(np.minimum(fr, h - 1 - fr), np.minimum(fc, w - 1 - fc)) <= \
         inside[fr, fc] + BORDER_PX
-    img[border_segments(img, edge)] = 0  # only the segments running out of the ROI, not all joined to them
+    out_of_roi = border_segments(img, edge)
+    img[out_of_roi] = 0  # only the segments running out of the ROI, not all joined to them
     nb, blab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
     b = blab[fr - r0, fc - c0]
     size = np.bincount(b, minlength=nb)
@@ -145,6 +149,13 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
     if cand.size:  # a thin line crossing the tendril: its arms continue each other across the curve
         branch = np.zeros(len(sk), int)
         branch[free] = b
+        if CROSSING_BORDER_ARMS and out_of_roi.any():
+            # an arm running out of the ROI is left out already, yet it may be the other arm of a line crossing
+            # the curve (a second tendril or a shoot from outside, crossing the tendril once): labelled after
+            # the others, it serves as a partner only (never counted)
+            nx, xlab = cv2.connectedComponents(out_of_roi.astype(np.uint8), connectivity=8, ltype=cv2.CV_32S)
+            x = xlab[fr - r0, fc - c0]
+            branch[np.nonzero(free)[0][x > 0]] = nb - 1 + x[x > 0]
         every = np.arange(1, nb)  # the spur-sized arms too: a broken line's pieces may be bridged from them
         arms = every[crossing_branches(dense, sk[~near], branch[~near], every, cov_tol=cov_tol,
                                        width_px=2.0 * radius_px if np.isfinite(radius_px) else 0.0,
@@ -160,7 +171,8 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
             gone = np.setdiff1d(touched, kept)
             if gone.size:
                 lone = np.isin(ev.labels[sr, sc], gone)
-                tendril[np.unique(branch[lone & free])] = False
+                ids = np.unique(branch[lone & free])
+                tendril[ids[ids < nb]] = False
                 tendril[0] = False
     n_free = int(size[tendril].sum())
     return float(n_near / max(n_near + n_free, 1))
