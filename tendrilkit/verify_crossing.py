@@ -37,6 +37,9 @@ __all__ = ["crossing_branches", "border_segments", "across_gaps"]
 #: Largest break in the dark pixels, px, bridged between the tendril's pieces (:func:`across_gaps`).
 GAP_PX = 10.0
 
+#: Whether a crossing line's other side may be any unexplained thin pixels on its straight continuation.
+CROSSING_PIXELS = True
+
 
 def across_gaps(labels: np.ndarray, sk_xy: np.ndarray, sr: np.ndarray, sc: np.ndarray, thin: np.ndarray,
                 touched: np.ndarray, dense_xy: np.ndarray, *, gap_px: float = GAP_PX) -> np.ndarray:
@@ -278,4 +281,12 @@ def crossing_branches(dense_xy: np.ndarray, free_xy: np.ndarray, free_branch: np
         reach = 2.0 * (cov_tol + width_px) / max(sin, min_sin) + gap_px
         out[n] = any(m != int(k) and float(u @ u2) <= max_cos and float(np.hypot(*(end - e2))) <= reach
                      for m, (e2, u2, _) in arms.items())
+        if not out[n] and CROSSING_PIXELS:
+            # the line's other side need not be one arm: a piece between two crossings (a loop the line crosses
+            # twice), a piece running into a third line; its pixels lie on the straight continuation
+            w = free_xy[(free_branch > 0) & (free_branch != int(k))] - end
+            along = -(w @ u)
+            perp = np.abs(w[:, 0] * u[1] - w[:, 1] * u[0])
+            ahead = (along > 0) & (along <= reach + arm_px[1]) & (perp <= 0.5 * width_px + 2.0)
+            out[n] = int(ahead.sum()) >= arm_px[1] - arm_px[0]
     return out
