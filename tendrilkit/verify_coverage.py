@@ -74,7 +74,24 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
       a thin line crossing the tendril (a second tendril, a stalk), and the
       pieces of such a line beyond breaks in its dark pixels that were
       bridged from its arms (:func:`tendrilkit.verify_crossing.across_gaps`
-      run again without the arms' pixels does not reach them).
+      run again without the arms' pixels does not reach them). The other
+      arm may be a segment running out of the ROI, left out already
+      (:data:`CROSSING_BORDER_ARMS`): a second tendril or a shoot from
+      outside crossing the tendril once left its inner arm counted (pale
+      options and kink choice, dev seeds 1040-1079: seed 1058, a second
+      tendril crossing a right curve, 0.66-0.75 in two views or three).
+
+    Measured with the pale options and the kink choice, rerun_multiview with
+    the fit, both rules (this one and the crossing's thin pixels on the arm's
+    straight continuation, :data:`tendrilkit.verify_crossing.CROSSING_PIXELS`):
+    dev seeds 1040-1079 frames right on all three criteria flagged 25 -> 17
+    of 99 (coverage 20 -> 7), ok with the max or an end over 2 mm 9 -> 9;
+    dev seeds 9240-9299 36 of 152 (39 of 151 before; coverage 20 -> 17), ok-off
+    13 -> 14: seed 9242 frame 2 (max 2.19 mm, a curve placed off over a leaf
+    near the tip) was flagged only because a second tendril crossing it once
+    from outside the ROI counted as missed tendril (0.62 in one view; 0.76
+    now); silent 0. Validation seeds 1080-1098: no frame changed (right
+    frames flagged 27 of 31 before and after, the coverage alone 20).
 
     The coverage is the explained skeleton over explained plus the
     tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`

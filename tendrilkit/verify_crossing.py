@@ -203,7 +203,19 @@ def crossing_branches(dense_xy: np.ndarray, free_xy: np.ndarray, free_branch: np
     band the curve explains and of the pixels the two lines share: at most
     ``2 * (cov_tol + width_px) / sin(a) + gap_px`` px apart, ``a`` the angle
     between the branch and the curve (its sine at least ``min_sin``: lines
-    crossing at a shallow angle stay merged and explained longer).
+    crossing at a shallow angle stay merged and explained longer). With no
+    such arm across, a branch is an arm still when at least
+    ``arm_px[1] - arm_px[0]`` unexplained thin pixels of other branches lie on
+    its straight continuation across the curve (within that reach plus
+    ``arm_px[1]`` along it, half the width + 2 px beside it;
+    :data:`CROSSING_PIXELS`): the line's other side split beyond the curve by
+    a third line, or the piece between two crossings of a loop the line
+    crosses twice, which comes back to the curve and is no arm (pale options
+    and kink choice, dev seeds 9240-9299: seeds 9268 and 9289, three right
+    frames flagged at 0.67-0.71 read 0.78-0.94 and pass, and seed 9268
+    frame 2, tracked from a passing frame now, is right (max 3.99 -> 0.28 mm);
+    dev seeds 1040-1079: no status changed; no wrong frame flagged by the
+    coverage alone lost).
 
     Parameters
     ----------

@@ -564,6 +564,26 @@ def test_line_crossing_the_tendril_from_outside_the_roi_is_not_unexplained_tendr
     assert old["coverage_frac_v1"] < 0.95 and old["coverage_frac_v2"] < 0.95
 
 
+def test_crossing_line_split_beyond_the_curve_is_still_a_crossing(monkeypatch):
+    """The line's other side need not be one arm attached to the curve: a third line crossing it just beyond the
+    curve splits it into a stub and a piece farther out (random dev seeds 9241, 9289); its pixels lie on the arm's
+    straight continuation. A branch with nothing across the curve stays the tendril's."""
+    import tendrilkit.verify_crossing as vx
+
+    curve = np.column_stack([np.arange(0.0, 100.0), np.full(100, 50.0)])
+    up = np.column_stack([np.full(40, 30.0), np.linspace(10.0, 45.0, 40)])        # attached arm above the curve
+    stub = np.column_stack([np.full(4, 30.0), np.linspace(55.0, 58.0, 4)])        # below it: a stub ...
+    far = np.column_stack([np.full(30, 30.0), np.linspace(61.0, 90.0, 30)])       # ... and a piece beyond a junction
+    lone = np.column_stack([np.full(40, 70.0), np.linspace(10.0, 45.0, 40)])      # a branch leaving the curve
+    xy = np.vstack([up, stub, far, lone])
+    lab = np.repeat([1, 2, 3, 4], [40, 4, 30, 40])
+    got = vx.crossing_branches(curve, xy, lab, np.array([1, 4]), cov_tol=4.0, width_px=5.0)
+    assert got.tolist() == [True, False]
+    monkeypatch.setattr(vx, "CROSSING_PIXELS", False)  # arms only: the split side is no arm, nothing pairs
+    assert vx.crossing_branches(curve, xy, lab, np.array([1, 4]), cov_tol=4.0, width_px=5.0).tolist() == [False,
+                                                                                                       False]
+
+
 def test_curve_passing_through_itself_is_caught(scene):
     """A hairpin on the tendril's own pixels (out along it and 15 mm back, 0.2 mm beside itself: a curve running
     out along a second tendril and back, random seed 2) lies on the tendril in every view, yet a tendril cannot
