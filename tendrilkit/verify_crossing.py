@@ -40,6 +40,10 @@ GAP_PX = 10.0
 #: Whether a crossing line's other side may be any unexplained thin pixels on its straight continuation.
 CROSSING_PIXELS = True
 
+#: Largest turn of the curve through a crossing (deg, chords over 25 px either side) for which a partner-only
+#: side (a segment running out of the ROI, thin pixels on the arm's straight continuation) pairs an arm.
+STRAIGHT_THROUGH_DEG = 30.0
+
 
 def across_gaps(labels: np.ndarray, sk_xy: np.ndarray, sr: np.ndarray, sc: np.ndarray, thin: np.ndarray,
                 touched: np.ndarray, dense_xy: np.ndarray, *, gap_px: float = GAP_PX) -> np.ndarray:
@@ -184,6 +188,16 @@ def border_segments(img: np.ndarray, edge: np.ndarray) -> np.ndarray:
     return drop
 
 
+def _straight_through(dense_xy: np.ndarray, j: int, *, max_turn_deg: float, half_px: int = 25) -> bool:
+    """Whether the curve (resampled every pixel) runs straight on through its sample ``j``: its chords over
+    ``half_px`` before and after it turn by at most ``max_turn_deg``."""
+    a, b = dense_xy[j] - dense_xy[max(j - half_px, 0)], dense_xy[min(j + half_px, len(dense_xy) - 1)] - dense_xy[j]
+    na, nb = float(np.hypot(*a)), float(np.hypot(*b))
+    if na == 0 or nb == 0:
+        return False  # the curve's end: nothing to run straight on through
+    return float(a @ b) / (na * nb) >= np.cos(np.radians(max_turn_deg))
+
+
 def crossing_branches(dense_xy: np.ndarray, free_xy: np.ndarray, free_branch: np.ndarray, branches: np.ndarray, *,
                       cov_tol: float, width_px: float = 0.0, arm_px: tuple[float, float] = (5.0, 25.0),
                       min_sin: float = 0.25,
@@ -285,14 +299,22 @@ def crossing_branches(dense_xy: np.ndarray, free_xy: np.ndarray, free_branch: np
         jc = int(j_all[i])
         tang = dense_xy[min(jc + 3, len(dense_xy) - 1)] - dense_xy[max(jc - 3, 0)]
         sin = abs(float(tang[0] * u[1] - tang[1] * u[0])) / max(float(np.hypot(*tang)), 1e-9)
-        arms[int(k)] = (end, u, sin)
+        arms[int(k)] = (end, u, sin, jc)
+    tested = {int(k) for k in branches}
     for n, k in enumerate(branches):
         if int(k) not in arms:
             continue
-        end, u, sin = arms[int(k)]
+        end, u, sin, jc = arms[int(k)]
         reach = 2.0 * (cov_tol + width_px) / max(sin, min_sin) + gap_px
-        out[n] = any(m != int(k) and float(u @ u2) <= max_cos and float(np.hypot(*(end - e2))) <= reach
-                     for m, (e2, u2, _) in arms.items())
+        pair = [m for m, (e2, u2, _, _) in arms.items()
+                if m != int(k) and float(u @ u2) <= max_cos and float(np.hypot(*(end - e2))) <= reach]
+        out[n] = any(m in tested for m in pair)
+        if out[n] or not _straight_through(dense_xy, jc, max_turn_deg=STRAIGHT_THROUGH_DEG):
+            # the other side only partner-only pixels (a segment running out of the ROI, a split line): only
+            # where the curve runs straight on through the crossing, not where it turns (where it may have
+            # left the tendril's end for a line that happens to continue it; dev seed 1063 frame 4)
+            continue
+        out[n] = bool(pair)
         if not out[n] and CROSSING_PIXELS:
             # the line's other side need not be one arm: a piece between two crossings (a loop the line crosses
             # twice), a piece running into a third line; its pixels lie on the straight continuation
