@@ -584,6 +584,25 @@ def test_crossing_line_split_beyond_the_curve_is_still_a_crossing(monkeypatch):
                                                                                                        False]
 
 
+def test_partner_only_side_pairs_only_where_the_curve_runs_straight_through():
+    """A side that is no tested arm (a segment running out of the ROI, label 2 here) pairs an arm only where the
+    curve runs straight on: where it turns it may have left the tendril, whose end happens to continue a line
+    (dev seed 1063 frame 4, default options: a curve 2.8 mm off, silent without this)."""
+    from tendrilkit.verify_crossing import crossing_branches
+
+    d = np.arange(0.0, 40.0)
+    arm = np.column_stack([50.0 - d / np.sqrt(2) - 4, 50.0 - d / np.sqrt(2) - 4])     # up-left from the crossing
+    out = np.column_stack([50.0 + d / np.sqrt(2) + 4, 50.0 + d / np.sqrt(2) + 4])     # down-right, out of the ROI
+    xy, lab = np.vstack([arm, out]), np.repeat([1, 2], 40)
+    straight = np.column_stack([np.arange(0.0, 100.0), 100.0 - np.arange(0.0, 100.0)])  # across the line
+    corner = np.vstack([np.column_stack([np.arange(0.0, 50.0), np.full(50, 50.0)]),      # turns 90 deg there
+                        np.column_stack([np.full(50, 50.0), np.arange(50.0, 100.0)])])
+    assert crossing_branches(straight, xy, lab, np.array([1]), cov_tol=4.0, width_px=5.0).tolist() == [True]
+    assert crossing_branches(corner, xy, lab, np.array([1]), cov_tol=4.0, width_px=5.0).tolist() == [False]
+    # two tested arms pair as before, turn or not
+    assert crossing_branches(corner, xy, lab, np.array([1, 2]), cov_tol=4.0, width_px=5.0).tolist() == [True, True]
+
+
 def test_curve_passing_through_itself_is_caught(scene):
     """A hairpin on the tendril's own pixels (out along it and 15 mm back, 0.2 mm beside itself: a curve running
     out along a second tendril and back, random seed 2) lies on the tendril in every view, yet a tendril cannot
