@@ -76,22 +76,28 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
       bridged from its arms (:func:`tendrilkit.verify_crossing.across_gaps`
       run again without the arms' pixels does not reach them). The other
       arm may be a segment running out of the ROI, left out already
-      (:data:`CROSSING_BORDER_ARMS`): a second tendril or a shoot from
-      outside crossing the tendril once left its inner arm counted (pale
-      options and kink choice, dev seeds 1040-1079: seed 1058, a second
-      tendril crossing a right curve, 0.66-0.75 in two views or three).
+      (:data:`CROSSING_BORDER_ARMS`), where the curve runs straight through
+      the crossing (:data:`tendrilkit.verify_crossing.STRAIGHT_THROUGH_DEG`):
+      a second tendril or a shoot from outside crossing the tendril once
+      left its inner arm counted (dev seed 1058, a second tendril crossing
+      a right curve: 0.66-0.75 in two views or three).
 
-    Measured with the pale options and the kink choice, rerun_multiview with
-    the fit, both rules (this one and the crossing's thin pixels on the arm's
-    straight continuation, :data:`tendrilkit.verify_crossing.CROSSING_PIXELS`):
-    dev seeds 1040-1079 frames right on all three criteria flagged 25 -> 17
-    of 99 (coverage 20 -> 7), ok with the max or an end over 2 mm 9 -> 9;
-    dev seeds 9240-9299 36 of 152 (39 of 151 before; coverage 20 -> 17), ok-off
-    13 -> 14: seed 9242 frame 2 (max 2.19 mm, a curve placed off over a leaf
-    near the tip) was flagged only because a second tendril crossing it once
-    from outside the ROI counted as missed tendril (0.62 in one view; 0.76
-    now); silent 0. Validation seeds 1080-1098: no frame changed (right
-    frames flagged 27 of 31 before and after, the coverage alone 20).
+    Measured (rerun_multiview with the fit) with both new partners (this one
+    and the thin pixels on the arm's straight continuation,
+    :data:`tendrilkit.verify_crossing.CROSSING_PIXELS`), against main: with
+    the pale options and the kink choice, dev seeds 1040-1079 frames right
+    on all three criteria flagged 25 -> 17 of 99, ok with the max or an end
+    over 2 mm 9 -> 9; dev seeds 9240-9299 39 of 151 -> 36 of 152 (all three
+    41.9 -> 42.2 %), ok-off 13 -> 14: seed 9242 frame 2 (max 2.19 mm, placed
+    off over a leaf near the tip) had been flagged only because a second
+    tendril crossing it once from outside the ROI counted as missed tendril
+    (0.62 in one view, 0.76 now); validation seeds 1080-1098 no frame
+    changed (27 of 31 right frames flagged, by the coverage alone 20: not
+    these patterns); silent 0 everywhere. Default options, dev seeds
+    1040-1079: 24 -> 17 of 80, ok-off 7 -> 7. Without the straight-through
+    condition the default options let dev seed 1063 frame 4 through silently
+    (mean 2.8 mm: the tendril's missed end continues, collinear, a second
+    tendril running out of the ROI, where the curve turns onto it).
 
     The coverage is the explained skeleton over explained plus the
     tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`

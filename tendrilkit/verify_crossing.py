@@ -218,7 +218,13 @@ def crossing_branches(dense_xy: np.ndarray, free_xy: np.ndarray, free_branch: np
     ``2 * (cov_tol + width_px) / sin(a) + gap_px`` px apart, ``a`` the angle
     between the branch and the curve (its sine at least ``min_sin``: lines
     crossing at a shallow angle stay merged and explained longer). With no
-    such arm across, a branch is an arm still when at least
+    such arm across, and only where the curve runs straight on through the
+    crossing (its chords over 25 px either side turn by at most
+    :data:`STRAIGHT_THROUGH_DEG`: where it turns it may have left the
+    tendril's end for a line that happens to continue it), the other arm
+    may be a partner-only branch (``free_branch`` labels not in
+    ``branches``: a segment running out of the ROI), and a branch is an arm
+    still when at least
     ``arm_px[1] - arm_px[0]`` unexplained thin pixels of other branches lie on
     its straight continuation across the curve (within that reach plus
     ``arm_px[1]`` along it, half the width + 2 px beside it;
