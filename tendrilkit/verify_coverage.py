@@ -94,7 +94,10 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
     (0.62 in one view, 0.76 now); validation seeds 1080-1098 no frame
     changed (27 of 31 right frames flagged, by the coverage alone 20: not
     these patterns); silent 0 everywhere. Default options, dev seeds
-    1040-1079: 24 -> 17 of 80, ok-off 7 -> 7. Without the straight-through
+    1040-1079: 24 -> 17 of 80, ok-off 7 -> 7; 9240-9299: 22 of 134 -> 20 of
+    135 (all three 37.2 -> 37.5 %), ok-off 9 -> 10 (seed 9260 frame 0, max
+    2.68 mm near the base, mean 0.09 mm, flagged before only by a stalk
+    crossing it, 0.71-0.75). Without the straight-through
     condition the default options let dev seed 1063 frame 4 through silently
     (mean 2.8 mm: the tendril's missed end continues, collinear, a second
     tendril running out of the ROI, where the curve turns onto it).
