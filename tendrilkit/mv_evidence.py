@@ -142,6 +142,12 @@ class SkeletonEvidence:
         """:func:`_skeleton_grid` of ``skeleton_xy``: the nearest skeleton pixel of a point without the k-d tree."""
         return _skeleton_grid(self.skeleton_xy, self.offset_xy, self.seen.shape)
 
+    @cached_property
+    def _grid_reach(self) -> np.ndarray:
+        """:func:`_empty_rings` of :attr:`_grid`: where :func:`_grid_nearest` starts its search, per cell."""
+        start, _, cell = self._grid
+        return _empty_rings(start, cell)
+
 
 def skeleton_evidence(ev: ViewEvidence, camera: Camera) -> SkeletonEvidence:
     """The multi-view fit's view of :func:`tendrilkit.evidence.view_evidence` (made with ``skeleton=True``).
@@ -241,7 +247,7 @@ def skeleton_distance(ev: SkeletonEvidence, points_xy: np.ndarray, *, outside_px
     off = ev.offset_xy.astype(float)
     ok = _inside(p, off, h, w)
     start, items, cell = ev._grid
-    idx, tie = _grid_nearest(p, ok, ev.skeleton_xy, off, start, items, cell, float(outside_px))
+    idx, tie = _grid_nearest(p, ok, ev.skeleton_xy, off, start, items, cell, ev._grid_reach, float(outside_px))
     if tie.any():  # two skeleton pixels equally near: the k-d tree's choice, as before the grid
         idx[tie] = ev.tree.query(p[tie], distance_upper_bound=outside_px)[1]
     d, g, seen, nearest, background, covered = _line_distance(
@@ -333,14 +339,32 @@ def _skeleton_grid(xy: np.ndarray, off: np.ndarray, shape: tuple[int, int]):
     return start, items, np.array([GRID_PX, rows, cols], np.int64)
 
 
+def _empty_rings(start: np.ndarray, cell: np.ndarray) -> np.ndarray:
+    """(rows, cols) int32: per cell of :func:`_skeleton_grid`, how many square rings of cells around it hold no
+    skeleton pixel (the Chebyshev distance, in cells, to the nearest cell that holds one; 0 on such a cell).
+
+    :func:`_grid_nearest` starts its ring search there: the rings inside are empty (what it finds is the same,
+    the search without them). Exact: a 3 x 3 distance transform with unit steps (``DIST_C``) is the Chebyshev
+    distance.
+    """
+    _, rows, cols = (int(v) for v in cell)
+    empty = (np.diff(start) == 0).reshape(rows, cols).astype(np.uint8)
+    if empty.all():  # no skeleton pixel: every ring is empty (the search ends at the grid's edge)
+        return np.full((rows, cols), max(rows, cols), np.int32)
+    return cv2.distanceTransform(empty, cv2.DIST_C, 3).astype(np.int32)
+
+
 @njit(cache=True)
-def _grid_nearest(p, ok, xy, off, start, items, cell, upper):
+def _grid_nearest(p, ok, xy, off, start, items, cell, reach, upper):
     """Row of ``xy`` nearest every point ``p`` (n, 2) with ``ok`` (-1: none nearer than ``upper``), and ties.
 
     Exact: the cells are searched in square rings around the point's cell until no cell farther out can hold a
     pixel as near as the best (squared distances ``dx * dx + dy * dy`` and the strict ``< upper ** 2``
     of :meth:`scipy.spatial.cKDTree.query`). ``tie``: another pixel is exactly as near (the caller asks the
-    k-d tree, whose choice among equals is its own).
+    k-d tree, whose choice among equals is its own). The search starts at ring ``reach`` (rows, cols) of the
+    point's cell (:func:`_empty_rings`): the rings inside hold no pixel, and the search could only have
+    ended in them with none found, as it does at the first ring it reads beyond (that ring's pixels are
+    then farther than ``upper``).
     """
     S, rows, cols = cell[0], cell[1], cell[2]
     n = len(p)
@@ -358,7 +382,7 @@ def _grid_nearest(p, ok, xy, off, start, items, cell, upper):
         best = ub2
         bi = -1
         eq = False
-        r = 0
+        r = reach[cy, cx]
         while True:
             for yy in range(max(cy - r, 0), min(cy + r, rows - 1) + 1):
                 edge = yy == cy - r or yy == cy + r

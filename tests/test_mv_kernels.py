@@ -435,3 +435,135 @@ def test_skeleton_labels_on_the_box_are_the_whole_crops(seed):
     ev = _wavy_view(more)
     want = cv2.connectedComponents(ev.skeleton.astype(np.uint8), connectivity=8)[1]
     assert ev.skeleton_labels.dtype == want.dtype and np.array_equal(ev.skeleton_labels, want)
+
+
+# ---- refine_curve's compiled step (multiview._view_terms, _assemble, _take_step) against its numpy of 245f631 ----
+
+def _refine_curve_245f631(X0_mm, evidence, *, base_mm, segment_mm, iterations=20, bend_weight=20.0, length_weight=30.0,
+                          base_weight=3.0, huber_px=1.5, cap_px=(25.0, 8.0)):
+    """multiview.refine_curve as it was at 245f631 (numpy steps around the kernels), copied unchanged."""
+    from scipy.linalg import solveh_banded
+
+    X = np.array(X0_mm, float)
+    n = len(X)
+    if n < 3:
+        return X
+    bend = _bending_blocks(n) * bend_weight ** 2
+    B = np.asarray(base_mm, float)
+    step_h = 1e-3
+    for it in range(iterations):
+        cap = max(cap_px[1], cap_px[0] * 0.75 ** it)
+        Hd = np.zeros((n, 3, 3))
+        g = np.zeros((n, 3))
+        for ev in evidence:
+            u, J = ev.camera.project_jacobian(X, distort=True, step_mm=step_h)
+            d, gd, seen = skeleton_distance(ev, u, outside_px=1e3)
+            _add_view(Hd, g, d, gd, seen, J, huber_px, cap)
+        Hd[0] += base_weight ** 2 * np.eye(3)
+        g[0] += base_weight ** 2 * (X[0] - B)
+        e = np.diff(X, axis=0)
+        L = np.linalg.norm(e, axis=1)
+        t = e / np.maximum(L, 1e-9)[:, None]
+        r = L - segment_mm
+        tt = length_weight ** 2 * np.einsum("ki,kj->kij", t, t)
+        Hd[:-1] += tt
+        Hd[1:] += tt
+        g[:-1] -= length_weight ** 2 * r[:, None] * t
+        g[1:] += length_weight ** 2 * r[:, None] * t
+        ab = _banded_normal(Hd, tt, bend)
+        g += (bend[2][:, None] * X)
+        g[:-1] += bend[1][1:, None] * X[1:]
+        g[1:] += bend[1][1:, None] * X[:-1]
+        g[:-2] += bend[0][2:, None] * X[2:]
+        g[2:] += bend[0][2:, None] * X[:-2]
+        try:
+            step = -solveh_banded(ab, g.ravel(), check_finite=False).reshape(n, 3)
+        except np.linalg.LinAlgError:
+            break
+        big = np.max(np.linalg.norm(step, axis=1))
+        if big > 1.0:
+            step *= 1.0 / big
+        X = X + step
+        if big < 5e-3:
+            break
+    return X
+
+
+@pytest.fixture(scope="module")
+def tube_views():
+    """Three views of a curled tube (the IJCV25 rig, no distortion) and its true centre line."""
+    from tendrilkit.phantom import render_tube_views
+
+    s = np.linspace(0, 1, 1500)
+    th = np.clip(s - 0.4, 0, None) * 6 * np.pi
+    X = np.c_[-5 + 50 * s, 6 * np.sin(th), 20 + 6 * (1 - np.cos(th))]
+    images, cams, exp = render_tube_views(X, width_px=9, margin_px=40, name="refine")
+    evidence = [skeleton_evidence(view_evidence(im, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point), c)
+                for im, c, m in zip(images, cams, exp.views)]
+    return X, evidence
+
+
+def _with_distortion(evidence, dist):
+    from dataclasses import replace
+
+    return [replace(ev, camera=Camera(K=ev.camera.K, dist=np.asarray(dist, float), R=ev.camera.R, t_mm=ev.camera.t_mm,
+                                      width=ev.camera.width, height=ev.camera.height)) for ev in evidence]
+
+
+@pytest.mark.parametrize("distort", [False, True])
+def test_refine_curve_is_the_245f631_numpy(tube_views, distort):
+    """Node chains started on, near, off and far from the tube (converging, the 1 mm step limit, nodes no view
+    sees), every iteration count, cameras without and with OpenCV's 5-coefficient distortion: the compiled steps
+    give the old function's nodes, bit for bit."""
+    from tendrilkit.geometry import resample_polyline
+    from tendrilkit.multiview import refine_curve
+
+    X, evidence = tube_views
+    if distort:
+        evidence = _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4])
+    assert all(ev.camera.has_distortion == distort and ev.camera.dist.size == 5 for ev in evidence)
+    rng = np.random.default_rng(12)
+    moved = 0
+    for k in range(12):
+        m = int(rng.integers(3, 60))
+        start = resample_polyline(X[: int(rng.integers(200, 1500))], m)
+        start = start + rng.normal(0.0, [0.05, 0.5, 2.0, 6.0][k % 4], start.shape)
+        if k == 11:
+            start[-5:] += [0.0, 0.0, 400.0]  # far behind the views' crops: unseen, no skeleton within the cap
+        seg = float(np.median(np.linalg.norm(np.diff(start, axis=0), axis=1)))
+        for its in (1, 3, 20):
+            kw = dict(base_mm=X[0] + rng.normal(0, 0.3, 3), segment_mm=seg, iterations=its)
+            want = _refine_curve_245f631(start, evidence, **kw)
+            got = refine_curve(start, evidence, **kw)
+            assert got.tobytes() == want.tobytes(), (k, its, np.nanmax(np.abs(got - want)))
+            moved += not np.array_equal(want, start)
+    assert moved == 36
+
+
+def test_refine_curve_with_opencv_distortion_is_the_245f631_numpy(tube_views):
+    """A camera with 8 coefficients (OpenCV's projection: the general path) among 5-coefficient ones."""
+    from tendrilkit.geometry import resample_polyline
+    from tendrilkit.multiview import refine_curve
+
+    X, evidence = tube_views
+    five = _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4])
+    mixed = [five[0], _with_distortion(evidence[1:2], [-0.04, 0.003, -5e-4, 3e-4, 1e-4, 1e-3, 0.0, 0.0])[0], five[2]]
+    assert mixed[1].camera.dist.size == 8
+    start = resample_polyline(X[:900], 25) + np.random.default_rng(13).normal(0.0, 0.8, (25, 3))
+    kw = dict(base_mm=X[0], segment_mm=1.2)
+    assert refine_curve(start, mixed, **kw).tobytes() == _refine_curve_245f631(start, mixed, **kw).tobytes()
+
+
+def test_grid_search_starts_past_the_empty_rings(ev):
+    """mv_evidence._empty_rings: per cell, the Chebyshev distance (cells) to the nearest cell with a skeleton pixel."""
+    from tendrilkit.mv_evidence import _empty_rings
+
+    start, _, cell = ev._grid
+    _, rows, cols = cell
+    full = np.argwhere((np.diff(start) > 0).reshape(rows, cols))
+    rr, cc = np.mgrid[0:rows, 0:cols]
+    want = np.min(np.maximum(np.abs(rr[..., None] - full[:, 0]), np.abs(cc[..., None] - full[:, 1])), axis=2)
+    np.testing.assert_array_equal(ev._grid_reach, want)
+    assert want.max() > 3 and (want == 0).any()
+    empty = np.zeros_like(start)
+    assert np.all(_empty_rings(empty, cell) == max(rows, cols))
