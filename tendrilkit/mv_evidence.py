@@ -26,11 +26,11 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
-from tendrilkit.camera import Camera
+from tendrilkit.camera import Camera, _project_brown
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
 
-__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance", "mark_near", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
+__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance", "project_distance", "mark_near", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
 
 #: A place ``COVER_DEPTH_PX`` or more inside a dark region (pixels from the board) and farther than
 #: ``COVER_PX`` from the skeleton is covered in that view (a leaf or the stem in front of or behind the
@@ -254,6 +254,61 @@ def skeleton_distance(ev: SkeletonEvidence, points_xy: np.ndarray, *, outside_px
         p, ok, idx, off, ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground,
         ev.inside_px, float(outside_px), COVER_DEPTH_PX, COVER_PX)
     return (d, g, seen, nearest, background, covered) if index else (d, g, seen)
+
+
+def project_distance(ev: SkeletonEvidence, points_mm: np.ndarray, *, outside_px: float = 50.0):
+    """``skeleton_distance(ev, ev.camera.project(points_mm), outside_px=outside_px, index=True)`` in one compiled
+    call after the rotation (numpy's, as :meth:`~tendrilkit.camera.Camera.project`): the same arrays, bit for bit.
+
+    Parameters
+    ----------
+    ev : SkeletonEvidence
+    points_mm : (n, 3) float array
+        World points, mm (NaN allowed).
+    outside_px : float
+
+    Returns
+    -------
+    d, grad, seen, nearest, background, covered
+        As :func:`skeleton_distance` with ``index``.
+    """
+    cam = ev.camera
+    X = np.asarray(points_mm, float)
+    if X.ndim != 2 or X.shape[1] != 3 or (cam.has_distortion and cam.dist.size > 5):  # OpenCV's longer models
+        return skeleton_distance(ev, cam.project(points_mm), outside_px=outside_px, index=True)
+    start, items, cell = ev._grid
+    off = ev.offset_xy.astype(float)
+    out = _project_distance(X @ cam.R.T + cam.t_mm, cam.K, cam.dist, cam.has_distortion, ev.skeleton_xy, off, start,
+                            items, cell, ev._grid_reach, float(outside_px), ev.centre_xy, ev.tangent_xy, ev.seen,
+                            ev.near_foreground, ev.inside_px, COVER_DEPTH_PX, COVER_PX)
+    if out[0]:
+        return out[1:7]
+    p, ok, idx, tie = out[7:]  # two skeleton pixels equally near: the k-d tree's choice, as skeleton_distance
+    idx[tie] = ev.tree.query(p[tie], distance_upper_bound=outside_px)[1]
+    return _line_distance(p, ok, idx, off, ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground, ev.inside_px,
+                          float(outside_px), COVER_DEPTH_PX, COVER_PX)
+
+
+@njit(cache=True)
+def _project_distance(Xc, K, dist, distort, xy, off, start, items, cell, reach, outside_px, centre, tangent, seen_px,
+                      near_fg, inside_px, cover_depth_px, cover_px):
+    """:func:`project_distance` from the camera-frame points ``Xc`` (n, 3): the projection
+    (:func:`tendrilkit.camera._project_brown`), then :func:`skeleton_distance`'s kernels. Returns ``(done, d, grad,
+    seen, nearest, background, covered, p, ok, idx, tie)``; ``done`` False (the distances not computed) where two
+    skeleton pixels are equally near a point (``tie``)."""
+    p = _project_brown(Xc, K, dist, distort)
+    h, w = seen_px.shape
+    ok = _inside(p, off, h, w)
+    idx, tie = _grid_nearest(p, ok, xy, off, start, items, cell, reach, outside_px)
+    n = len(p)
+    for i in range(n):
+        if tie[i]:
+            e = np.zeros(0)
+            b = np.zeros(0, np.bool_)
+            return False, e, np.zeros((0, 2)), b, np.zeros(0, np.int64), b, b, p, ok, idx, tie
+    d, g, seen, nearest, background, covered = _line_distance(p, ok, idx, off, centre, tangent, seen_px, near_fg,
+                                                              inside_px, outside_px, cover_depth_px, cover_px)
+    return True, d, g, seen, nearest, background, covered, p, ok, idx, tie
 
 
 @njit(cache=True)

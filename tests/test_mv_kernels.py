@@ -567,3 +567,65 @@ def test_grid_search_starts_past_the_empty_rings(ev):
     assert want.max() > 3 and (want == 0).any()
     empty = np.zeros_like(start)
     assert np.all(_empty_rings(empty, cell) == max(rows, cols))
+
+
+def _one_per_cell_and_way_245f631(P_mm, dirs, cell_mm):
+    """mv_acquire._one_per_cell_and_way as it was at 245f631 (the rows' np.unique(axis=0)), copied unchanged."""
+    cell = np.floor(np.asarray(P_mm, float) / cell_mm).astype(np.int64)
+    if len(cell) == 0:
+        return np.zeros(0, int)
+    _, first, inv = np.unique(cell, axis=0, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    against = np.flatnonzero(np.einsum("ij,ij->i", dirs, dirs[first[inv]]) < 0.0)
+    _, second = np.unique(inv[against], return_index=True)
+    return np.sort(np.r_[first, against[second]])
+
+
+def test_one_per_cell_and_way_is_the_245f631_rows():
+    """The cells keyed as one integer: the same rows kept as with np.unique over the rows, on beams of every size,
+    crowded (many per cell) and spread, on both sides of the origin, and far out (the rows' fallback)."""
+    from tendrilkit.mv_acquire import _one_per_cell_and_way
+
+    rng = np.random.default_rng(14)
+    for k in range(300):
+        n = int(rng.integers(1, 400))
+        P = rng.normal(0.0, [0.5, 3.0, 30.0][k % 3], (n, 3)) + rng.normal(0.0, 100.0, 3)
+        if k % 7 == 0:
+            P[: n // 2] = P[0]  # many on one spot
+        if k % 50 == 1:
+            P[-1] = [1e19, -1e19, 0.0]  # cells too far apart for one integer
+        dirs = rng.normal(size=(n, 3))
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        got = _one_per_cell_and_way(P, dirs, 3.0)
+        assert got.tolist() == _one_per_cell_and_way_245f631(P, dirs, 3.0).tolist(), k
+
+
+@pytest.mark.parametrize("which", ["ev", "ev_blob"])
+def test_project_distance_is_skeleton_distance_of_the_projection(which, request):
+    """mv_evidence.project_distance (one compiled call): skeleton_distance of Camera.project, every output bit for
+    bit; through a camera mapping (x, y, 1) to pixel (x, y) exactly, points halfway between skeleton pixels (ties:
+    the k-d tree's choice) and off the crop; through the view's distorted camera, points in front of it."""
+    from dataclasses import replace
+
+    from tendrilkit.mv_evidence import project_distance
+
+    ev = request.getfixturevalue(which)
+    rng = np.random.default_rng(15)
+    plain = replace(ev, camera=Camera(K=np.eye(3)))
+    xy = np.concatenate([_points(ev, rng, 300, s) for s in (0.3, 3.0, 40.0)]
+                        + [ev.skeleton_xy[:50] + 0.5, ev.skeleton_xy[50:100] + [0.5, 0.0]])
+    P = np.c_[xy, np.ones(len(xy))]
+    Q = np.c_[rng.uniform(-0.3, 0.3, (500, 2)), rng.uniform(0.5, 2.0, 500)]
+    Q[:3] = [np.nan, 0.0, 1.0], [0.0, 0.0, 0.0], [0.1, 0.1, -1.0]  # NaN, at the camera, behind it
+    n_ties = 0
+    for e, pts in ((plain, P), (ev, Q)):
+        for outside in (2.0, 10.0, 50.0, 1e3):
+            want = skeleton_distance(e, e.camera.project(pts), outside_px=outside, index=True)
+            got = project_distance(e, pts, outside_px=outside)
+            for a, b, name in zip(got, want, ["d", "g", "seen", "nearest", "background", "covered"]):
+                assert a.tobytes() == b.tobytes() and a.dtype == b.dtype, name
+        u = e.camera.project(pts)
+        ok = np.all(np.isfinite(u), axis=1)
+        dd = e.tree.query(u[ok], k=2)[0]
+        n_ties += int(np.sum(dd[:, 0] == dd[:, 1]))
+    assert n_ties > 0
