@@ -629,3 +629,18 @@ def test_project_distance_is_skeleton_distance_of_the_projection(which, request)
         dd = e.tree.query(u[ok], k=2)[0]
         n_ties += int(np.sum(dd[:, 0] == dd[:, 1]))
     assert n_ties > 0
+
+
+def test_refine_curve_with_a_nan_node_is_the_245f631_numpy(tube_views):
+    """A NaN node (NaN in the normal equations: LAPACK's answer, then np.max's NaN): the old function's nodes."""
+    from tendrilkit.geometry import resample_polyline
+    from tendrilkit.multiview import refine_curve
+
+    X, evidence = tube_views
+    for where in (0, 7, 19):
+        start = resample_polyline(X[:800], 20)
+        start[where] = np.nan
+        kw = dict(base_mm=X[0], segment_mm=1.0, iterations=4)
+        want = _refine_curve_245f631(start, evidence, **kw)
+        got = refine_curve(start, evidence, **kw)
+        np.testing.assert_array_equal(got, want)  # NaN where NaN
