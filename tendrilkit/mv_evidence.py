@@ -13,7 +13,10 @@ hundred thousand points per frame. :func:`skeleton_distance` and
 :func:`mark_near` find them on a grid of :data:`GRID_PX` cells (compiled),
 with the k-d tree's arithmetic (squared distances, its strict and inclusive
 bounds; ties between equally near pixels are left to the k-d tree): the same
-pixels, about 3 times faster than the k-d tree's queries on 37-150 points.
+pixels, about 3 times faster than the k-d tree's queries on 37-150 points. The
+ring search starts past a cell's empty rings (:func:`_empty_rings`), and
+:func:`project_distance` projects world points and reads their distances in
+one compiled call (the acquisition's :func:`tendrilkit.mv_acquire.point_costs`).
 """
 
 from __future__ import annotations
