@@ -644,3 +644,41 @@ def test_refine_curve_with_a_nan_node_is_the_245f631_numpy(tube_views):
         want = _refine_curve_245f631(start, evidence, **kw)
         got = refine_curve(start, evidence, **kw)
         np.testing.assert_array_equal(got, want)  # NaN where NaN
+
+
+def _advance_245f631(evidence, A_mm, B_mm, *, fraction=0.3):
+    """mv_acquire.advance as it was at 245f631 (whole-array numpy), copied unchanged."""
+    A = np.asarray(A_mm, float).reshape(-1, 3)
+    Bp = np.asarray(B_mm, float).reshape(-1, 3)
+    L = np.linalg.norm(Bp - A, axis=1)
+    out = np.empty((len(evidence), len(A)), bool)
+    for v, ev in enumerate(evidence):
+        cam = ev.camera
+        z = Bp @ cam.R[2] + cam.t_mm[2]
+        px = np.linalg.norm(cam.project(Bp) - cam.project(A), axis=1)
+        out[v] = px >= fraction * L * cam.K[0, 0] / np.maximum(z, 1e-9)
+    return out
+
+
+def test_advance_is_the_245f631_numpy(tube_views):
+    """Steps of every direction and length (along the lines of sight too, NaN, behind a camera), cameras without
+    distortion, with OpenCV's 5 coefficients and with 8 (the general path): the old function's answers."""
+    from tendrilkit.mv_acquire import advance
+
+    X, evidence = tube_views
+    views = [evidence, _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4]),
+             _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4, 1e-3, 0.0, 0.0])]
+    rng = np.random.default_rng(16)
+    A = X[rng.integers(0, len(X), 400)] + rng.normal(0.0, 2.0, (400, 3))
+    D = rng.normal(size=(400, 3)) * rng.choice([0.01, 1.0, 5.0], (400, 1))
+    cam = evidence[1].camera
+    D[:40] = (cam.center_world - A[:40]) * 1e-3  # towards a camera: barely moves in its image
+    B = A + D
+    B[40] = np.nan
+    B[41] = cam.center_world + (cam.center_world - A[41])  # behind the camera
+    for ev in views:
+        for fraction in (0.3, 0.0, 1.0):
+            want = _advance_245f631(ev, A, B, fraction=fraction)
+            got = advance(ev, A, B, fraction=fraction)
+            np.testing.assert_array_equal(got, want)
+            assert want.any() and not want.all()
