@@ -218,7 +218,8 @@ MAX_REFINED = 100
 COVER_FRAC = 2.0 / 3.0
 
 
-def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: float = CAP_PX, nearest: bool = False):
+def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: float = CAP_PX, nearest: bool = False,
+                covered: bool = False):
     """Distance to each view's skeleton of world points, and whether the view sees them.
 
     Parameters
@@ -239,17 +240,20 @@ def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: f
         With ``nearest``: the row of each view's ``skeleton_xy`` nearest the projection (-1: none).
     background : (V, n) bool array
         With ``nearest``: the view sees the place and shows the board there (it contradicts the point).
+    covered : (V, n) bool array
+        With ``covered`` (after the others): the view shows the place covered (:func:`_covered`).
     """
     P = np.asarray(P_mm, float).reshape(-1, 3)
     d = np.empty((len(evidence), len(P)))
     seen = np.empty((len(evidence), len(P)), bool)
     near = np.empty((len(evidence), len(P)), int)
     bg = np.empty((len(evidence), len(P)), bool)
+    cov = np.empty((len(evidence), len(P)), bool)
     for v, ev in enumerate(evidence):
-        dv, _, sv, near[v], bg[v], covered = project_distance(ev, P, outside_px=cap_px)
+        dv, _, sv, near[v], bg[v], cov[v] = project_distance(ev, P, outside_px=cap_px)
         d[v] = np.minimum(dv, cap_px)
-        seen[v] = sv & ~covered  # a leaf or the stem covers the place in this view: the other views decide
-    return (d, seen, near, bg) if nearest else (d, seen)
+        seen[v] = sv & ~cov[v]  # a leaf or the stem covers the place in this view: the other views decide
+    return (d, seen) + ((near, bg) if nearest else ()) + ((cov,) if covered else ())
 
 
 def advance(evidence: list[SkeletonEvidence], A_mm: np.ndarray, B_mm: np.ndarray, *, fraction: float = 0.3) -> np.ndarray:
@@ -708,9 +712,12 @@ def _on_crop_mask(mask: np.ndarray, offset_xy: np.ndarray, xy: np.ndarray) -> np
     return out
 
 
-def _covered(evidence: list[SkeletonEvidence], P_mm: np.ndarray) -> np.ndarray:
+def _covered(evidence: list[SkeletonEvidence], P_mm: np.ndarray, known: np.ndarray | None = None) -> np.ndarray:
     """(V, n) whether each view shows each point covered (:func:`tendrilkit.mv_evidence.skeleton_distance`'s
-    ``covered``: deep inside a dark region wider than a tendril, off the skeleton)."""
+    ``covered``: deep inside a dark region wider than a tendril, off the skeleton); ``known``: these, read by
+    :func:`point_costs` (``covered=True``) at the same points, returned as they are."""
+    if known is not None:
+        return known
     P = np.asarray(P_mm, float).reshape(-1, 3)
     return np.array([skeleton_distance(ev, ev.camera.project(P), outside_px=CAP_PX, index=True)[5] for ev in evidence])
 
@@ -797,7 +804,7 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
     dirs = cone_directions(t, cone_deg, 8)
     r = np.arange(step_mm, long_mm + 1e-9, step_mm)
     P = (tip + dirs[:, None, :] * r[None, :, None]).reshape(-1, 3)
-    d, seen, near, bg = point_costs(evidence, P, nearest=True)
+    d, seen, near, bg, cov = point_costs(evidence, P, nearest=True, covered=True)
     new = seen & (d <= coarse_px)
     for v, c in enumerate(claims):
         new[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
@@ -809,7 +816,7 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
     blocked = (bg.sum(axis=0) >= 2).reshape(shape)
     far_ok = r <= max_gap_mm + 1e-9
     if not far_ok.all():  # beyond max_gap_mm: only along a chord two views show covered up to there
-        cov2 = (_covered(evidence, P).sum(axis=0) >= 2).reshape(shape)
+        cov2 = (_covered(evidence, P, cov).sum(axis=0) >= 2).reshape(shape)
         before = np.c_[np.zeros(len(dirs)), np.cumsum(cov2, axis=1)[:, :-1]] / np.maximum(np.arange(len(r)), 1)
         blocked |= ~far_ok[None, :] & (before < COVER_FRAC)  # the share of the chord's places before each one
     # along each chord: the hits before anything blocks it, nearest first (the first may be a stub of the object
