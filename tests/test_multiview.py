@@ -394,7 +394,7 @@ def test_bridge_gap_beyond_max_gap_needs_views_showing_it_covered(monkeypatch):
     images, cams, exp = _leaf_over(X, arc, 40.0, 13.0)
     evs = _evidence(images, cams, exp)
     k = np.searchsorted(arc, 26.5)
-    monkeypatch.setattr(A, "_covered", lambda evidence, P: np.zeros((len(evidence), len(P)), bool))
+    monkeypatch.setattr(A, "_covered", lambda evidence, P, known=None: np.zeros((len(evidence), len(P)), bool))
     assert A.bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0, max_cover_gap_mm=40.0) is None
     monkeypatch.setattr(A, "COVER_FRAC", 0.0)  # the rule off: the same chord is crossed (the test can fail)
     assert A.bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0, max_cover_gap_mm=40.0) is not None
