@@ -1,9 +1,10 @@
 """Where the acquisition's beam loses the hypothesis that follows the truth (issue 12).
 
-    .venv/bin/python benchmarks/diagnose_beam.py OUT --seeds A:B [--csv FILE]
+    .venv/bin/python benchmarks/diagnose_beam.py OUT --seeds A:B [--csv FILE] [--set segmentation.KEY=VALUE ...]
 
 ``OUT`` is a ``benchmarks/bench_generalize.py --method multiview`` folder with
-``evidence-cache/`` (``benchmarks/rerun_multiview.py`` fills it). Every
+``evidence-cache/`` (``benchmarks/rerun_multiview.py`` fills it; with ``--set`` the
+evidence that ``rerun_multiview.py --set`` cached apart). Every
 processed frame's acquisition (:func:`tendrilkit.mv_acquire.grow_curve`, from
 the base point of the marks) is run again with a trace: after every step, is
 one of the kept hypotheses still within ``TOL_MM`` of the true curve at every
@@ -27,7 +28,9 @@ follows the truth to its end in 94 frames, a finished one in 108; of the 266
 others the truth-following hypothesis ended (``no step``) in 123, was dropped
 by the cell filter in 112 (71 to a sibling of the same parent), by the beam
 rank in 29 (ranked 9th-19th), by the per-parent limit in 2; it was lost at a
-median 54 % of the tendril's length.
+median 54 % of the tendril's length. Dev seeds 1040-1079 in the pale+kink configuration (``--set
+segmentation.local_exclude_dark=true --set segmentation.line_width_px=11``, 240 frames): 71 and 77; of the
+169 others no step 55, cell 98 (58 to a sibling), beam 12, per parent 4, lost at a median 47 %.
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 #: A hypothesis follows the truth while every node is within this of it (mm).
 TOL_MM = 2.0
@@ -107,12 +111,22 @@ def _nodes_on(nodes, truth_mm, tol_mm: float = TOL_MM) -> bool:
 
 
 def diagnose_parser(doc: str) -> argparse.ArgumentParser:
-    """The diagnose_* scripts' common arguments: ``OUT``, ``--seeds START:STOP``, ``--csv FILE``."""
+    """The diagnose_* scripts' common arguments: ``OUT``, ``--seeds START:STOP``, ``--csv FILE``, ``--set
+    segmentation.KEY=VALUE`` (read the evidence ``rerun_multiview.py --set`` cached apart)."""
     p = argparse.ArgumentParser(description=doc.splitlines()[0])
     p.add_argument("out", type=Path)
     p.add_argument("--seeds", required=True, help="START:STOP (stop exclusive)")
     p.add_argument("--csv", type=Path, default=None)
+    p.add_argument("--set", action="append", default=[], metavar="segmentation.KEY=VALUE",
+                   help="the segmentation options the evidence was cached with (rerun_multiview.py --set)")
     return p
+
+
+def cache_name(sets: list[str]) -> str:
+    """The evidence cache's folder for ``--set`` items, as ``rerun_multiview.py`` names it."""
+    from rerun_multiview import cache_folder, parse_sets
+
+    return cache_folder(parse_sets(sets))
 
 
 def seed_range(p: argparse.ArgumentParser, seeds: str) -> tuple[int, int]:
@@ -123,7 +137,7 @@ def seed_range(p: argparse.ArgumentParser, seeds: str) -> tuple[int, int]:
     return start, stop
 
 
-def cached_frames(out: Path, start: int, stop: int):
+def cached_frames(out: Path, start: int, stop: int, cache: str = "evidence-cache"):
     """Every processed frame of ``out``'s scenes with seeds in [start, stop) and cached evidence (two views or more):
     ``(scene, frame, evidence, base point mm, true curve mm)``, scenes by kind and seed (shared by the diagnose_*
     scripts)."""
@@ -141,7 +155,7 @@ def cached_frames(out: Path, start: int, stop: int):
         gt = read_ground_truth(folder / "scene")
         base = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=exp.correspondence.max_distance_px)
         for f in sorted(int(x) for x in pd.read_csv(folder / "result-multiview" / "frames.csv").frame):
-            cached = out / "evidence-cache" / f"{folder.name}-{f}.pkl"
+            cached = out / cache / f"{folder.name}-{f}.pkl"
             if not cached.is_file():
                 continue
             _, evidence, _ = pickle.loads(cached.read_bytes())
@@ -157,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     start, stop = seed_range(p, a.seeds)
     rows = []
-    for scene, f, evidence, base, curve in cached_frames(a.out, start, stop):
+    for scene, f, evidence, base, curve in cached_frames(a.out, start, stop, cache_name(a.set)):
         truth = resample_polyline(curve, step=1.0)
         rows.append({"scene": scene, "frame": f, **trace_frame(evidence, base, truth)})
     t = pd.DataFrame(rows)

@@ -1,6 +1,6 @@
 """The acquisition's finished hypotheses against the truth: what a final choice among them could read (issue 12).
 
-    .venv/bin/python benchmarks/diagnose_choice.py OUT --seeds A:B [--csv FILE] [--top 6]
+    .venv/bin/python benchmarks/diagnose_choice.py OUT --seeds A:B [--csv FILE] [--top 6] [--set ...]
 
 ``OUT`` is a ``benchmarks/bench_generalize.py --method multiview`` folder with
 ``evidence-cache/`` (``benchmarks/rerun_multiview.py`` fills it). Every
@@ -44,7 +44,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from diagnose_beam import cached_frames, diagnose_parser, seed_range  # noqa: E402  (the scenes' cached evidence, as diagnose_beam reads it)
+from diagnose_beam import cache_name, cached_frames, diagnose_parser, seed_range  # noqa: E402  (the scenes' cached evidence, as diagnose_beam reads it)
 
 CURVES: list = []
 #: A finished hypothesis whose tip lies within this of a better one's is the same curve (mm).
@@ -179,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     start, stop = seed_range(p, a.seeds)
     rows = []
-    for scene, f, evidence, base, truth in cached_frames(a.out, start, stop):
+    for scene, f, evidence, base, truth in cached_frames(a.out, start, stop, cache_name(a.set)):
         for r in frame_rows(evidence, base, truth, a.top):
             rows.append({"scene": scene, "frame": f, "truth_mm": float(
                 np.linalg.norm(np.diff(truth, axis=0), axis=1).sum()), **r})

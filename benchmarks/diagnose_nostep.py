@@ -1,6 +1,6 @@
 """Why the beam's truth-following hypothesis has no acceptable step (issue 12: ``diagnose_beam``'s ``no step``).
 
-    .venv/bin/python benchmarks/diagnose_nostep.py OUT --seeds A:B [--csv FILE] [--tol-mm 2]
+    .venv/bin/python benchmarks/diagnose_nostep.py OUT --seeds A:B [--csv FILE] [--tol-mm 2] [--set ...]
 
 ``OUT`` as :mod:`benchmarks.diagnose_beam` (a ``bench_generalize`` folder with
 ``evidence-cache/``). Every processed frame's acquisition is run again with
@@ -63,7 +63,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from diagnose_beam import _follows, _nodes_on, cached_frames, diagnose_parser, seed_range  # noqa: E402  (the same reading of "on the truth")
+from diagnose_beam import cache_name, _follows, _nodes_on, cached_frames, diagnose_parser, seed_range  # noqa: E402  (the same reading of "on the truth")
 
 
 def _truth_views(evidence, P_mm):
@@ -176,7 +176,7 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     start, stop = seed_range(p, a.seeds)
     rows = []
-    for scene, f, evidence, base, curve in cached_frames(a.out, start, stop):
+    for scene, f, evidence, base, curve in cached_frames(a.out, start, stop, cache_name(a.set)):
         truth = resample_polyline(curve, step=1.0)
         rows.append({"scene": scene, "frame": f, **trace_frame(evidence, base, truth, a.tol_mm)})
     t = pd.DataFrame(rows)

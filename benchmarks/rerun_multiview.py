@@ -90,6 +90,13 @@ def parse_sets(items: list[str]) -> dict:
     return out
 
 
+def cache_folder(sets: dict) -> str:
+    """The evidence cache's folder name for ``--set`` items ({section: {key: value}}): the evidence depends on the
+    segmentation's options only, other items share the default ``evidence-cache``."""
+    seg = sorted(f"{k}={v}" for k, v in sets.get("segmentation", {}).items())
+    return "evidence-cache" + "".join(f"-segmentation.{k}" for k in seg)
+
+
 def rerun_scene(folder: Path, cache: Path, *, fit: bool, sets: dict | None = None) -> list[dict]:
     """Reconstruct every processed frame of one scene again (multiview), evidence from ``cache``.
 
@@ -226,9 +233,7 @@ def main(argv: list[str] | None = None) -> int:
             with_overrides(load_experiment(scenes[0] / "scene" / "experiment.yaml"), sets)
         except (ExperimentError, ValueError) as e:
             p.error(f"--set: {e}")
-    # the evidence depends on the segmentation's options only: other --set items share the default cache
-    seg = sorted(f"{k}={v}" for k, v in sets.get("segmentation", {}).items())
-    cache = a.out / ("evidence-cache" + "".join(f"-segmentation.{k}" for k in seg))
+    cache = a.out / cache_folder(sets)
     cache.mkdir(exist_ok=True)
     # the folder's name holds the --set items only: the resolved options are recorded in it, so that evidence made
     # under other defaults (segmentation's changed 2026-12-01: local_exclude_dark, line_width_px) is never reused

@@ -163,6 +163,39 @@ lost), end to end (``rerun_multiview.py --no-fit``) all three 37.2 -> 41.9 %,
 ``ok`` off 9 -> 7; but on validation seeds 1000-1039 (``bench_generalize``,
 240 frames) all three 34.2 -> 32.9 % (3 gained, 6 lost), mean <= 0.5 mm
 60.0 -> 63.3 %, ``ok`` off 6 -> 7, and 236 against 97 ms per frame.
+
+Why frames are wrong in the pale+kink configuration (issue 12, 2026-12-01; ``local_exclude_dark``,
+``line_width_px`` 11, ``multiview.CHOICE_CANDIDATES = 6``; dev seeds 1040-1079, 240 frames, all three 41.2 %;
+the diagnose scripts with ``--set``). 130 of the 141 wrong frames were acquired (the previous frame not ``ok``:
+40 of 170 acquired frames right, 59 of 70 tracked ones). The chosen hypothesis follows the truth to its end in
+71 frames, a finished one in 77 (``diagnose_beam``); of the 169 others the truth-following hypothesis lost its
+cell in 98 (58 to a sibling), had no step in 55, ranked beyond the beam in 12. In the 69 wrong acquired frames
+lost at the cell filter the winner lay a median 2.2 mm from the truth and the truth's own child 1.8 mm (the
+hypothesis had run beside the truth, in depth, before), half of them on unconfirmed steps (the neutral cost:
+covered, pale). ``diagnose_nostep``'s board cause fell from 35 frames (the default segmentation, 0ae3e4c's
+notes) to 2. Where the final curve leaves the truth (136 wrong frames not failed; what the views show of the
+truth's next 1-3 mm there): covered or outside the ROIs in two views 40 (16 stop there: a coil or the tip over
+a leaf, seeds 1065, 1071), dark but off the skeletons 40 (a pale tendril beside a darker shoot or leaf, the
+merged blob's skeleton between them: seeds 1053, 1064, 1066, 1067), on two views' skeletons 31 (crossings: the
+beam and the choice), one view's board 10, the truth's last 3 mm 10 (tips 2-4 mm off), the board 5: most of
+the losses are evidence the segmentation does not give (the tendril over or beside a darker object). Within
+0.5 mm fell with the pale options (67.1 -> 65.4 %; the options alone 26 frames lost, 12 gained): of the 23
+frames lost, 19 are curves that had stopped 24-84 mm along the tendril (within 0.5 mm mean) and now run past
+that point and leave the truth (off the skeletons 9, covered 3, crossings 4, board 3), 3 are seed 1068's (the
+extension past a covered gap drifts in depth and stops, see (b) below), 1 a skeleton that now follows a shoot
+beside the tendril (seed 1053).
+Tried there and not kept (``rerun_multiview.py`` on those seeds, the same harness): (a) the beam's step cost
+where three views see a place robust to one view (a merged blob's skeleton 4-5 px beside the tendril): the
+worst view dropped, all three 41.2 -> 39.2 %, ``ok`` off 9 -> 18; the worst capped at ``ON_PX``: 39.2 %
+(within 0.5 mm 65.4 -> 69.2 %), ``ok`` off 16 (wrong branches get cheaper too: the third view is what holds
+the depth). (b) The tip's extension and the whole curve's refinement alternated (``multiview._fit``, up to 3
+extensions while one gains 2 mm: the extension drifts 1.5-4 mm in depth past a covered gap and stops, seed
+1068 frame 1 at 77 of 151 mm; refitted, it goes on to the tip): dev 1040-1079 41.2 -> 42.1 % (ends 46.7 ->
+49.2 %, ``ok`` off 9 -> 12: curves now whole with the max 2.0-2.4 mm in the gap), dev 9240-9299 41.9 -> 43.1 %
+(``ok`` off 13 -> 13); validation seeds 1140-1159 (``bench_generalize``, 120 frames) 35.0 -> 35.0 %, within
+0.5 mm 66.7 -> 61.7 %, max 50.8 -> 45.8 %, ends 40.8 -> 43.3 %, silent 3 -> 5 (curves that had stopped short
+run on onto other structures, two of them ``ok``). Only after a crossed gap: dev 1040-1079 41.7 % (``--no-fit``),
+9240-9299 42.2 %, validation identical.
 """
 
 from __future__ import annotations
@@ -173,8 +206,9 @@ import numpy as np
 
 from numba import njit
 
+from tendrilkit.camera import _project_brown
 from tendrilkit.geometry import resample_polyline
-from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, skeleton_distance
+from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, project_distance, skeleton_distance
 
 __all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap", "light_band"]
 
@@ -217,7 +251,8 @@ MAX_REFINED = 100
 COVER_FRAC = 2.0 / 3.0
 
 
-def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: float = CAP_PX, nearest: bool = False):
+def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: float = CAP_PX, nearest: bool = False,
+                covered: bool = False):
     """Distance to each view's skeleton of world points, and whether the view sees them.
 
     Parameters
@@ -238,18 +273,20 @@ def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: f
         With ``nearest``: the row of each view's ``skeleton_xy`` nearest the projection (-1: none).
     background : (V, n) bool array
         With ``nearest``: the view sees the place and shows the board there (it contradicts the point).
+    covered : (V, n) bool array
+        With ``covered`` (after the others): the view shows the place covered (:func:`_covered`).
     """
     P = np.asarray(P_mm, float).reshape(-1, 3)
     d = np.empty((len(evidence), len(P)))
     seen = np.empty((len(evidence), len(P)), bool)
     near = np.empty((len(evidence), len(P)), int)
     bg = np.empty((len(evidence), len(P)), bool)
+    cov = np.empty((len(evidence), len(P)), bool)
     for v, ev in enumerate(evidence):
-        dv, _, sv, near[v], bg[v], covered = skeleton_distance(ev, ev.camera.project(P), outside_px=cap_px,
-                                                               index=True)
+        dv, _, sv, near[v], bg[v], cov[v] = project_distance(ev, P, outside_px=cap_px)
         d[v] = np.minimum(dv, cap_px)
-        seen[v] = sv & ~covered  # a leaf or the stem covers the place in this view: the other views decide
-    return (d, seen, near, bg) if nearest else (d, seen)
+        seen[v] = sv & ~cov[v]  # a leaf or the stem covers the place in this view: the other views decide
+    return (d, seen) + ((near, bg) if nearest else ()) + ((cov,) if covered else ())
 
 
 def advance(evidence: list[SkeletonEvidence], A_mm: np.ndarray, B_mm: np.ndarray, *, fraction: float = 0.3) -> np.ndarray:
@@ -265,8 +302,29 @@ def advance(evidence: list[SkeletonEvidence], A_mm: np.ndarray, B_mm: np.ndarray
     for v, ev in enumerate(evidence):
         cam = ev.camera
         z = Bp @ cam.R[2] + cam.t_mm[2]
-        px = np.linalg.norm(cam.project(Bp) - cam.project(A), axis=1)
-        out[v] = px >= fraction * L * cam.K[0, 0] / np.maximum(z, 1e-9)
+        if cam.has_distortion and cam.dist.size > 5:  # OpenCV's longer models
+            px = np.linalg.norm(cam.project(Bp) - cam.project(A), axis=1)
+            out[v] = px >= fraction * L * cam.K[0, 0] / np.maximum(z, 1e-9)
+        else:  # the same, the projections' rotation numpy's (Camera.project), the rest in one compiled call
+            out[v] = _advances(Bp @ cam.R.T + cam.t_mm, A @ cam.R.T + cam.t_mm, z, L, cam.K, cam.dist,
+                               cam.has_distortion, float(fraction))
+    return out
+
+
+@njit(cache=True)
+def _advances(XB, XA, z, L, K, dist, distort, fraction):
+    """:func:`advance` of one view from the camera-frame points ``XB``, ``XA`` (n, 3) of the steps' ends and
+    starts, their depths ``z`` and lengths ``L`` (n,): the whole-array expressions it replaced, point by point
+    in the same order (bit for bit)."""
+    ub = _project_brown(XB, K, dist, distort)
+    ua = _project_brown(XA, K, dist, distort)
+    out = np.empty(len(L), np.bool_)
+    for k in range(len(L)):
+        dx = ub[k, 0] - ua[k, 0]
+        dy = ub[k, 1] - ua[k, 1]
+        px = np.sqrt(dx * dx + dy * dy)
+        zk = z[k] if (z[k] > 1e-9 or np.isnan(z[k])) else 1e-9
+        out[k] = px >= fraction * L[k] * K[0, 0] / zk
     return out
 
 
@@ -447,7 +505,16 @@ def _one_per_cell_and_way(P_mm: np.ndarray, dirs: np.ndarray, cell_mm: float) ->
     cell = np.floor(np.asarray(P_mm, float) / cell_mm).astype(np.int64)
     if len(cell) == 0:
         return np.zeros(0, int)
-    _, first, inv = np.unique(cell, axis=0, return_index=True, return_inverse=True)
+    # the cells as one integer each (the same groups, the same first rows as the rows' np.unique(axis=0),
+    # several times faster on a beam's few hundred rows; what is kept does not depend on the groups' order)
+    low = cell.min(axis=0)
+    span = cell.max(axis=0) - low + 1
+    if np.all(np.isfinite(P_mm)) and float(span[0]) * float(span[1]) * float(span[2]) < 2.0 ** 62:
+        c = cell - low
+        _, first, inv = np.unique((c[:, 0] * span[1] + c[:, 1]) * span[2] + c[:, 2], return_index=True,
+                                  return_inverse=True)
+    else:
+        _, first, inv = np.unique(cell, axis=0, return_index=True, return_inverse=True)
     inv = inv.ravel()
     against = np.flatnonzero(np.einsum("ij,ij->i", dirs, dirs[first[inv]]) < 0.0)
     _, second = np.unique(inv[against], return_index=True)
@@ -499,9 +566,9 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     if len(seeds) == 0:
         none_ = np.vstack([B, B])  # nothing any two views agree on
         return none_ if candidates <= 1 else [(none_, 0.0)]
-    # a hypothesis: (nodes list, score, unconfirmed tail, last direction, claims, blind tail)
+    # a hypothesis: (nodes list, score, unconfirmed tail, last direction, claims, blind tail, nodes array)
     none = [np.zeros(len(ev.skeleton_xy), bool) for ev in evidence]
-    hyps = [([B], 0.0, 0, d, none, 0) for d in seeds]
+    hyps = [([B], 0.0, 0, d, none, 0, B[None]) for d in seeds]  # the nodes also as one (m, 3) array
     finished: list[tuple[list, float, int]] = []
     look = np.array([2.0, 3.0, 4.0])
     cone = _local_cone(cone_deg, 3)
@@ -523,10 +590,13 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         vis = (n_end >= 2) & (n_mid >= 2)
         # new evidence: on a view's skeleton at a pixel this hypothesis has not explained already
         claimed = np.zeros((len(evidence), N), bool)
+        width = len(local)  # each hypothesis's candidates: one block of ``own``
         for v in range(len(evidence)):
-            cl = np.array([h[4][v] for h in hyps])  # (H, n_skeleton_v)
             i = near[v, :N]
-            claimed[v] = (i >= 0) & cl[own, np.maximum(i, 0)]
+            at = np.maximum(i, 0)
+            for h, hyp in enumerate(hyps):
+                claimed[v, h * width:(h + 1) * width] = hyp[4][v][at[h * width:(h + 1) * width]]
+            claimed[v] &= i >= 0
         new = seen[:, :N] & (d[:, :N] <= ON_PX) & ~claimed & advance(evidence, tips_h[own], pts)
         contradicted = bg[:, :N].any(axis=0) | bg[:, N:].any(axis=0)
         confirmed = vis & (new.sum(axis=0) >= 2) & ~contradicted
@@ -541,9 +611,9 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         if not first:  # bending
             turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1)))
             cost = cost + TURN_PX * (turn / cone_deg) ** 2
-        for h, (nodes, *_) in enumerate(hyps):  # self-avoidance
-            if len(nodes) > 6:
-                old = np.asarray(nodes[:-5])
+        for h, hyp in enumerate(hyps):  # self-avoidance
+            if len(hyp[0]) > 6:
+                old = hyp[6][:-5]
                 sel = slice(h * len(local), (h + 1) * len(local))
                 dd = _nearest_distance(pts[sel], old)
                 cost[sel] += np.where(dd < 1.2, 5.0, 0.0)
@@ -592,8 +662,8 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
                     new_claims[k].append(c)
             for k in grown:
                 claims[k] = new_claims[k]
-        hyps = [(parents[j][0] + [pts[i]], float(score[i]), int(tail[i]), dirs[i], claims[j], int(blind_tail[i]))
-                for j, i in enumerate(idx)]
+        hyps = [(parents[j][0] + [pts[i]], float(score[i]), int(tail[i]), dirs[i], claims[j], int(blind_tail[i]),
+                 np.concatenate([parents[j][6], pts[i][None]])) for j, i in enumerate(idx)]
         if not hyps:
             break
     finished.extend(h[:3] for h in hyps)
@@ -675,9 +745,12 @@ def _on_crop_mask(mask: np.ndarray, offset_xy: np.ndarray, xy: np.ndarray) -> np
     return out
 
 
-def _covered(evidence: list[SkeletonEvidence], P_mm: np.ndarray) -> np.ndarray:
+def _covered(evidence: list[SkeletonEvidence], P_mm: np.ndarray, known: np.ndarray | None = None) -> np.ndarray:
     """(V, n) whether each view shows each point covered (:func:`tendrilkit.mv_evidence.skeleton_distance`'s
-    ``covered``: deep inside a dark region wider than a tendril, off the skeleton)."""
+    ``covered``: deep inside a dark region wider than a tendril, off the skeleton); ``known``: these, read by
+    :func:`point_costs` (``covered=True``) at the same points, returned as they are."""
+    if known is not None:
+        return known
     P = np.asarray(P_mm, float).reshape(-1, 3)
     return np.array([skeleton_distance(ev, ev.camera.project(P), outside_px=CAP_PX, index=True)[5] for ev in evidence])
 
@@ -764,7 +837,7 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
     dirs = cone_directions(t, cone_deg, 8)
     r = np.arange(step_mm, long_mm + 1e-9, step_mm)
     P = (tip + dirs[:, None, :] * r[None, :, None]).reshape(-1, 3)
-    d, seen, near, bg = point_costs(evidence, P, nearest=True)
+    d, seen, near, bg, cov = point_costs(evidence, P, nearest=True, covered=True)
     new = seen & (d <= coarse_px)
     for v, c in enumerate(claims):
         new[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
@@ -776,7 +849,7 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
     blocked = (bg.sum(axis=0) >= 2).reshape(shape)
     far_ok = r <= max_gap_mm + 1e-9
     if not far_ok.all():  # beyond max_gap_mm: only along a chord two views show covered up to there
-        cov2 = (_covered(evidence, P).sum(axis=0) >= 2).reshape(shape)
+        cov2 = (_covered(evidence, P, cov).sum(axis=0) >= 2).reshape(shape)
         before = np.c_[np.zeros(len(dirs)), np.cumsum(cov2, axis=1)[:, :-1]] / np.maximum(np.arange(len(r)), 1)
         blocked |= ~far_ok[None, :] & (before < COVER_FRAC)  # the share of the chord's places before each one
     # along each chord: the hits before anything blocks it, nearest first (the first may be a stub of the object

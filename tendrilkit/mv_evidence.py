@@ -13,7 +13,10 @@ hundred thousand points per frame. :func:`skeleton_distance` and
 :func:`mark_near` find them on a grid of :data:`GRID_PX` cells (compiled),
 with the k-d tree's arithmetic (squared distances, its strict and inclusive
 bounds; ties between equally near pixels are left to the k-d tree): the same
-pixels, about 3 times faster than the k-d tree's queries on 37-150 points.
+pixels, about 3 times faster than the k-d tree's queries on 37-150 points. The
+ring search starts past a cell's empty rings (:func:`_empty_rings`), and
+:func:`project_distance` projects world points and reads their distances in
+one compiled call (the acquisition's :func:`tendrilkit.mv_acquire.point_costs`).
 """
 
 from __future__ import annotations
@@ -26,11 +29,11 @@ import numpy as np
 from numba import njit
 from scipy.spatial import cKDTree
 
-from tendrilkit.camera import Camera
+from tendrilkit.camera import Camera, _project_brown
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
 
-__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance", "mark_near", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
+__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance", "project_distance", "mark_near", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
 
 #: A place ``COVER_DEPTH_PX`` or more inside a dark region (pixels from the board) and farther than
 #: ``COVER_PX`` from the skeleton is covered in that view (a leaf or the stem in front of or behind the
@@ -142,6 +145,12 @@ class SkeletonEvidence:
         """:func:`_skeleton_grid` of ``skeleton_xy``: the nearest skeleton pixel of a point without the k-d tree."""
         return _skeleton_grid(self.skeleton_xy, self.offset_xy, self.seen.shape)
 
+    @cached_property
+    def _grid_reach(self) -> np.ndarray:
+        """:func:`_empty_rings` of :attr:`_grid`: where :func:`_grid_nearest` starts its search, per cell."""
+        start, _, cell = self._grid
+        return _empty_rings(start, cell)
+
 
 def skeleton_evidence(ev: ViewEvidence, camera: Camera) -> SkeletonEvidence:
     """The multi-view fit's view of :func:`tendrilkit.evidence.view_evidence` (made with ``skeleton=True``).
@@ -241,13 +250,68 @@ def skeleton_distance(ev: SkeletonEvidence, points_xy: np.ndarray, *, outside_px
     off = ev.offset_xy.astype(float)
     ok = _inside(p, off, h, w)
     start, items, cell = ev._grid
-    idx, tie = _grid_nearest(p, ok, ev.skeleton_xy, off, start, items, cell, float(outside_px))
+    idx, tie = _grid_nearest(p, ok, ev.skeleton_xy, off, start, items, cell, ev._grid_reach, float(outside_px))
     if tie.any():  # two skeleton pixels equally near: the k-d tree's choice, as before the grid
         idx[tie] = ev.tree.query(p[tie], distance_upper_bound=outside_px)[1]
     d, g, seen, nearest, background, covered = _line_distance(
         p, ok, idx, off, ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground,
         ev.inside_px, float(outside_px), COVER_DEPTH_PX, COVER_PX)
     return (d, g, seen, nearest, background, covered) if index else (d, g, seen)
+
+
+def project_distance(ev: SkeletonEvidence, points_mm: np.ndarray, *, outside_px: float = 50.0):
+    """``skeleton_distance(ev, ev.camera.project(points_mm), outside_px=outside_px, index=True)`` in one compiled
+    call after the rotation (numpy's, as :meth:`~tendrilkit.camera.Camera.project`): the same arrays, bit for bit.
+
+    Parameters
+    ----------
+    ev : SkeletonEvidence
+    points_mm : (n, 3) float array
+        World points, mm (NaN allowed).
+    outside_px : float
+
+    Returns
+    -------
+    d, grad, seen, nearest, background, covered
+        As :func:`skeleton_distance` with ``index``.
+    """
+    cam = ev.camera
+    X = np.asarray(points_mm, float)
+    if X.ndim != 2 or X.shape[1] != 3 or (cam.has_distortion and cam.dist.size > 5):  # OpenCV's longer models
+        return skeleton_distance(ev, cam.project(points_mm), outside_px=outside_px, index=True)
+    start, items, cell = ev._grid
+    off = ev.offset_xy.astype(float)
+    out = _project_distance(X @ cam.R.T + cam.t_mm, cam.K, cam.dist, cam.has_distortion, ev.skeleton_xy, off, start,
+                            items, cell, ev._grid_reach, float(outside_px), ev.centre_xy, ev.tangent_xy, ev.seen,
+                            ev.near_foreground, ev.inside_px, COVER_DEPTH_PX, COVER_PX)
+    if out[0]:
+        return out[1:7]
+    p, ok, idx, tie = out[7:]  # two skeleton pixels equally near: the k-d tree's choice, as skeleton_distance
+    idx[tie] = ev.tree.query(p[tie], distance_upper_bound=outside_px)[1]
+    return _line_distance(p, ok, idx, off, ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground, ev.inside_px,
+                          float(outside_px), COVER_DEPTH_PX, COVER_PX)
+
+
+@njit(cache=True)
+def _project_distance(Xc, K, dist, distort, xy, off, start, items, cell, reach, outside_px, centre, tangent, seen_px,
+                      near_fg, inside_px, cover_depth_px, cover_px):
+    """:func:`project_distance` from the camera-frame points ``Xc`` (n, 3): the projection
+    (:func:`tendrilkit.camera._project_brown`), then :func:`skeleton_distance`'s kernels. Returns ``(done, d, grad,
+    seen, nearest, background, covered, p, ok, idx, tie)``; ``done`` False (the distances not computed) where two
+    skeleton pixels are equally near a point (``tie``)."""
+    p = _project_brown(Xc, K, dist, distort)
+    h, w = seen_px.shape
+    ok = _inside(p, off, h, w)
+    idx, tie = _grid_nearest(p, ok, xy, off, start, items, cell, reach, outside_px)
+    n = len(p)
+    for i in range(n):
+        if tie[i]:
+            e = np.zeros(0)
+            b = np.zeros(0, np.bool_)
+            return False, e, np.zeros((0, 2)), b, np.zeros(0, np.int64), b, b, p, ok, idx, tie
+    d, g, seen, nearest, background, covered = _line_distance(p, ok, idx, off, centre, tangent, seen_px, near_fg,
+                                                              inside_px, outside_px, cover_depth_px, cover_px)
+    return True, d, g, seen, nearest, background, covered, p, ok, idx, tie
 
 
 @njit(cache=True)
@@ -333,14 +397,32 @@ def _skeleton_grid(xy: np.ndarray, off: np.ndarray, shape: tuple[int, int]):
     return start, items, np.array([GRID_PX, rows, cols], np.int64)
 
 
+def _empty_rings(start: np.ndarray, cell: np.ndarray) -> np.ndarray:
+    """(rows, cols) int32: per cell of :func:`_skeleton_grid`, how many square rings of cells around it hold no
+    skeleton pixel (the Chebyshev distance, in cells, to the nearest cell that holds one; 0 on such a cell).
+
+    :func:`_grid_nearest` starts its ring search there: the rings inside are empty (what it finds is the same,
+    the search without them). Exact: a 3 x 3 distance transform with unit steps (``DIST_C``) is the Chebyshev
+    distance.
+    """
+    _, rows, cols = (int(v) for v in cell)
+    empty = (np.diff(start) == 0).reshape(rows, cols).astype(np.uint8)
+    if empty.all():  # no skeleton pixel: every ring is empty (the search ends at the grid's edge)
+        return np.full((rows, cols), max(rows, cols), np.int32)
+    return cv2.distanceTransform(empty, cv2.DIST_C, 3).astype(np.int32)
+
+
 @njit(cache=True)
-def _grid_nearest(p, ok, xy, off, start, items, cell, upper):
+def _grid_nearest(p, ok, xy, off, start, items, cell, reach, upper):
     """Row of ``xy`` nearest every point ``p`` (n, 2) with ``ok`` (-1: none nearer than ``upper``), and ties.
 
     Exact: the cells are searched in square rings around the point's cell until no cell farther out can hold a
     pixel as near as the best (squared distances ``dx * dx + dy * dy`` and the strict ``< upper ** 2``
     of :meth:`scipy.spatial.cKDTree.query`). ``tie``: another pixel is exactly as near (the caller asks the
-    k-d tree, whose choice among equals is its own).
+    k-d tree, whose choice among equals is its own). The search starts at ring ``reach`` (rows, cols) of the
+    point's cell (:func:`_empty_rings`): the rings inside hold no pixel, and the search could only have
+    ended in them with none found, as it does at the first ring it reads beyond (that ring's pixels are
+    then farther than ``upper``).
     """
     S, rows, cols = cell[0], cell[1], cell[2]
     n = len(p)
@@ -358,7 +440,7 @@ def _grid_nearest(p, ok, xy, off, start, items, cell, upper):
         best = ub2
         bi = -1
         eq = False
-        r = 0
+        r = reach[cy, cx]
         while True:
             for yy in range(max(cy - r, 0), min(cy + r, rows - 1) + 1):
                 edge = yy == cy - r or yy == cy + r

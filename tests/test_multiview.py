@@ -394,7 +394,7 @@ def test_bridge_gap_beyond_max_gap_needs_views_showing_it_covered(monkeypatch):
     images, cams, exp = _leaf_over(X, arc, 40.0, 13.0)
     evs = _evidence(images, cams, exp)
     k = np.searchsorted(arc, 26.5)
-    monkeypatch.setattr(A, "_covered", lambda evidence, P: np.zeros((len(evidence), len(P)), bool))
+    monkeypatch.setattr(A, "_covered", lambda evidence, P, known=None: np.zeros((len(evidence), len(P)), bool))
     assert A.bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0, max_cover_gap_mm=40.0) is None
     monkeypatch.setattr(A, "COVER_FRAC", 0.0)  # the rule off: the same chord is crossed (the test can fail)
     assert A.bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0, max_cover_gap_mm=40.0) is not None
@@ -464,6 +464,22 @@ def test_bridge_gap_crosses_a_pale_tendril_over_the_stem():
         cv2.polylines(img, [np.round(p).astype(np.int32)], False, (30, 60, 30), 9)
     evs = _evidence(images, cams, exp)
     assert bridge_gap(evs, X[:k + 1], X[k] - X[k - 40], max_gap_mm=15.0) is None
+
+
+def test_diagnose_scripts_read_the_evidence_cached_with_the_segmentation_options():
+    """``--set`` of the diagnose_* scripts names the cache folder as ``rerun_multiview.py --set`` writes it (other
+    sections share the default cache); a wrong item is refused as there."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from diagnose_beam import cache_name, diagnose_parser
+
+    assert cache_name([]) == "evidence-cache"
+    assert cache_name(["reconstruction.chunk_frames=3"]) == "evidence-cache"
+    assert cache_name(["segmentation.local_exclude_dark=true", "segmentation.line_width_px=11"]) == \
+        "evidence-cache-segmentation.line_width_px=11-segmentation.local_exclude_dark=True"
+    a = diagnose_parser("x").parse_args(["out", "--seeds", "0:1", "--set", "segmentation.line_width_px=11"])
+    assert cache_name(a.set) == "evidence-cache-segmentation.line_width_px=11"
+    with pytest.raises(ValueError):
+        cache_name(["line_width_px=11"])
 
 
 def test_beam_trace_changes_nothing_and_follows_the_coil(coil):

@@ -435,3 +435,250 @@ def test_skeleton_labels_on_the_box_are_the_whole_crops(seed):
     ev = _wavy_view(more)
     want = cv2.connectedComponents(ev.skeleton.astype(np.uint8), connectivity=8)[1]
     assert ev.skeleton_labels.dtype == want.dtype and np.array_equal(ev.skeleton_labels, want)
+
+
+# ---- refine_curve's compiled step (multiview._view_terms, _assemble, _take_step) against its numpy of 245f631 ----
+
+def _refine_curve_245f631(X0_mm, evidence, *, base_mm, segment_mm, iterations=20, bend_weight=20.0, length_weight=30.0,
+                          base_weight=3.0, huber_px=1.5, cap_px=(25.0, 8.0)):
+    """multiview.refine_curve as it was at 245f631 (numpy steps around the kernels), copied unchanged."""
+    from scipy.linalg import solveh_banded
+
+    X = np.array(X0_mm, float)
+    n = len(X)
+    if n < 3:
+        return X
+    bend = _bending_blocks(n) * bend_weight ** 2
+    B = np.asarray(base_mm, float)
+    step_h = 1e-3
+    for it in range(iterations):
+        cap = max(cap_px[1], cap_px[0] * 0.75 ** it)
+        Hd = np.zeros((n, 3, 3))
+        g = np.zeros((n, 3))
+        for ev in evidence:
+            u, J = ev.camera.project_jacobian(X, distort=True, step_mm=step_h)
+            d, gd, seen = skeleton_distance(ev, u, outside_px=1e3)
+            _add_view(Hd, g, d, gd, seen, J, huber_px, cap)
+        Hd[0] += base_weight ** 2 * np.eye(3)
+        g[0] += base_weight ** 2 * (X[0] - B)
+        e = np.diff(X, axis=0)
+        L = np.linalg.norm(e, axis=1)
+        t = e / np.maximum(L, 1e-9)[:, None]
+        r = L - segment_mm
+        tt = length_weight ** 2 * np.einsum("ki,kj->kij", t, t)
+        Hd[:-1] += tt
+        Hd[1:] += tt
+        g[:-1] -= length_weight ** 2 * r[:, None] * t
+        g[1:] += length_weight ** 2 * r[:, None] * t
+        ab = _banded_normal(Hd, tt, bend)
+        g += (bend[2][:, None] * X)
+        g[:-1] += bend[1][1:, None] * X[1:]
+        g[1:] += bend[1][1:, None] * X[:-1]
+        g[:-2] += bend[0][2:, None] * X[2:]
+        g[2:] += bend[0][2:, None] * X[:-2]
+        try:
+            step = -solveh_banded(ab, g.ravel(), check_finite=False).reshape(n, 3)
+        except np.linalg.LinAlgError:
+            break
+        big = np.max(np.linalg.norm(step, axis=1))
+        if big > 1.0:
+            step *= 1.0 / big
+        X = X + step
+        if big < 5e-3:
+            break
+    return X
+
+
+@pytest.fixture(scope="module")
+def tube_views():
+    """Three views of a curled tube (the IJCV25 rig, no distortion) and its true centre line."""
+    from tendrilkit.phantom import render_tube_views
+
+    s = np.linspace(0, 1, 1500)
+    th = np.clip(s - 0.4, 0, None) * 6 * np.pi
+    X = np.c_[-5 + 50 * s, 6 * np.sin(th), 20 + 6 * (1 - np.cos(th))]
+    images, cams, exp = render_tube_views(X, width_px=9, margin_px=40, name="refine")
+    evidence = [skeleton_evidence(view_evidence(im, roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point), c)
+                for im, c, m in zip(images, cams, exp.views)]
+    return X, evidence
+
+
+def _with_distortion(evidence, dist):
+    from dataclasses import replace
+
+    return [replace(ev, camera=Camera(K=ev.camera.K, dist=np.asarray(dist, float), R=ev.camera.R, t_mm=ev.camera.t_mm,
+                                      width=ev.camera.width, height=ev.camera.height)) for ev in evidence]
+
+
+@pytest.mark.parametrize("distort", [False, True])
+def test_refine_curve_is_the_245f631_numpy(tube_views, distort):
+    """Node chains started on, near, off and far from the tube (converging, the 1 mm step limit, nodes no view
+    sees), every iteration count, cameras without and with OpenCV's 5-coefficient distortion: the compiled steps
+    give the old function's nodes, bit for bit."""
+    from tendrilkit.geometry import resample_polyline
+    from tendrilkit.multiview import refine_curve
+
+    X, evidence = tube_views
+    if distort:
+        evidence = _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4])
+    assert all(ev.camera.has_distortion == distort and ev.camera.dist.size == 5 for ev in evidence)
+    rng = np.random.default_rng(12)
+    moved = 0
+    for k in range(12):
+        m = int(rng.integers(3, 60))
+        start = resample_polyline(X[: int(rng.integers(200, 1500))], m)
+        start = start + rng.normal(0.0, [0.05, 0.5, 2.0, 6.0][k % 4], start.shape)
+        if k == 11:
+            start[-5:] += [0.0, 0.0, 400.0]  # far behind the views' crops: unseen, no skeleton within the cap
+        seg = float(np.median(np.linalg.norm(np.diff(start, axis=0), axis=1)))
+        for its in (1, 3, 20):
+            kw = dict(base_mm=X[0] + rng.normal(0, 0.3, 3), segment_mm=seg, iterations=its)
+            want = _refine_curve_245f631(start, evidence, **kw)
+            got = refine_curve(start, evidence, **kw)
+            assert got.tobytes() == want.tobytes(), (k, its, np.nanmax(np.abs(got - want)))
+            moved += not np.array_equal(want, start)
+    assert moved == 36
+
+
+def test_refine_curve_with_opencv_distortion_is_the_245f631_numpy(tube_views):
+    """A camera with 8 coefficients (OpenCV's projection: the general path) among 5-coefficient ones."""
+    from tendrilkit.geometry import resample_polyline
+    from tendrilkit.multiview import refine_curve
+
+    X, evidence = tube_views
+    five = _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4])
+    mixed = [five[0], _with_distortion(evidence[1:2], [-0.04, 0.003, -5e-4, 3e-4, 1e-4, 1e-3, 0.0, 0.0])[0], five[2]]
+    assert mixed[1].camera.dist.size == 8
+    start = resample_polyline(X[:900], 25) + np.random.default_rng(13).normal(0.0, 0.8, (25, 3))
+    kw = dict(base_mm=X[0], segment_mm=1.2)
+    assert refine_curve(start, mixed, **kw).tobytes() == _refine_curve_245f631(start, mixed, **kw).tobytes()
+
+
+def test_grid_search_starts_past_the_empty_rings(ev):
+    """mv_evidence._empty_rings: per cell, the Chebyshev distance (cells) to the nearest cell with a skeleton pixel."""
+    from tendrilkit.mv_evidence import _empty_rings
+
+    start, _, cell = ev._grid
+    _, rows, cols = cell
+    full = np.argwhere((np.diff(start) > 0).reshape(rows, cols))
+    rr, cc = np.mgrid[0:rows, 0:cols]
+    want = np.min(np.maximum(np.abs(rr[..., None] - full[:, 0]), np.abs(cc[..., None] - full[:, 1])), axis=2)
+    np.testing.assert_array_equal(ev._grid_reach, want)
+    assert want.max() > 3 and (want == 0).any()
+    empty = np.zeros_like(start)
+    assert np.all(_empty_rings(empty, cell) == max(rows, cols))
+
+
+def _one_per_cell_and_way_245f631(P_mm, dirs, cell_mm):
+    """mv_acquire._one_per_cell_and_way as it was at 245f631 (the rows' np.unique(axis=0)), copied unchanged."""
+    cell = np.floor(np.asarray(P_mm, float) / cell_mm).astype(np.int64)
+    if len(cell) == 0:
+        return np.zeros(0, int)
+    _, first, inv = np.unique(cell, axis=0, return_index=True, return_inverse=True)
+    inv = inv.ravel()
+    against = np.flatnonzero(np.einsum("ij,ij->i", dirs, dirs[first[inv]]) < 0.0)
+    _, second = np.unique(inv[against], return_index=True)
+    return np.sort(np.r_[first, against[second]])
+
+
+def test_one_per_cell_and_way_is_the_245f631_rows():
+    """The cells keyed as one integer: the same rows kept as with np.unique over the rows, on beams of every size,
+    crowded (many per cell) and spread, on both sides of the origin, and far out (the rows' fallback)."""
+    from tendrilkit.mv_acquire import _one_per_cell_and_way
+
+    rng = np.random.default_rng(14)
+    for k in range(300):
+        n = int(rng.integers(1, 400))
+        P = rng.normal(0.0, [0.5, 3.0, 30.0][k % 3], (n, 3)) + rng.normal(0.0, 100.0, 3)
+        if k % 7 == 0:
+            P[: n // 2] = P[0]  # many on one spot
+        if k % 50 == 1:
+            P[-1] = [1e19, -1e19, 0.0]  # cells too far apart for one integer
+        dirs = rng.normal(size=(n, 3))
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        got = _one_per_cell_and_way(P, dirs, 3.0)
+        assert got.tolist() == _one_per_cell_and_way_245f631(P, dirs, 3.0).tolist(), k
+
+
+@pytest.mark.parametrize("which", ["ev", "ev_blob"])
+def test_project_distance_is_skeleton_distance_of_the_projection(which, request):
+    """mv_evidence.project_distance (one compiled call): skeleton_distance of Camera.project, every output bit for
+    bit; through a camera mapping (x, y, 1) to pixel (x, y) exactly, points halfway between skeleton pixels (ties:
+    the k-d tree's choice) and off the crop; through the view's distorted camera, points in front of it."""
+    from dataclasses import replace
+
+    from tendrilkit.mv_evidence import project_distance
+
+    ev = request.getfixturevalue(which)
+    rng = np.random.default_rng(15)
+    plain = replace(ev, camera=Camera(K=np.eye(3)))
+    xy = np.concatenate([_points(ev, rng, 300, s) for s in (0.3, 3.0, 40.0)]
+                        + [ev.skeleton_xy[:50] + 0.5, ev.skeleton_xy[50:100] + [0.5, 0.0]])
+    P = np.c_[xy, np.ones(len(xy))]
+    Q = np.c_[rng.uniform(-0.3, 0.3, (500, 2)), rng.uniform(0.5, 2.0, 500)]
+    Q[:3] = [np.nan, 0.0, 1.0], [0.0, 0.0, 0.0], [0.1, 0.1, -1.0]  # NaN, at the camera, behind it
+    n_ties = 0
+    for e, pts in ((plain, P), (ev, Q)):
+        for outside in (2.0, 10.0, 50.0, 1e3):
+            want = skeleton_distance(e, e.camera.project(pts), outside_px=outside, index=True)
+            got = project_distance(e, pts, outside_px=outside)
+            for a, b, name in zip(got, want, ["d", "g", "seen", "nearest", "background", "covered"]):
+                assert a.tobytes() == b.tobytes() and a.dtype == b.dtype, name
+        u = e.camera.project(pts)
+        ok = np.all(np.isfinite(u), axis=1)
+        dd = e.tree.query(u[ok], k=2)[0]
+        n_ties += int(np.sum(dd[:, 0] == dd[:, 1]))
+    assert n_ties > 0
+
+
+def test_refine_curve_with_a_nan_node_is_the_245f631_numpy(tube_views):
+    """A NaN node (NaN in the normal equations: LAPACK's answer, then np.max's NaN): the old function's nodes."""
+    from tendrilkit.geometry import resample_polyline
+    from tendrilkit.multiview import refine_curve
+
+    X, evidence = tube_views
+    for where in (0, 7, 19):
+        start = resample_polyline(X[:800], 20)
+        start[where] = np.nan
+        kw = dict(base_mm=X[0], segment_mm=1.0, iterations=4)
+        want = _refine_curve_245f631(start, evidence, **kw)
+        got = refine_curve(start, evidence, **kw)
+        np.testing.assert_array_equal(got, want)  # NaN where NaN
+
+
+def _advance_245f631(evidence, A_mm, B_mm, *, fraction=0.3):
+    """mv_acquire.advance as it was at 245f631 (whole-array numpy), copied unchanged."""
+    A = np.asarray(A_mm, float).reshape(-1, 3)
+    Bp = np.asarray(B_mm, float).reshape(-1, 3)
+    L = np.linalg.norm(Bp - A, axis=1)
+    out = np.empty((len(evidence), len(A)), bool)
+    for v, ev in enumerate(evidence):
+        cam = ev.camera
+        z = Bp @ cam.R[2] + cam.t_mm[2]
+        px = np.linalg.norm(cam.project(Bp) - cam.project(A), axis=1)
+        out[v] = px >= fraction * L * cam.K[0, 0] / np.maximum(z, 1e-9)
+    return out
+
+
+def test_advance_is_the_245f631_numpy(tube_views):
+    """Steps of every direction and length (along the lines of sight too, NaN, behind a camera), cameras without
+    distortion, with OpenCV's 5 coefficients and with 8 (the general path): the old function's answers."""
+    from tendrilkit.mv_acquire import advance
+
+    X, evidence = tube_views
+    views = [evidence, _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4]),
+             _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4, 1e-3, 0.0, 0.0])]
+    rng = np.random.default_rng(16)
+    A = X[rng.integers(0, len(X), 400)] + rng.normal(0.0, 2.0, (400, 3))
+    D = rng.normal(size=(400, 3)) * rng.choice([0.01, 1.0, 5.0], (400, 1))
+    cam = evidence[1].camera
+    D[:40] = (cam.center_world - A[:40]) * 1e-3  # towards a camera: barely moves in its image
+    B = A + D
+    B[40] = np.nan
+    B[41] = cam.center_world + (cam.center_world - A[41])  # behind the camera
+    for ev in views:
+        for fraction in (0.3, 0.0, 1.0):
+            want = _advance_245f631(ev, A, B, fraction=fraction)
+            got = advance(ev, A, B, fraction=fraction)
+            np.testing.assert_array_equal(got, want)
+            assert want.any() and not want.all()

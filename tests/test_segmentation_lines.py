@@ -164,3 +164,88 @@ def test_the_keep_out_box_across_the_node_is_no_light_line():
     a = segment_view(img, **marks, line_width_px=0)
     b = segment_view(img, **marks, line_width_px=11)
     assert np.array_equal(a.foreground.foreground, b.foreground.foreground)
+
+
+@pytest.mark.parametrize("op", [cv2.MORPH_OPEN, cv2.MORPH_CLOSE])
+def test_morphology_on_the_masks_box_is_the_whole_images(op):
+    """lines._on_box: the opening or closing on the mask's box grown by twice the kernel's half side, bit for bit
+    the whole image's; masks small and large, touching the image's sides, along a side's first pixels, empty."""
+    from tendrilkit.segmentation.lines import _on_box
+
+    rng = np.random.default_rng(21)
+    for k in range(120):
+        shape = tuple(int(v) for v in rng.integers(5, 120, 2))
+        mask = np.zeros(shape, np.uint8)
+        for _ in range(int(rng.integers(0, 6))):
+            c = (int(rng.integers(-10, shape[1] + 10)), int(rng.integers(-10, shape[0] + 10)))
+            if rng.random() < 0.5:
+                cv2.circle(mask, c, int(rng.integers(1, 25)), 255, -1)
+            else:
+                cv2.line(mask, c, (int(rng.integers(0, shape[1])), int(rng.integers(0, shape[0]))), 255,
+                         int(rng.integers(1, 6)))
+        if k % 10 == 0:
+            mask[:, : int(rng.integers(1, 4))] = 255  # along the left side
+        mask[rng.random(shape) < 0.01] = 255          # specks
+        for side in (3, 7, 11):
+            kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (side, side))
+            np.testing.assert_array_equal(_on_box(mask, op, kernel), cv2.morphologyEx(mask, op, kernel))
+    empty = np.zeros((20, 30), np.uint8)
+    assert not _on_box(empty, op, np.ones((5, 5), np.uint8)).any()
+
+
+def _light_line_pixels_245f631(grey, foreground, *, width_px=11, contrast=0.1, min_width_px=3):
+    """segmentation.light_line_pixels as it was at 245f631 (whole-image morphology and labels), copied unchanged
+    but for the argument checks."""
+    from tendrilkit.segmentation.lines import board_level
+
+    fg = cv2.compare(foreground, 0, cv2.CMP_GT)
+    x, y, w, h = cv2.boundingRect(fg)
+    out = np.zeros(grey.shape, np.uint8)
+    if w == 0:
+        return out
+    disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(width_px) | 1,) * 2)
+    free = cv2.compare(fg, 0, cv2.CMP_EQ)
+    wide = cv2.morphologyEx(fg, cv2.MORPH_OPEN, disk)
+    through = cv2.bitwise_and(cv2.morphologyEx(wide, cv2.MORPH_CLOSE, disk), free)
+    if not through.any():
+        return out
+    gap = cv2.bitwise_and(cv2.morphologyEx(fg, cv2.MORPH_CLOSE, disk), free)
+    b = board_level(grey)
+    limit = np.ceil((1.0 - float(contrast)) * np.arange(256)).astype(np.uint8)
+    darker = cv2.compare(grey, cv2.LUT(b, limit), cv2.CMP_LT)
+    gap = cv2.bitwise_and(gap, darker)
+    if min_width_px > 1:
+        gap = cv2.morphologyEx(gap, cv2.MORPH_OPEN, np.ones((int(min_width_px),) * 2, np.uint8))
+    through = cv2.bitwise_and(through, gap)
+    if not through.any():
+        return out
+    n, lab = cv2.connectedComponents(gap, connectivity=8)
+    keep = np.zeros(n, bool)
+    keep[np.unique(lab[through > 0])] = True
+    keep[0] = False
+    out[keep[lab]] = 255
+    return out
+
+
+def test_light_line_pixels_are_the_245f631_whole_image_ones():
+    """The morphology on boxes and the labels on the gap's box: the whole-image function's pixels, bit for bit, on
+    the pale-over-leaf scene, shifted so that the leaf touches the crop's sides, with more leaves and lines."""
+    img, _ = pale_over_leaf_scene()
+    rng = np.random.default_rng(22)
+    found = 0
+    for k in range(12):
+        g = img[:, :, 0].copy()
+        if k % 3 == 1:
+            g = np.ascontiguousarray(g[60:, 150:])  # the leaf cut by the crop's sides
+        for _ in range(k % 4):
+            c = (int(rng.integers(0, g.shape[1])), int(rng.integers(0, g.shape[0])))
+            cv2.ellipse(g, c, (int(rng.integers(10, 50)), int(rng.integers(8, 30))), float(rng.uniform(0, 180)), 0,
+                        360, 60, -1)
+            cv2.line(g, c, (int(rng.integers(0, g.shape[1])), int(rng.integers(0, g.shape[0]))), 185,
+                     int(rng.integers(3, 7)))
+        fg = np.where(g < 120, 255, 0).astype(np.uint8)
+        for width in (7, 11):
+            want = _light_line_pixels_245f631(g, fg, width_px=width)
+            np.testing.assert_array_equal(light_line_pixels(g, fg, width_px=width), want)
+            found += int(want.any())
+    assert found >= 12

@@ -155,11 +155,11 @@ def light_line_pixels(grey: np.ndarray, foreground: np.ndarray, *, width_px: int
         return out
     disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(width_px) | 1,) * 2)
     free = cv2.compare(fg, 0, cv2.CMP_EQ)
-    wide = cv2.morphologyEx(fg, cv2.MORPH_OPEN, disk)  # leaves, the stem: what a line can cross in front of
-    through = cv2.bitwise_and(cv2.morphologyEx(wide, cv2.MORPH_CLOSE, disk), free)
+    wide = _on_box(fg, cv2.MORPH_OPEN, disk)  # leaves, the stem: what a line can cross in front of
+    through = cv2.bitwise_and(_on_box(wide, cv2.MORPH_CLOSE, disk), free)
     if not through.any():  # no gap through a wide object: no line in front of one (most views; exact)
         return out
-    gap = cv2.bitwise_and(cv2.morphologyEx(fg, cv2.MORPH_CLOSE, disk), free)
+    gap = cv2.bitwise_and(_on_box(fg, cv2.MORPH_CLOSE, disk), free)
     b = board_level(grey)
     # g < (1 - c) b for an integer g  <=>  g < ceil((1 - c) b): one table over the board's 256 levels
     limit = np.ceil((1.0 - float(contrast)) * np.arange(256)).astype(np.uint8)
@@ -170,11 +170,36 @@ def light_line_pixels(grey: np.ndarray, foreground: np.ndarray, *, width_px: int
     through = cv2.bitwise_and(through, gap)
     if not through.any():
         return out
-    n, lab = cv2.connectedComponents(gap, connectivity=8)
+    # the gap's pieces labelled on the gap's box (every piece lies in it whole: the same pieces)
+    x, y, w, h = cv2.boundingRect(gap)
+    n, lab = cv2.connectedComponents(np.ascontiguousarray(gap[y:y + h, x:x + w]), connectivity=8)
     keep = np.zeros(n, bool)
-    keep[np.unique(lab[through > 0])] = True
+    keep[np.unique(lab[through[y:y + h, x:x + w] > 0])] = True
     keep[0] = False
-    out[keep[lab]] = 255
+    out[y:y + h, x:x + w][keep[lab]] = 255
+    return out
+
+
+def _on_box(mask: np.ndarray, op: int, kernel: np.ndarray) -> np.ndarray:
+    """``cv2.morphologyEx(mask, op, kernel)`` for ``op`` ``cv2.MORPH_OPEN`` or ``cv2.MORPH_CLOSE`` (uint8, a
+    centred kernel of odd sides, half side ``r``) on the box of ``mask``'s nonzero pixels grown by ``2 r``, zero
+    elsewhere: the same image, bit for bit.
+
+    Both passes read at most ``r`` from a pixel. Opening: a pixel whose erosion would read beyond the grown box
+    lies outside the mask's box, itself 0, and the erosion is 0 outside that box (beyond which the dilation
+    reads nothing). Closing: the dilation reaches at most ``r`` beyond the mask's box; a pixel whose erosion
+    would read beyond the grown box lies more than ``r`` from the mask's box, 0 in the dilation and with it.
+    Outside the grown box both are 0. A leaf's or the stem's opening (the light lines' wide objects) spans
+    about half a view's region of interest.
+    """
+    x, y, w, h = cv2.boundingRect(mask)
+    out = np.zeros_like(mask)
+    if w == 0:
+        return out
+    m = 2 * max(kernel.shape[0] // 2, kernel.shape[1] // 2)
+    H, W = mask.shape
+    r0, r1, c0, c1 = max(y - m, 0), min(y + h + m, H), max(x - m, 0), min(x + w + m, W)
+    out[r0:r1, c0:c1] = cv2.morphologyEx(np.ascontiguousarray(mask[r0:r1, c0:c1]), op, kernel)
     return out
 
 
