@@ -11,7 +11,9 @@ does: the chunks of ``reconstruction.chunk_frames``, the previous curve if it
 was ``ok``). Each view's evidence (segmentation, skeleton: most of a frame's
 cost) is computed once and kept in ``OUT/evidence-cache/`` (pickles; delete
 the folder when the evidence code changes; with ``--set segmentation.KEY=VALUE``
-in ``OUT/evidence-cache-<those items>/``), so a second run measures a change
+in ``OUT/evidence-cache-<those items>/``; the resolved segmentation options are
+recorded there, ``segmentation.json``, and a folder made under other options, or
+before the record (2026-12-01), is refused: delete it), so a second run measures a change
 of the multi-view decisions in a minute or two instead of the generalisation
 run's 40-60 s per scene.
 
@@ -233,6 +235,19 @@ def main(argv: list[str] | None = None) -> int:
             p.error(f"--set: {e}")
     cache = a.out / cache_folder(sets)
     cache.mkdir(exist_ok=True)
+    # the folder's name holds the --set items only: the resolved options are recorded in it, so that evidence made
+    # under other defaults (segmentation's changed 2026-12-01: local_exclude_dark, line_width_px) is never reused
+    from tendrilkit.params import load_experiment, with_overrides
+
+    resolved = with_overrides(load_experiment(scenes[0] / "scene" / "experiment.yaml"), sets).segmentation
+    stamp, want = cache / "segmentation.json", json.dumps(resolved.model_dump(mode="json"), sort_keys=True)
+    if stamp.is_file() and stamp.read_text() != want:
+        p.error(f"{cache} holds evidence of other segmentation options ({stamp.read_text()}): delete it")
+    if not stamp.is_file():
+        if any(cache.glob("*.pkl")):
+            p.error(f"{cache} holds evidence without a record of its segmentation options (made before "
+                    f"2026-12-01, when their defaults changed): delete it")
+        stamp.write_text(want)
     tables = []
 
     def keep(d, rows, curves, gt):

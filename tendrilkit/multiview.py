@@ -58,8 +58,8 @@ Tracking (:func:`reconstruct_multiview`)
     and coverage (skeleton pixels of the touched components explained). When
     there is no previous curve, or the check fails, the curve is acquired
     from the base (:func:`tendrilkit.mv_acquire.grow_curve`) and the better
-    of the two is kept. With ``CHOICE_CANDIDATES`` over 1 (not the default:
-    measured no better on the criteria that count), of the acquisition's
+    of the two is kept. With ``CHOICE_CANDIDATES`` over 1 (6, the default
+    since 2026-12-01, with the pale segmentation options), of the acquisition's
     best few finished hypotheses (tips apart), each refined on every view,
     the one whose beam score plus a cost per degree of its sharpest local
     turn (:func:`local_kink_deg`: where a path leaves the tendril at a
@@ -112,10 +112,10 @@ MAX_COVER_GAP_MM = 40.0
 BRIDGE_EXTEND_MM = 200.0
 #: The final choice of the acquisition (``_choose_acquired``): how many of its best finished hypotheses are weighed,
 #: each refined, and the beam score (pixels per step) a degree of a local kink costs (30 degrees as much as 15 steps
-#: on the skeletons). 1: the beam's own choice, as before (the default: with 6, validation seeds 1000-1039 measured
-#: all three criteria 34.2 -> 34.2 %, mean and max better, ``ok`` with an end or the max over 2 mm 6 -> 7, 21 ms
-#: more per frame; see :mod:`tendrilkit.mv_acquire`'s notes).
-CHOICE_CANDIDATES = 1
+#: on the skeletons). 1: the beam's own choice (the default until 2026-12-01: with 6 alone, validation seeds 1000-1039
+#: measured all three criteria 34.2 -> 34.2 %, mean and max better, ``ok`` with an end or the max over 2 mm 6 -> 7,
+#: 21 ms more per frame; with the pale segmentation options it keeps more of what they gain: README, Options).
+CHOICE_CANDIDATES = 6
 KINK_PX_PER_DEG = 1.0
 
 
@@ -824,7 +824,7 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
         elif shrink < 1.0 - max_shrink:
             note = f"tracking lost (length {100 * (shrink - 1):.0f} % from the previous frame): acquired afresh"
     if not cands or note:
-        # (nodes, beam score) of the hypotheses the final choice weighs: the beam's own choice alone by default
+        # (nodes, beam score) of the hypotheses the final choice weighs: the beam's own choice alone with 1
         grown = (grow_curve(evidence, B, candidates=CHOICE_CANDIDATES) if CHOICE_CANDIDATES > 1
                  else [(grow_curve(evidence, B), 0.0)])
         grown = [(G, sc) for G, sc in grown if len(G) >= 3]

@@ -187,8 +187,8 @@ class Segmentation(_Strict):
     ``local_margin_px`` from the thresholded pixels (see
     :func:`tendrilkit.segmentation.faint_pixels`); ``local_exclude_dark``:
     that deepest darkness is taken beside the thresholded pixels (a leaf, the
-    stem), not over them, so a pale tendril running beside them is kept.
-    ``line_width_px`` (0: off): light lines up to this wide, lighter than the
+    stem), not over them, so a pale tendril running beside them is kept (true
+    by default). ``line_width_px`` (11 by default; 0: off): light lines up to this wide, lighter than the
     dark pixels on both sides and darker than the board, are added (a pale
     tendril in front of a leaf; :func:`tendrilkit.segmentation.light_line_pixels`);
     ``bridge_gap_px`` (0: off): line ends up to this far apart facing each

@@ -34,7 +34,7 @@ EXPECTED = {
 NON_DEFAULT = {
     "segmentation": {"channel": "hsv", "threshold": 90, "opening_radius_px": 2, "min_component_px": 7,
                      "local_contrast": 0.2, "local_noise_k": 3.0, "background_px": 48, "local_window_px": 5,
-                     "local_margin_px": 3, "local_exclude_dark": True, "line_width_px": 9,
+                     "local_margin_px": 3, "local_exclude_dark": False, "line_width_px": 9,
                      "bridge_gap_px": 12},
     "skeleton": {"prune_px": 5.0, "merge_width": 2.5, "smooth_px": 0.5, "tip_inset": 0.5},
     "ordering": {"method": "paper", "tangent_window_px": 9.0, "zone_width": 1.5, "max_unused_fraction": 0.3,

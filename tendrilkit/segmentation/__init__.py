@@ -19,8 +19,10 @@
    thresholded outline), keep-out box painted background, not opened; with
    ``local_exclude_dark``, a faint pixel's structure depth is taken beside
    the thresholded pixels, not over them (a pale tendril passing a leaf or
-   the stem is kept there);
-4c. with ``line_width_px`` (off by default), light lines added
+   the stem is kept there; on by default), except in faint regions it alone
+   finds most of (a pale part of the object, the stem under translucent
+   tape: :func:`tendrilkit.segmentation.faint.drop_unanchored`);
+4c. with ``line_width_px`` (11 px by default; 0: off), light lines added
    (:func:`tendrilkit.segmentation.lines.light_line_pixels`): a thin line
    lighter than the dark pixels on both sides of it and darker than the
    board, a pale tendril in front of a leaf or a shoot, with a one-pixel rim

@@ -59,8 +59,8 @@ def segment_view(
     background_px: int = 36,
     local_window_px: int = 9,
     local_margin_px: int = 2,
-    local_exclude_dark: bool = False,
-    line_width_px: int = 0,
+    local_exclude_dark: bool = True,
+    line_width_px: int = 11,
     bridge_gap_px: int = 0,
     min_component_px: int = 50,
 ) -> TendrilMask:
@@ -95,14 +95,18 @@ def segment_view(
         Take a faint pixel's structure depth :math:`d_{max}` over the pixels
         outside the thresholded ones grown by ``local_margin_px`` (the
         ``exclude`` of :func:`faint_pixels`), not over all: a pale tendril
-        beside a darker leaf or stem is measured against its own depth.
+        beside a darker leaf or stem is measured against its own depth; faint
+        regions found mostly by this alone lose its pixels (a pale part of
+        the object: the stem under translucent tape;
+        :func:`tendrilkit.segmentation.faint.drop_unanchored`).
     line_width_px : int
         Step 4c, light lines (:func:`tendrilkit.segmentation.lines.light_line_pixels`):
         pixels of a line up to this wide, lighter than the dark pixels on both
         sides of it and darker than the board by ``local_contrast`` (at least
         0.05) are added (a pale tendril in front of a leaf or a shoot), in
         front of it (a one-pixel rim of the object cleared around them,
-        :func:`tendrilkit.segmentation.lines.lines_in_front`); 0: none.
+        :func:`tendrilkit.segmentation.lines.lines_in_front`; pieces running
+        into the keep-out box, a gap painted through the node, left out); 0: none.
     bridge_gap_px : int
         Step 4d (:func:`tendrilkit.segmentation.lines.bridge_line_gaps`):
         skeleton ends up to this far apart that face each other (the line

@@ -6,7 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["faint_pixels"]
+__all__ = ["faint_pixels", "drop_unanchored"]
 
 _BAND_ROWS = 64  # rows per band of faint_pixels' float work
 
@@ -152,6 +152,71 @@ def faint_pixels(
         out[y0:y1, bx:bx + bw] = cv2.bitwise_and(cv2.compare(depth, c, cv2.CMP_GT),
                                                  cv2.compare(depth, half, cv2.CMP_GT))[y0 - e0:y1 - e0]
     return out
+
+
+def drop_unanchored(faint: np.ndarray, plain: np.ndarray, *, min_plain_frac: float = 0.5) -> np.ndarray:
+    """The faint pixels without those that only ``exclude`` found in regions mostly its own: an object's pale part.
+
+    With ``exclude`` (:func:`faint_pixels`) a pixel beside a darker object
+    is measured against its own depth, not the object's, so a pale tendril
+    running beside a leaf or the stem is kept: it goes on over the board,
+    where the plain rule (without ``exclude``) finds it too, and its faint
+    region is mostly the plain rule's. A pale *part* of the object next to
+    its dark pixels is found by ``exclude`` alone: the stem under translucent
+    tape, whose ends next to the dark stem it adds as blocks as wide as the
+    stem (phantom S2, view 3: their skeletons, a break away from the stem at
+    the base mark, counted as the tendril's and failed its coverage check).
+    In every faint region (8-connected) of which less than ``min_plain_frac``
+    is in ``plain``, the pixels that only ``exclude`` found are dropped.
+
+    Parameters
+    ----------
+    faint : (h, w) uint8 array
+        Nonzero on faint pixels (:func:`faint_pixels` with ``exclude``,
+        without the excluded pixels).
+    plain : (h, w) uint8 array
+        Nonzero on faint pixels found without ``exclude``.
+    min_plain_frac : float
+        The least share of a faint region the plain rule must find for its
+        other pixels to stay, 0-1.
+
+    Returns
+    -------
+    (h, w) uint8 array
+        255 on the faint pixels kept, 0 elsewhere (a new array).
+
+    Notes
+    -----
+    Only where ``exclude`` found pixels: one labelling of the faint pixels
+    and two counts per region (about 1 ms on a 1080p phantom view's region
+    of interest).
+
+    Example
+    -------
+    >>> fa = np.zeros((40, 120), np.uint8)
+    >>> fa[12:28, 30:40] = 255                       # a taped stretch's end beside the dark stem: exclude's alone
+    >>> fa[2:6, :] = 255                             # a pale tendril: beside the stem up to x = 60, then on the board
+    >>> pl = np.zeros_like(fa); pl[2:6, 60:] = 255   # what was found without exclude
+    >>> out = drop_unanchored(fa, pl)
+    >>> int(out[20, 35] > 0), int(out[4, 100] > 0), int(out[4, 10] > 0)
+    (0, 1, 1)
+    """
+    if faint.shape != plain.shape:
+        raise ValueError(f"plain must have the shape of faint {faint.shape}, got {plain.shape}")
+    if not 0.0 <= min_plain_frac <= 1.0:
+        raise ValueError(f"min_plain_frac must be in [0, 1], got {min_plain_frac}")
+    fa = cv2.compare(faint, 0, cv2.CMP_GT)
+    pl = cv2.compare(plain, 0, cv2.CMP_GT)
+    extra = cv2.bitwise_and(fa, cv2.compare(pl, 0, cv2.CMP_EQ))
+    if not extra.any():
+        return fa
+    n, lab = cv2.connectedComponents(fa, connectivity=8)
+    total = np.bincount(lab.ravel(), minlength=n)
+    found = np.bincount(lab[cv2.bitwise_and(fa, pl) > 0], minlength=n)
+    alone = found < min_plain_frac * total
+    alone[0] = False
+    fa[alone[lab] & (extra > 0)] = 0
+    return fa
 
 
 def _fill_from_board(small: np.ndarray, hole: np.ndarray) -> np.ndarray:

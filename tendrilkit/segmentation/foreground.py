@@ -9,7 +9,7 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from tendrilkit.segmentation.faint import faint_pixels
+from tendrilkit.segmentation.faint import drop_unanchored, faint_pixels
 from tendrilkit.segmentation.lines import bridge_line_gaps, light_line_pixels, lines_in_front
 
 __all__ = ["LabelledForeground", "label_foreground", "grey_image", "foreground_roi", "faint_options"]
@@ -131,8 +131,8 @@ def foreground_roi(
     background_px: int = 36,
     local_window_px: int = 9,
     local_margin_px: int = 2,
-    local_exclude_dark: bool = False,
-    line_width_px: int = 0,
+    local_exclude_dark: bool = True,
+    line_width_px: int = 11,
     bridge_gap_px: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Steps 1-4 of :func:`segment_view`: every dark pixel of the ROI, before any choice of component.
@@ -219,9 +219,20 @@ def foreground_roi(
             faint[b0:b1, a0:a1] = 0
         if local_margin_px > 0:
             faint = cv2.bitwise_and(faint, cv2.compare(near, 0, cv2.CMP_EQ))
+        if local_exclude_dark:  # a pale part of an object beside it (a taped stretch of the stem) is no tendril
+            plain = faint_pixels(grey, local_contrast=local_contrast, local_noise_k=local_noise_k,
+                                 background_px=background_px, local_window_px=local_window_px)
+            faint = drop_unanchored(faint, plain)
         fg = cv2.bitwise_or(fg, faint)
     if line_width_px > 0:  # 4c: a pale line in front of a darker object (lighter than it, darker than the board)
         lines = light_line_pixels(grey, fg, width_px=int(line_width_px), contrast=max(float(local_contrast), 0.05))
+        if keep_out is not None and a1 > a0 and b1 > b0 and lines[b0:b1, a0:a1].any():
+            # the painted box is a gap through the node, no light line in front of it: its pieces are dropped
+            n, lab = cv2.connectedComponents(lines, connectivity=8)
+            box = np.zeros(n, bool)
+            box[np.unique(lab[b0:b1, a0:a1])] = True
+            box[0] = False
+            lines[box[lab]] = 0
         fg = lines_in_front(fg, lines, dark)
     if bridge_gap_px > 0:  # 4d: a line broken where it crosses another joined across the gap
         fg = bridge_line_gaps(fg, gap_px=int(bridge_gap_px))
@@ -252,8 +263,8 @@ def label_foreground(
     background_px: int = 36,
     local_window_px: int = 9,
     local_margin_px: int = 2,
-    local_exclude_dark: bool = False,
-    line_width_px: int = 0,
+    local_exclude_dark: bool = True,
+    line_width_px: int = 11,
     bridge_gap_px: int = 0,
 ) -> LabelledForeground:
     """Steps 1-5 of :func:`segment_view`: the ROI's dark pixels (:func:`foreground_roi`) and their components.

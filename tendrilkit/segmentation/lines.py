@@ -15,7 +15,9 @@ and faint pixels):
   is joined across the gap, at its own width, so that the skeleton, the
   ordering and the multi-view method see one continuous line.
 
-Both are off by default (``segmentation.line_width_px``, ``bridge_gap_px``).
+Light lines are on by default since 2026-12-01 (``segmentation.line_width_px``
+11, with ``local_exclude_dark``; README, Options, has the figures), the joins off
+(``bridge_gap_px`` 0). The figures below are those of the first measurement:
 Measured 2026-11-30 by ground truth on the 20 pale dev scenes of seeds 0-39
 (6 frames each, ``benchmarks/bench_generalize``'s scoring), frames right on
 all three criteria / within 0.5 mm mean / failed / reported ok but wrong,
