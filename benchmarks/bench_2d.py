@@ -60,7 +60,7 @@ def time_view(img, roi, keep_out, base, repeat: int = 30, **options) -> dict:
     tot, seg_t, ord_t, cpu, seg_cpu, thr_cpu = [], [], [], [], [], []
     for _ in range(repeat):
         c0 = time.process_time()  # the segmentation without and with its faint pixels, interleaved (CPU time)
-        segment_view(img, roi=roi, keep_out=keep_out, base_point_xy=base, local_contrast=0.0)
+        segment_view(img, roi=roi, keep_out=keep_out, base_point_xy=base, local_contrast=0.0, line_width_px=0)
         c1 = time.process_time()
         segment_view(img, roi=roi, keep_out=keep_out, base_point_xy=base)
         thr_cpu.append(c1 - c0)

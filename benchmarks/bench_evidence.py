@@ -157,8 +157,10 @@ def bench_masks(argv: list[str]) -> None:
     if stop > 10000:
         p.error("--seeds: 10000 and above are the held-out benchmark's")
     out = Path(a.out) if a.out else Path(tempfile.mkdtemp(prefix="bench_masks_"))
-    variants = {"threshold only": {"local_contrast": 0.0}, "with faint pixels": {},
-                "faint, beside dark (local_exclude_dark)": {"local_exclude_dark": True}}
+    # each variant spelled out (the defaults now have the pale options on), light lines off as when measured
+    variants = {"threshold only": {"local_contrast": 0.0, "line_width_px": 0},
+                "with faint pixels": {"local_exclude_dark": False, "line_width_px": 0},
+                "faint, beside dark (local_exclude_dark)": {"local_exclude_dark": True, "line_width_px": 0}}
     rows = []
     for seed in range(start, stop):
         folder = out / f"{a.scene}-{seed}" / "scene"
@@ -199,7 +201,8 @@ def bench_masks(argv: list[str]) -> None:
     print(table.reset_index().to_string(index=False, float_format=lambda x: f"{x:.3f}"))
 
 
-LINE_VARIANTS = {"plain": {}, "lines": {"line_width_px": 11}, "bridges": {"bridge_gap_px": 30},
+LINE_VARIANTS = {"plain": {"line_width_px": 0}, "lines": {"line_width_px": 11},
+                 "bridges": {"line_width_px": 0, "bridge_gap_px": 30},
                  "lines+bridges": {"line_width_px": 11, "bridge_gap_px": 30}}
 
 

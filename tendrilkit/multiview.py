@@ -58,8 +58,9 @@ Tracking (:func:`reconstruct_multiview`)
     and coverage (skeleton pixels of the touched components explained). When
     there is no previous curve, or the check fails, the curve is acquired
     from the base (:func:`tendrilkit.mv_acquire.grow_curve`) and the better
-    of the two is kept. With ``CHOICE_CANDIDATES`` over 1 (6, the default
-    since 2026-12-01, with the pale segmentation options), of the acquisition's
+    of the two is kept. With ``choice_candidates`` over 1 (6, the default
+    since 2026-12-01, with the pale segmentation options;
+    ``reconstruction.choice_candidates`` of the experiment file), of the acquisition's
     best few finished hypotheses (tips apart), each refined on every view,
     the one whose beam score plus a cost per degree of its sharpest local
     turn (:func:`local_kink_deg`: where a path leaves the tendril at a
@@ -110,12 +111,12 @@ MAX_COVER_GAP_MM = 40.0
 #: acquisition's beam stopped at the gap, the rest of the tendril is the extension's to follow (dev seed 9248: a
 #: leaf over 17 mm of a 191 mm tendril 82 mm from the base; with 60 mm the curve stopped 30 mm short).
 BRIDGE_EXTEND_MM = 200.0
-#: The final choice of the acquisition (``_choose_acquired``): how many of its best finished hypotheses are weighed,
-#: each refined, and the beam score (pixels per step) a degree of a local kink costs (30 degrees as much as 15 steps
-#: on the skeletons). 1: the beam's own choice (the default until 2026-12-01: with 6 alone, validation seeds 1000-1039
-#: measured all three criteria 34.2 -> 34.2 %, mean and max better, ``ok`` with an end or the max over 2 mm 6 -> 7,
-#: 21 ms more per frame; with the pale segmentation options it keeps more of what they gain: README, Options).
-CHOICE_CANDIDATES = 6
+#: The final choice of the acquisition (``_choose_acquired``): the beam score (pixels per step) a degree of a local
+#: kink costs (30 degrees as much as 15 steps on the skeletons). How many of its best finished hypotheses are weighed,
+#: each refined, is :func:`reconstruct_multiview`'s ``choice_candidates`` (``reconstruction.choice_candidates``):
+#: 1, the beam's own choice, was the default until 2026-12-01 (with 6 alone, validation seeds 1000-1039 measured all
+#: three criteria 34.2 -> 34.2 %, mean and max better, ``ok`` with an end or the max over 2 mm 6 -> 7, 21 ms more per
+#: frame; with the pale segmentation options it keeps more of what they gain: README, Options).
 KINK_PX_PER_DEG = 1.0
 
 
@@ -761,7 +762,7 @@ def _fit(X0, evidence, B, segment_mm, prior_mm=0.0, max_length_mm=np.inf, refine
 
 def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, previous_mm: np.ndarray | None = None,
                           segment_mm: float = 1.0, min_score: float = 0.9, max_shrink: float = 0.08,
-                          max_growth: float = 0.08,
+                          max_growth: float = 0.08, choice_candidates: int = 6,
                           keep_candidates: bool = False) -> MultiviewResult:
     """The 3D curve of one frame from every view's evidence, tracked or acquired.
 
@@ -791,6 +792,11 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
         A tracked curve whose precision x coverage (mean over the views)
         is below this, or below this less 0.1 in one view, is lost: the frame is acquired afresh too and the better
         curve kept.
+    choice_candidates : int
+        An acquisition weighs this many of its best finished hypotheses (tips
+        apart), each refined on every view, and keeps the one whose beam score
+        plus a cost per degree of its sharpest local turn is least (6); 1: the
+        beam's own choice (the former default).
     keep_candidates : bool
         Keep every candidate's nodes in the result (figures).
 
@@ -825,7 +831,7 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
             note = f"tracking lost (length {100 * (shrink - 1):.0f} % from the previous frame): acquired afresh"
     if not cands or note:
         # (nodes, beam score) of the hypotheses the final choice weighs: the beam's own choice alone with 1
-        grown = (grow_curve(evidence, B, candidates=CHOICE_CANDIDATES) if CHOICE_CANDIDATES > 1
+        grown = (grow_curve(evidence, B, candidates=int(choice_candidates)) if choice_candidates > 1
                  else [(grow_curve(evidence, B), 0.0)])
         grown = [(G, sc) for G, sc in grown if len(G) >= 3]
         if not grown:

@@ -165,7 +165,7 @@ lost), end to end (``rerun_multiview.py --no-fit``) all three 37.2 -> 41.9 %,
 60.0 -> 63.3 %, ``ok`` off 6 -> 7, and 236 against 97 ms per frame.
 
 Why frames are wrong in the pale+kink configuration (issue 12, 2026-12-01; ``local_exclude_dark``,
-``line_width_px`` 11, ``multiview.CHOICE_CANDIDATES = 6``; dev seeds 1040-1079, 240 frames, all three 41.2 %;
+``line_width_px`` 11, ``reconstruction.choice_candidates: 6``; dev seeds 1040-1079, 240 frames, all three 41.2 %;
 the diagnose scripts with ``--set``). 130 of the 141 wrong frames were acquired (the previous frame not ``ok``:
 40 of 170 acquired frames right, 59 of 70 tracked ones). The chosen hypothesis follows the truth to its end in
 71 frames, a finished one in 77 (``diagnose_beam``); of the 169 others the truth-following hypothesis lost its

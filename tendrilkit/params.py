@@ -306,12 +306,16 @@ class Reconstruction(_Strict):
     ``correspondence.method`` and triangulated: the paper's method); ``chunk_frames`` (multiview): processed
     frames per chunk: each chunk starts by acquiring the curve, then tracks
     it, so results do not depend on the number of workers; ``segment_mm``
-    (multiview): node spacing of the 3D curve, mm.
+    (multiview): node spacing of the 3D curve, mm; ``choice_candidates``
+    (multiview): how many of an acquisition's best finished hypotheses its
+    final choice weighs by their local kink (6; 1: the beam's own choice, the
+    default before 2026-12-01).
     """
 
     method: Literal["chain", "multiview"] = "multiview"
     chunk_frames: int = Field(30, ge=1)
     segment_mm: float = Field(default_factory=lambda: stage_default("multiview", "segment_mm"), gt=0.1, le=10.0)
+    choice_candidates: int = Field(default_factory=lambda: stage_default("multiview", "choice_candidates"), ge=1, le=20)
 
 
 class Triangulation(_Strict):

@@ -44,6 +44,12 @@ CROSSING_PIXELS = True
 #: side (a segment running out of the ROI, thin pixels on the arm's straight continuation) pairs an arm.
 STRAIGHT_THROUGH_DEG = 30.0
 
+#: Smallest sine of the angle between an arm and the curve for which a partner-only side pairs it (0.7: 44 deg).
+#: The turn above is read on chords that span the crossing's band, so a curve leaving the tendril at 15-35 deg
+#: for a line running out of the ROI looks straight enough; the missed tendril then runs on at that shallow angle
+#: to the curve, while a line crossing it stands at a real angle.
+PARTNER_MIN_SIN = 0.7
+
 
 def across_gaps(labels: np.ndarray, sk_xy: np.ndarray, sr: np.ndarray, sc: np.ndarray, thin: np.ndarray,
                 touched: np.ndarray, dense_xy: np.ndarray, *, gap_px: float = GAP_PX) -> np.ndarray:
@@ -221,7 +227,10 @@ def crossing_branches(dense_xy: np.ndarray, free_xy: np.ndarray, free_branch: np
     such arm across, and only where the curve runs straight on through the
     crossing (its chords over 25 px either side turn by at most
     :data:`STRAIGHT_THROUGH_DEG`: where it turns it may have left the
-    tendril's end for a line that happens to continue it), the other arm
+    tendril's end for a line that happens to continue it) and the arm
+    stands at a real angle to it (sine at least :data:`PARTNER_MIN_SIN`: a
+    curve that left the tendril at a shallow angle has the missed tendril
+    running on beside it at that angle), the other arm
     may be a partner-only branch (``free_branch`` labels not in
     ``branches``: a segment running out of the ROI), and a branch is an arm
     still when at least
@@ -315,7 +324,7 @@ def crossing_branches(dense_xy: np.ndarray, free_xy: np.ndarray, free_branch: np
         pair = [m for m, (e2, u2, _, _) in arms.items()
                 if m != int(k) and float(u @ u2) <= max_cos and float(np.hypot(*(end - e2))) <= reach]
         out[n] = any(m in tested for m in pair)
-        if out[n] or not _straight_through(dense_xy, jc, max_turn_deg=STRAIGHT_THROUGH_DEG):
+        if out[n] or sin < PARTNER_MIN_SIN or not _straight_through(dense_xy, jc, max_turn_deg=STRAIGHT_THROUGH_DEG):
             # the other side only partner-only pixels (a segment running out of the ROI, a split line): only
             # where the curve runs straight on through the crossing, not where it turns (where it may have
             # left the tendril's end for a line that happens to continue it; dev seed 1063 frame 4)

@@ -583,13 +583,12 @@ def _tendril_with_a_branch(angle_deg: float = 70.0, at: float = 0.75, branch_mm:
     return X, _evidence(images, cams, exp), B
 
 
-def test_acquisition_keeps_the_tendril_at_a_junction_onto_a_longer_branch(monkeypatch):
+def test_acquisition_keeps_the_tendril_at_a_junction_onto_a_longer_branch():
     """The beam's best-scoring hypothesis runs onto the branch (the longer curve the views explain: the beam's own
-    choice, ``CHOICE_CANDIDATES = 1``, the former default, takes it, 35 mm off at the tip); the final choice over six
+    choice, ``choice_candidates=1``, the former default, takes it, 35 mm off at the tip); the final choice over six
     (the default) pays for the kink where it leaves the tendril and keeps the tendril, within the issue's figures.
     The candidates: the beam's own choice first, tips apart."""
     import tendrilkit.mv_acquire as A
-    import tendrilkit.multiview as M
 
     X, ev, B = _tendril_with_a_branch()
     cands = A.grow_curve(ev, B, candidates=6)
@@ -597,10 +596,8 @@ def test_acquisition_keeps_the_tendril_at_a_junction_onto_a_longer_branch(monkey
     assert len(cands) >= 2
     tips = np.array([c[0][-1] for c in cands])
     assert (np.linalg.norm(tips[:, None] - tips[None], axis=2) + 1e9 * np.eye(len(tips))).min() >= A.SAME_TIP_MM
-    assert M.CHOICE_CANDIDATES == 6  # the default
-    r = reconstruct_multiview(ev, B)
-    monkeypatch.setattr(M, "CHOICE_CANDIDATES", 1)
-    e = _errors(resample_polyline(reconstruct_multiview(ev, B).nodes_mm, 200), X)
+    r = reconstruct_multiview(ev, B)  # the default: choice_candidates=6
+    e = _errors(resample_polyline(reconstruct_multiview(ev, B, choice_candidates=1).nodes_mm, 200), X)
     assert e["tip"] > 20.0, e  # the beam's own choice, onto the branch
     e = _errors(resample_polyline(r.nodes_mm, 200), X)
     assert e["mean"] <= 0.5 and e["max"] <= 2.0 and e["base"] <= 2.0 and e["tip"] <= 2.0, e

@@ -25,7 +25,7 @@ EXPECTED = {
                  "max_unused_fraction", "overrides"},
     "correspondence": {"max_distance_px", "depth_smoothing"},
     "triangulation": {"refine"},
-    "multiview": {"segment_mm"},
+    "multiview": {"segment_mm", "choice_candidates"},
     "fit": {"selection", "criterion", "target_r2", "penalty_kappa", "penalty_tau", "score", "max_segments", "refine",
             "smoothing_length_mm"},
 }
@@ -41,7 +41,7 @@ NON_DEFAULT = {
                  "overrides": [{"frame": 0, "view": 1, "junction": 0, "branch": 1}]},
     "correspondence": {"method": "epipolar", "max_distance_px": 5.5, "depth_smoothing": 7.0},
     "triangulation": {"refine": False, "to_curves": False, "base_from_marks": False},
-    "reconstruction": {"method": "chain", "chunk_frames": 3, "segment_mm": 2.0},
+    "reconstruction": {"method": "chain", "chunk_frames": 3, "segment_mm": 2.0, "choice_candidates": 1},
     "smoothing": {"length_mm": 12.0},
     "fit": {"selection": "fixed", "criterion": "r2", "target_r2": 0.99, "penalty_kappa": 0.02, "penalty_tau": 0.03,
             "score": "l1", "max_segments": 4, "refine": False},
@@ -142,7 +142,8 @@ def test_the_multiview_pipeline_passes_its_options(monkeypatch):
     from tendrilkit import pipeline
     from tendrilkit.camera import Camera
 
-    exp = _experiment(**{**NON_DEFAULT, "reconstruction": {"method": "multiview", "segment_mm": 2.0}})
+    exp = _experiment(**{**NON_DEFAULT, "reconstruction": {"method": "multiview", "segment_mm": 2.0,
+                                                                           "choice_candidates": 1}})
     calls: dict = {}
     monkeypatch.setattr(tendrilkit.evidence, "view_evidence", _record(calls, "segmentation", object()))
     monkeypatch.setattr(tendrilkit.mv_evidence, "skeleton_evidence", _record(calls, "evidence", object()))
@@ -152,6 +153,7 @@ def test_the_multiview_pipeline_passes_its_options(monkeypatch):
     with pytest.raises(_Reached):
         pipeline.reconstruct_frame([np.zeros((4, 4, 3), np.uint8)] * 2, cams, exp, frame=0)
     assert calls["multiview"]["segment_mm"] == 2.0
+    assert calls["multiview"]["choice_candidates"] == 1
     for key, value in stage_options(exp, "segmentation").items():
         assert calls["segmentation"][key] == value
 

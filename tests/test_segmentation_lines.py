@@ -40,7 +40,7 @@ def test_light_lines_find_a_pale_tendril_in_front_of_a_leaf_and_nothing_else():
     img, truth = pale_over_leaf_scene()
     marks = dict(roi=(0, 0, 400, 300), keep_out=None, base_point_xy=(30, 150))
     over = truth["tube"] & cv2.erode(truth["leaf"].view(np.uint8), np.ones((9, 9), np.uint8)).astype(bool)
-    before = segment_view(img, line_width_px=0, **marks).foreground.foreground > 0  # the former default
+    before = segment_view(img, line_width_px=0, **marks).foreground.foreground > 0  # light lines off
     after = segment_view(img, line_width_px=11, **marks).foreground.foreground > 0
     assert np.array_equal(after, segment_view(img, **marks).foreground.foreground > 0)  # the default
     assert before[over].mean() < 0.2  # lighter than the leaf: the darkness rules leave a light gap
@@ -69,7 +69,7 @@ def test_light_lines_leave_a_dark_tendril_as_the_threshold_finds_it():
     cv2.line(img, (20, 200), (300, 150), (40, 150, 90), 7)     # tendril leaving it at an acute angle
     cv2.circle(img, (320, 250), 30, (40, 150, 90), -1)         # leaf
     marks = dict(roi=(0, 0, 400, 300), keep_out=(10, 185, 25, 30), base_point_xy=(30, 200))
-    a = segment_view(img, **marks)
+    a = segment_view(img, line_width_px=0, **marks)  # light lines off (the default has them on)
     b = segment_view(img, line_width_px=11, **marks)
     assert np.array_equal(a.foreground.foreground, b.foreground.foreground)
 
@@ -133,7 +133,7 @@ def test_bridges_never_cross_the_keep_out_box():
     cv2.line(img, (120, 60), (120, 340), (50, 110, 60), 9)      # a stem the keep-out box cuts in two
     cv2.line(img, (120, 200), (400, 150), (40, 150, 90), 7)
     marks = dict(roi=(100, 50, 400, 300), keep_out=(110, 185, 25, 30), base_point_xy=(130, 200))
-    a = segment_view(img, **marks)
+    a = segment_view(img, line_width_px=0, **marks)  # neither light lines nor joins
     b = segment_view(img, bridge_gap_px=40, line_width_px=11, **marks)
     assert not b.foreground.foreground[185 - 50:215 - 50, 110 - 100:135 - 100].any()
     assert b.n_components == a.n_components == 3

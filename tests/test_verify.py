@@ -870,3 +870,34 @@ def test_tendril_going_on_over_the_open_board_in_one_view_is_a_short_curve():
     m = open_tip_message({"open_tip_px_v1": 14.0, "open_tip_px_v2": 0.0, "open_tip_px_v3": None}, 3, 3.0)
     assert m.endswith("in view 1 (14 px) (limit 3 px in one view)")
     assert open_tip_message({"open_tip_px_v1": 3.0, "open_tip_px_v2": 0.0}, 2, 3.0) is None
+
+
+@pytest.mark.parametrize("turn_deg", [15.0, 25.0, 35.0, 42.0])
+def test_partner_only_side_never_pairs_a_shallow_departure(turn_deg, monkeypatch):
+    """A curve that leaves the tendril at a shallow angle onto a line running out of the ROI: the missed tendril
+    runs on beside it and is no crossing arm (the turn, read on chords spanning the corner, looks straight)."""
+    from scipy.spatial import cKDTree
+
+    import tendrilkit.verify_crossing as vx
+
+    a = np.radians(turn_deg)
+    t = np.arange(0.0, 60.0)
+    curve = np.vstack([np.column_stack([np.arange(0.0, 50.0), np.full(50, 50.0)]),
+                       np.column_stack([50 + t * np.cos(a), 50 - t * np.sin(a)])])
+    s = np.arange(0.0, 50.0)
+    missed = np.column_stack([50 + s, np.full(len(s), 50.0)])  # the tendril going on, not explained
+    out_of_roi = np.column_stack([50 - s * np.cos(a), 50 + s * np.sin(a)])  # the line's other side (partner only)
+    tree = cKDTree(curve)
+    k1, k2 = tree.query(missed)[0] > 4.0, tree.query(out_of_roi)[0] > 4.0
+    xy = np.vstack([missed[k1], out_of_roi[k2]])
+    lab = np.r_[np.full(k1.sum(), 1), np.full(k2.sum(), 2)]
+    assert vx.crossing_branches(curve, xy, lab, np.array([1]), cov_tol=4.0, width_px=5.0).tolist() == [False]
+    # a line crossing the same straight curve at a real angle still pairs with its partner-only side
+    straight = np.column_stack([np.arange(0.0, 110.0), np.full(110, 50.0)])
+    up = np.column_stack([np.full(40, 50.0), np.linspace(5.0, 44.0, 40)])
+    down = np.column_stack([np.full(40, 50.0), np.linspace(56.0, 95.0, 40)])
+    xy2, lab2 = np.vstack([up, down]), np.repeat([1, 2], 40)
+    assert vx.crossing_branches(straight, xy2, lab2, np.array([1]), cov_tol=4.0, width_px=5.0).tolist() == [True]
+    monkeypatch.setattr(vx, "PARTNER_MIN_SIN", 0.0)
+    if turn_deg <= 35.0:  # what the sine requirement closes (the turn alone let these through)
+        assert vx.crossing_branches(curve, xy, lab, np.array([1]), cov_tol=4.0, width_px=5.0).tolist() == [True]
