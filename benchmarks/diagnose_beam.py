@@ -129,6 +129,13 @@ def cache_name(sets: list[str]) -> str:
     return cache_folder(parse_sets(sets))
 
 
+def cache_sets(cache: str) -> dict:
+    """The ``--set`` items a cache folder's name holds (``evidence-cache-segmentation.KEY=VALUE...``)."""
+    from rerun_multiview import parse_sets
+
+    return parse_sets(cache.split("-")[2:])
+
+
 def seed_range(p: argparse.ArgumentParser, seeds: str) -> tuple[int, int]:
     """``START:STOP`` read; seeds 10000 and above (the held-out benchmark's) refused."""
     start, stop = (int(x) for x in seeds.split(":"))
@@ -146,7 +153,14 @@ def cached_frames(out: Path, start: int, stop: int, cache: str = "evidence-cache
     from tendrilkit.params import load_experiment
     from tendrilkit.phantom import read_ground_truth
 
+    from rerun_multiview import cache_problem, segmentation_options
+
     scenes = [d for d in out.glob("*-*") if (d / "result-multiview" / "frames.csv").is_file()]
+    if scenes and (out / cache).is_dir():  # evidence made under other options than today's is never read
+        problem = cache_problem(out / cache, segmentation_options(scenes[0] / "scene" / "experiment.yaml",
+                                                                 cache_sets(cache)))
+        if problem:
+            raise SystemExit(problem)
     for folder in sorted(scenes, key=lambda d: (d.name.rsplit("-", 1)[0], int(d.name.rsplit("-", 1)[1]))):
         if not start <= int(folder.name.rsplit("-", 1)[1]) < stop:
             continue

@@ -90,6 +90,32 @@ def parse_sets(items: list[str]) -> dict:
     return out
 
 
+def segmentation_options(experiment: Path, sets: dict):
+    """The segmentation options of ``experiment`` with ``sets`` (``--set`` items) today."""
+    from tendrilkit.params import load_experiment, with_overrides
+
+    return with_overrides(load_experiment(experiment), sets).segmentation
+
+
+def cache_problem(cache: Path, resolved, *, write: bool = False) -> str | None:
+    """Why the evidence in ``cache`` was not made with the segmentation options ``resolved``, or None.
+
+    The folder's name holds the ``--set`` items only: the resolved segmentation options are recorded in it
+    (``segmentation.json``, written when ``write`` and missing from a folder without evidence), so that evidence made
+    under other defaults (segmentation's changed 2026-12-01: local_exclude_dark, line_width_px) is never reused.
+    """
+    stamp, want = cache / "segmentation.json", json.dumps(resolved.model_dump(mode="json"), sort_keys=True)
+    if stamp.is_file():
+        return None if stamp.read_text() == want else (
+            f"{cache} holds evidence of other segmentation options ({stamp.read_text()}): delete it")
+    if any(cache.glob("*.pkl")):
+        return (f"{cache} holds evidence without a record of its segmentation options (made before 2026-12-01, "
+                f"when their defaults changed): delete it")
+    if write:
+        stamp.write_text(want)
+    return None
+
+
 def cache_folder(sets: dict) -> str:
     """The evidence cache's folder name for ``--set`` items ({section: {key: value}}): the evidence depends on the
     segmentation's options only, other items share the default ``evidence-cache``."""
@@ -235,19 +261,9 @@ def main(argv: list[str] | None = None) -> int:
             p.error(f"--set: {e}")
     cache = a.out / cache_folder(sets)
     cache.mkdir(exist_ok=True)
-    # the folder's name holds the --set items only: the resolved options are recorded in it, so that evidence made
-    # under other defaults (segmentation's changed 2026-12-01: local_exclude_dark, line_width_px) is never reused
-    from tendrilkit.params import load_experiment, with_overrides
-
-    resolved = with_overrides(load_experiment(scenes[0] / "scene" / "experiment.yaml"), sets).segmentation
-    stamp, want = cache / "segmentation.json", json.dumps(resolved.model_dump(mode="json"), sort_keys=True)
-    if stamp.is_file() and stamp.read_text() != want:
-        p.error(f"{cache} holds evidence of other segmentation options ({stamp.read_text()}): delete it")
-    if not stamp.is_file():
-        if any(cache.glob("*.pkl")):
-            p.error(f"{cache} holds evidence without a record of its segmentation options (made before "
-                    f"2026-12-01, when their defaults changed): delete it")
-        stamp.write_text(want)
+    problem = cache_problem(cache, segmentation_options(scenes[0] / "scene" / "experiment.yaml", sets), write=True)
+    if problem:
+        p.error(problem)
     tables = []
 
     def keep(d, rows, curves, gt):

@@ -480,6 +480,32 @@ def test_diagnose_scripts_read_the_evidence_cached_with_the_segmentation_options
     assert cache_name(a.set) == "evidence-cache-segmentation.line_width_px=11"
     with pytest.raises(ValueError):
         cache_name(["line_width_px=11"])
+    from diagnose_beam import cache_sets
+
+    assert cache_sets("evidence-cache") == {}
+    assert cache_sets(cache_name(["segmentation.local_exclude_dark=false", "segmentation.line_width_px=0"])) == \
+        {"segmentation": {"line_width_px": 0, "local_exclude_dark": False}}
+
+
+def test_an_evidence_cache_of_other_segmentation_options_is_refused(tmp_path):
+    """``rerun_multiview.cache_problem``: a cache is stamped with its resolved segmentation options; the same options
+    pass, other options (``--set`` or a changed default) and evidence without a stamp are refused."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from rerun_multiview import cache_problem
+
+    from tendrilkit.params import Segmentation
+
+    today, other = Segmentation(), Segmentation(line_width_px=0)
+    cache = tmp_path / "evidence-cache"
+    cache.mkdir()
+    assert cache_problem(cache, today, write=True) is None and (cache / "segmentation.json").is_file()
+    assert cache_problem(cache, today) is None
+    assert "other segmentation options" in cache_problem(cache, other)
+    old = tmp_path / "old"
+    old.mkdir()
+    (old / "random-1-0.pkl").write_bytes(b"")
+    assert "without a record" in cache_problem(old, today, write=True)
+    assert not (old / "segmentation.json").exists()
 
 
 def test_beam_trace_changes_nothing_and_follows_the_coil(coil):
