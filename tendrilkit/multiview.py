@@ -350,18 +350,13 @@ def _assemble(X, B, Hd, g, bend, segment_mm, length_weight, base_weight):
     for k in range(n):
         for i in range(3):
             g[k, i] += bend[2, k] * X[k, i]
-    for k in range(n - 1):
-        for i in range(3):
-            g[k, i] += bend[1, k + 1] * X[k + 1, i]
-    for k in range(n - 1):
-        for i in range(3):
-            g[k + 1, i] += bend[1, k + 1] * X[k, i]
-    for k in range(n - 2):
-        for i in range(3):
-            g[k, i] += bend[0, k + 2] * X[k + 2, i]
-    for k in range(n - 2):
-        for i in range(3):
-            g[k + 2, i] += bend[0, k + 2] * X[k, i]
+    for d in range(1, 3):  # the off-diagonals d of the bending band, above then below (numpy's order of sums)
+        for k in range(n - d):
+            for i in range(3):
+                g[k, i] += bend[2 - d, k + d] * X[k + d, i]
+        for k in range(n - d):
+            for i in range(3):
+                g[k + d, i] += bend[2 - d, k + d] * X[k, i]
     return ab
 
 
