@@ -205,6 +205,7 @@ t["imports: numpy"] = time.process_time() - c; c = time.process_time()
 import tendrilkit.cli as cli
 hidden = cli._without_numba_extras()  # as the fit command: numba without coverage and cffi
 hidden.__enter__()
+cli._blas_without_scipy_linalg()  # as the fit command: scipy's BLAS modules without scipy.linalg
 import numba
 t["imports: numba (without " + ", ".join(cli.NUMBA_EXTRAS) + ")"] = time.process_time() - c; c = time.process_time()
 import tendrilkit.fitting as F, tendrilkit.io as io, tendrilkit.pwc, tendrilkit.schema as S
