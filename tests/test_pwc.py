@@ -692,10 +692,11 @@ def test_torsion_path_laws_start_within_the_torsion_measured():
 
 
 def test_starts_evaluated_together_are_evaluated_as_one_by_one():
-    """refine._law_states (the starts of a candidate integrated together) gives each pair of laws the bits of
-    _law_state, whatever the knot counts, a law diverging to non-finite points included."""
+    """refine._law_states (the starts of a candidate integrated together; _law_state is one of them) gives each
+    pair of laws the bits of _lm_evaluate (the refinement's own evaluation), whatever the knot counts, a law
+    diverging to non-finite points included."""
     from tendrilkit.pwc.laws import PiecewiseLinearLaw, join_segments
-    from tendrilkit.pwc.refine import _law_state, _law_states
+    from tendrilkit.pwc.refine import _law_state, _law_states, _lm_evaluate
     from tendrilkit.pwc.signals import _prepare
 
     prep = _prepare(random_pwc_curve(4).points_mm, None, "l2", None, None)
@@ -709,7 +710,9 @@ def test_starts_evaluated_together_are_evaluated_as_one_by_one():
     together = _law_states(prep, pairs)
     assert len(together) == len(pairs) and together[3][0] == np.inf
     for pair, got in zip(pairs, together):
-        ref = _law_state(prep, *pair)
+        lk, lt = pair
+        ref = _lm_evaluate(prep.s, lk.knots_mm, lk.values, lt.knots_mm, lt.values, prep.data)
+        assert _law_state(prep, *pair)[0] == ref[0]
         assert got[0] == ref[0]
         for a, b in zip(got[1:], ref[1:]):
             assert a.tobytes() == b.tobytes()

@@ -375,8 +375,10 @@ def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, it
     """
     f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
     args = (f(s), f(data), f(kk), f(vk), f(kt), f(vt), bool(free_knots), float(min_gap), int(iterations), float(rtol))
-    if state is None:  # one compiled function fewer to load at start-up than a compiled composition
-        state = _lm_evaluate(args[0], args[2], args[3], args[4], args[5], args[1])
+    if state is None:  # _lm_evaluate's bits by the function _law_states loads anyway (one load fewer at start-up)
+        ends_k, ends_t = np.array([0, args[2].size]), np.array([0, args[4].size])
+        out = _lm_evaluate_many(args[0], args[2], args[3], ends_k, args[4], args[5], ends_t, args[1])
+        state = (float(out[0][0]),) + tuple(a[0] for a in out[1:])
     kk2, vk2, kt2, vt2, sse, P, T, B, R, X = _lm_from(*args, *state)
     return (kk2, vk2, kt2, vt2), float(sse), (float(sse), P, T, B, R, X)
 
@@ -400,14 +402,11 @@ def _law_state(prep, law_k, law_t):
     :func:`_lm_evaluate`'s evaluation, which is where :func:`_refine_laws` starts (``state``): the
     automatic selection compares its starts by this SSE and refines the best from it.
     """
-    f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
-    return _lm_evaluate(prep.s, f(law_k.knots_mm), f(law_k.values), f(law_t.knots_mm), f(law_t.values), prep.data)
+    return _law_states(prep, [(law_k, law_t)])[0]  # the same bits (one compiled function fewer to load)
 
 
 def _law_states(prep, pairs):
     """:func:`_law_state` of each ``(law_k, law_t)`` of ``pairs``, evaluated together (the same bits, faster)."""
-    if len(pairs) == 1:
-        return [_law_state(prep, *pairs[0])]
     f = lambda arrays: np.ascontiguousarray(np.concatenate(arrays), dtype=float)  # noqa: E731
     ends = lambda laws: np.cumsum([0] + [law.knots_mm.size for law in laws])  # noqa: E731
     lk, lt = [p[0] for p in pairs], [p[1] for p in pairs]
@@ -455,7 +454,7 @@ def _best_insertions(prep, lk, lt, state=None):
     """
     s, data = prep.s, prep.data
     if state is None:
-        state = _lm_evaluate(s, lk.knots_mm, lk.values, lt.knots_mm, lt.values, data)
+        state = _law_state(prep, lk, lt)
     f, P, T, B, R, X = state
     Gk = _law_columns(s, lk.knots_mm, lk.values, prep.free_knots)
     Gt = _law_columns(s, lt.knots_mm, lt.values, prep.free_knots)
