@@ -16,7 +16,7 @@
    of them rejected damping trials (the step and the last refinement mostly "mu/10 rejected, mu
    accepted"): keeping mu after a rejection saves 16-20 % of their evaluations (3-4 % of a fit) but
    changes the fits (not kept); the two trials evaluated together gain nothing (the first is taken
-   half the time). The retry with more lookahead runs on 25 of the 60 frames: 29 % of their CPU;
+   half the time). The retry with more lookahead runs on 25 of the 60 frames: 29 % of all their CPU;
 2. the paper's grid search on the same frames;
 3. ``python -m tendrilkit fit`` on a 100-frame curves.csv, process start included
    (issue 17 target: <= 2 s; on the 100 reconstructed frames of the S3 + S4 site outputs (S3's 60,
