@@ -11,7 +11,9 @@
    Measured 2026-12-01 (load 12-14): an evaluation (integration, registration, SSE) is about 28 us,
    of which the integration 16-19: a chain of dependent square roots and divisions, about 90 ns a
    step (the frame held in scalars, or cos/sin taken off the chain, change nothing); laws advanced
-   together overlap (3 for about 2 of one: a candidate's starts, frenet._integrate_many). On S3's 60
+   together overlap on an idle core (3 for about 2 of one), but a candidate's starts evaluated so
+   gained nothing at that load (82 against 81 us for 3; the arrays' packing costs what the overlap
+   saves; not kept). On S3's 60
    reconstructed frames a fit makes about 190 Jacobians and 360 evaluations in its refinements, half
    of them rejected damping trials (the step and the last refinement mostly "mu/10 rejected, mu
    accepted"): keeping mu after a rejection saves 16-20 % of their evaluations (3-4 % of a fit) but

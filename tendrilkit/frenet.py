@@ -341,57 +341,47 @@ def frenet_frames(
 
 @njit(cache=True)
 def _integrate(s, k_step, t_step, F0, p0, exact_positions):
-    P, T, N, B = _integrate_many(s, k_step.reshape(1, -1), t_step.reshape(1, -1), F0, p0, exact_positions)
-    return P[0], T[0], N[0], B[0]
-
-
-@njit(cache=True)
-def _integrate_many(s, k_steps, t_steps, F0, p0, exact_positions):
-    """:func:`_integrate` of ``m`` laws at once: ``k_steps, t_steps`` (m, n - 1); P, T, N, B (m, n, 3).
-
-    Each curve's arithmetic is that of one curve alone (the same bits); the curves advance together
-    step by step, so that the processor overlaps their chains of dependent operations (one step's
-    frame needs the previous one's: square roots and divisions in a row): three curves cost about
-    twice one.
-    """
-    m = k_steps.shape[0]
     n = s.shape[0]
-    T = np.empty((m, n, 3))
-    N = np.empty((m, n, 3))
-    B = np.empty((m, n, 3))
-    P = np.empty((m, n, 3))
-    for c in range(m):
-        for q in range(3):
-            T[c, 0, q] = F0[0, q]
-            N[c, 0, q] = F0[1, q]
-            B[c, 0, q] = F0[2, q]
-            P[c, 0, q] = p0[q]
+    T = np.empty((n, 3))
+    N = np.empty((n, 3))
+    B = np.empty((n, 3))
+    P = np.empty((n, 3))
+    for c in range(3):
+        T[0, c] = F0[0, c]
+        N[0, c] = F0[1, c]
+        B[0, c] = F0[2, c]
+        P[0, c] = p0[c]
     for i in range(n - 1):
         h = s[i + 1] - s[i]
-        for c in range(m):
-            k = k_steps[c, i]
-            t = t_steps[c, i]
-            # Darboux vector w = tau T + kappa B; the frame rotates about it at rate |w|
-            wx = t * T[c, i, 0] + k * B[c, i, 0]
-            wy = t * T[c, i, 1] + k * B[c, i, 1]
-            wz = t * T[c, i, 2] + k * B[c, i, 2]
-            rate = np.sqrt(k * k + t * t)
-            th = rate * h
-            if th < 1e-12:
-                for q in range(3):
-                    T[c, i + 1, q] = T[c, i, q]
-                    N[c, i + 1, q] = N[c, i, q]
-                    B[c, i + 1, q] = B[c, i, q]
-                    P[c, i + 1, q] = P[c, i, q] + h * T[c, i, q]
-                continue
-            wn = np.sqrt(wx * wx + wy * wy + wz * wz)
-            ax = wx / wn
-            ay = wy / wn
-            az = wz / wn
-            ct = np.cos(th)
-            st = np.sin(th)
-            # Rodrigues: R v = v cos + (a x v) sin + a (a.v)(1 - cos); T, then N (B follows from them)
-            vx, vy, vz = T[c, i, 0], T[c, i, 1], T[c, i, 2]
+        k = k_step[i]
+        t = t_step[i]
+        # Darboux vector w = tau T + kappa B; the frame rotates about it at rate |w|
+        wx = t * T[i, 0] + k * B[i, 0]
+        wy = t * T[i, 1] + k * B[i, 1]
+        wz = t * T[i, 2] + k * B[i, 2]
+        rate = np.sqrt(k * k + t * t)
+        th = rate * h
+        if th < 1e-12:
+            for c in range(3):
+                T[i + 1, c] = T[i, c]
+                N[i + 1, c] = N[i, c]
+                B[i + 1, c] = B[i, c]
+                P[i + 1, c] = P[i, c] + h * T[i, c]
+            continue
+        wn = np.sqrt(wx * wx + wy * wy + wz * wz)
+        ax = wx / wn
+        ay = wy / wn
+        az = wz / wn
+        ct = np.cos(th)
+        st = np.sin(th)
+        # Rodrigues: R v = v cos + (a x v) sin + a (a.v)(1 - cos)
+        for which in range(3):
+            if which == 0:
+                vx, vy, vz = T[i, 0], T[i, 1], T[i, 2]
+            elif which == 1:
+                vx, vy, vz = N[i, 0], N[i, 1], N[i, 2]
+            else:
+                vx, vy, vz = B[i, 0], B[i, 1], B[i, 2]
             cx = ay * vz - az * vy
             cy = az * vx - ax * vz
             cz = ax * vy - ay * vx
@@ -399,44 +389,37 @@ def _integrate_many(s, k_steps, t_steps, F0, p0, exact_positions):
             rx = vx * ct + cx * st + ax * d * (1.0 - ct)
             ry = vy * ct + cy * st + ay * d * (1.0 - ct)
             rz = vz * ct + cz * st + az * d * (1.0 - ct)
-            if exact_positions:
-                # integral over the step of the rotating tangent
-                a1 = st / rate
-                a2 = (1.0 - ct) / rate
-                a3 = h - st / rate
-                P[c, i + 1, 0] = P[c, i, 0] + vx * a1 + cx * a2 + ax * d * a3
-                P[c, i + 1, 1] = P[c, i, 1] + vy * a1 + cy * a2 + ay * d * a3
-                P[c, i + 1, 2] = P[c, i, 2] + vz * a1 + cz * a2 + az * d * a3
+            if which == 0:
+                T[i + 1, 0], T[i + 1, 1], T[i + 1, 2] = rx, ry, rz
+                if exact_positions:
+                    # integral over the step of the rotating tangent
+                    a1 = st / rate
+                    a2 = (1.0 - ct) / rate
+                    a3 = h - st / rate
+                    P[i + 1, 0] = P[i, 0] + vx * a1 + cx * a2 + ax * d * a3
+                    P[i + 1, 1] = P[i, 1] + vy * a1 + cy * a2 + ay * d * a3
+                    P[i + 1, 2] = P[i, 2] + vz * a1 + cz * a2 + az * d * a3
+                else:
+                    P[i + 1, 0] = P[i, 0] + 0.5 * h * (vx + rx)
+                    P[i + 1, 1] = P[i, 1] + 0.5 * h * (vy + ry)
+                    P[i + 1, 2] = P[i, 2] + 0.5 * h * (vz + rz)
+            elif which == 1:
+                N[i + 1, 0], N[i + 1, 1], N[i + 1, 2] = rx, ry, rz
             else:
-                P[c, i + 1, 0] = P[c, i, 0] + 0.5 * h * (vx + rx)
-                P[c, i + 1, 1] = P[c, i, 1] + 0.5 * h * (vy + ry)
-                P[c, i + 1, 2] = P[c, i, 2] + 0.5 * h * (vz + rz)
-            vx, vy, vz = N[c, i, 0], N[c, i, 1], N[c, i, 2]
-            cx = ay * vz - az * vy
-            cy = az * vx - ax * vz
-            cz = ax * vy - ay * vx
-            d = ax * vx + ay * vy + az * vz
-            nx = vx * ct + cx * st + ax * d * (1.0 - ct)
-            ny = vy * ct + cy * st + ay * d * (1.0 - ct)
-            nz = vz * ct + cz * st + az * d * (1.0 - ct)
-            # keep the frame orthonormal to rounding (Gram-Schmidt; B = T x N)
-            tn = np.sqrt(rx ** 2 + ry ** 2 + rz ** 2)
-            tx = rx / tn
-            ty = ry / tn
-            tz = rz / tn
-            d = tx * nx + ty * ny + tz * nz
-            nx -= d * tx
-            ny -= d * ty
-            nz -= d * tz
-            nn = np.sqrt(nx ** 2 + ny ** 2 + nz ** 2)
-            nx /= nn
-            ny /= nn
-            nz /= nn
-            T[c, i + 1, 0], T[c, i + 1, 1], T[c, i + 1, 2] = tx, ty, tz
-            N[c, i + 1, 0], N[c, i + 1, 1], N[c, i + 1, 2] = nx, ny, nz
-            B[c, i + 1, 0] = ty * nz - tz * ny
-            B[c, i + 1, 1] = tz * nx - tx * nz
-            B[c, i + 1, 2] = tx * ny - ty * nx
+                B[i + 1, 0], B[i + 1, 1], B[i + 1, 2] = rx, ry, rz
+        # keep the frame orthonormal to rounding (Gram-Schmidt; B = T x N)
+        tn = np.sqrt(T[i + 1, 0] ** 2 + T[i + 1, 1] ** 2 + T[i + 1, 2] ** 2)
+        for c in range(3):
+            T[i + 1, c] /= tn
+        d = T[i + 1, 0] * N[i + 1, 0] + T[i + 1, 1] * N[i + 1, 1] + T[i + 1, 2] * N[i + 1, 2]
+        for c in range(3):
+            N[i + 1, c] -= d * T[i + 1, c]
+        nn = np.sqrt(N[i + 1, 0] ** 2 + N[i + 1, 1] ** 2 + N[i + 1, 2] ** 2)
+        for c in range(3):
+            N[i + 1, c] /= nn
+        B[i + 1, 0] = T[i + 1, 1] * N[i + 1, 2] - T[i + 1, 2] * N[i + 1, 1]
+        B[i + 1, 1] = T[i + 1, 2] * N[i + 1, 0] - T[i + 1, 0] * N[i + 1, 2]
+        B[i + 1, 2] = T[i + 1, 0] * N[i + 1, 1] - T[i + 1, 1] * N[i + 1, 0]
     return P, T, N, B
 
 

@@ -487,12 +487,10 @@ def test_searches_sharing_a_memo_give_the_same_fits(monkeypatch):
     from tendrilkit.pwc.signals import _prepare
 
     calls, paths, sses = [], [], []
-    refine, path, law_state, law_states = S._refine_laws, S.penalty_path, S._law_state, S._law_states
+    refine, path, law_state = S._refine_laws, S.penalty_path, S._law_state
     monkeypatch.setattr(S, "_refine_laws", lambda *a: calls.append(1) or refine(*a))
     monkeypatch.setattr(S, "penalty_path", lambda *a, **k: paths.append(1) or path(*a, **k))
     monkeypatch.setattr(S, "_law_state", lambda *a: sses.append(1) or law_state(*a))
-    # the starts evaluated together: one count per pair of laws
-    monkeypatch.setattr(S, "_law_states", lambda prep, pairs: sses.extend([1] * len(pairs)) or law_states(prep, pairs))
     prep = _prepare(random_pwc_curve(3).points_mm, None, "l2", None, None)
     kw = dict(criterion="bic", target_r2=0.999, max_segments=10, refine=True, insertions=True,
               quick_iterations=4, max_candidates=40)
@@ -690,29 +688,3 @@ def test_torsion_path_laws_start_within_the_torsion_measured():
     assert np.abs(f.tau_law.values).max() < 1.0
     assert mean_distance_mm(f.points_mm, resample_curve(make_phantom("S3").curves_mm[44], 4000)) < 0.05
 
-
-def test_starts_evaluated_together_are_evaluated_as_one_by_one():
-    """refine._law_states (the starts of a candidate integrated together; _law_state is one of them) gives each
-    pair of laws the bits of _lm_evaluate (the refinement's own evaluation), whatever the knot counts, a law
-    diverging to non-finite points included."""
-    from tendrilkit.pwc.laws import PiecewiseLinearLaw, join_segments
-    from tendrilkit.pwc.refine import _law_state, _law_states, _lm_evaluate
-    from tendrilkit.pwc.signals import _prepare
-
-    prep = _prepare(random_pwc_curve(4).points_mm, None, "l2", None, None)
-    L = prep.s[-1]
-    pairs = []
-    for cuts in ([], [L / 2], [L / 4, L / 2, 3 * L / 4]):
-        b = np.searchsorted(prep.s, [0.0, *cuts, L + 1])
-        pairs.append((join_segments(prep.s, prep.fr.kappa, b, kind="kappa"),
-                      join_segments(prep.s, prep.fr.tau, b[[0, -1]], weights=prep.wt, kind="tau")))
-    pairs.append((PiecewiseLinearLaw(np.array([0.0, L]), np.array([np.inf, 0.0]), "kappa"), pairs[0][1]))
-    together = _law_states(prep, pairs)
-    assert len(together) == len(pairs) and together[3][0] == np.inf
-    for pair, got in zip(pairs, together):
-        lk, lt = pair
-        ref = _lm_evaluate(prep.s, lk.knots_mm, lk.values, lt.knots_mm, lt.values, prep.data)
-        assert _law_state(prep, *pair)[0] == ref[0]
-        assert got[0] == ref[0]
-        for a, b in zip(got[1:], ref[1:]):
-            assert a.tobytes() == b.tobytes()

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from tendrilkit.frenet import _integrate, _integrate_many
+from tendrilkit.frenet import _integrate
 from tendrilkit.geometry import rigid_fit
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _pwl_step_means
 
@@ -166,44 +166,6 @@ def _lm_evaluate(s, kk, vk, kt, vt, data):
             X[j, c] += t[c]
             d = X[j, c] - data[j, c]
             f += d * d
-    return f, P, T, B, R, X
-
-
-@njit(cache=True)
-def _lm_evaluate_many(s, kk, vk, ok, kt, vt, ot, data):
-    """:func:`_lm_evaluate` of ``m`` pairs of laws at once (the same bits; integrated together).
-
-    Law ``c``'s knots and values are ``kk[ok[c]:ok[c + 1]]``, ``vk[...]`` (curvature) and ``kt``,
-    ``vt`` at ``ot`` (torsion). Returns ``f`` (m,), ``P, T, B`` (m, n, 3), ``R`` (m, 3, 3), ``X`` (m, n, 3).
-    """
-    m = ok.shape[0] - 1
-    n = s.shape[0]
-    K = np.empty((m, n - 1))
-    Tq = np.empty((m, n - 1))
-    for c in range(m):
-        K[c] = _pwl_step_means(s, kk[ok[c]:ok[c + 1]], vk[ok[c]:ok[c + 1]])
-        Tq[c] = _pwl_step_means(s, kt[ot[c]:ot[c + 1]], vt[ot[c]:ot[c + 1]])
-    P, T, _, B = _integrate_many(s, K, Tq, np.eye(3), np.zeros(3), False)
-    f = np.empty(m)
-    R = np.empty((m, 3, 3))
-    X = np.empty((m, n, 3))
-    for c in range(m):
-        if not np.all(np.isfinite(P[c])):
-            f[c] = np.inf
-            R[c] = np.eye(3)
-            X[c] = P[c]
-            continue
-        Rc, tc = rigid_fit(P[c], data)
-        Xc = P[c] @ Rc.T
-        fc = 0.0
-        for j in range(n):
-            for q in range(3):
-                Xc[j, q] += tc[q]
-                d = Xc[j, q] - data[j, q]
-                fc += d * d
-        f[c] = fc
-        R[c] = Rc
-        X[c] = Xc
     return f, P, T, B, R, X
 
 
@@ -375,10 +337,8 @@ def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, it
     """
     f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
     args = (f(s), f(data), f(kk), f(vk), f(kt), f(vt), bool(free_knots), float(min_gap), int(iterations), float(rtol))
-    if state is None:  # _lm_evaluate's bits by the function _law_states loads anyway (one load fewer at start-up)
-        ends_k, ends_t = np.array([0, args[2].size]), np.array([0, args[4].size])
-        out = _lm_evaluate_many(args[0], args[2], args[3], ends_k, args[4], args[5], ends_t, args[1])
-        state = (float(out[0][0]),) + tuple(a[0] for a in out[1:])
+    if state is None:  # one compiled function fewer to load at start-up than a compiled composition
+        state = _lm_evaluate(args[0], args[2], args[3], args[4], args[5], args[1])
     kk2, vk2, kt2, vt2, sse, P, T, B, R, X = _lm_from(*args, *state)
     return (kk2, vk2, kt2, vt2), float(sse), (float(sse), P, T, B, R, X)
 
@@ -402,17 +362,8 @@ def _law_state(prep, law_k, law_t):
     :func:`_lm_evaluate`'s evaluation, which is where :func:`_refine_laws` starts (``state``): the
     automatic selection compares its starts by this SSE and refines the best from it.
     """
-    return _law_states(prep, [(law_k, law_t)])[0]  # the same bits (one compiled function fewer to load)
-
-
-def _law_states(prep, pairs):
-    """:func:`_law_state` of each ``(law_k, law_t)`` of ``pairs``, evaluated together (the same bits, faster)."""
-    f = lambda arrays: np.ascontiguousarray(np.concatenate(arrays), dtype=float)  # noqa: E731
-    ends = lambda laws: np.cumsum([0] + [law.knots_mm.size for law in laws])  # noqa: E731
-    lk, lt = [p[0] for p in pairs], [p[1] for p in pairs]
-    out = _lm_evaluate_many(prep.s, f([x.knots_mm for x in lk]), f([x.values for x in lk]), ends(lk),
-                            f([x.knots_mm for x in lt]), f([x.values for x in lt]), ends(lt), prep.data)
-    return [(float(out[0][c]),) + tuple(a[c] for a in out[1:]) for c in range(len(pairs))]
+    f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    return _lm_evaluate(prep.s, f(law_k.knots_mm), f(law_k.values), f(law_t.knots_mm), f(law_t.values), prep.data)
 
 
 @njit(cache=True)
@@ -454,7 +405,7 @@ def _best_insertions(prep, lk, lt, state=None):
     """
     s, data = prep.s, prep.data
     if state is None:
-        state = _law_state(prep, lk, lt)
+        state = _lm_evaluate(s, lk.knots_mm, lk.values, lt.knots_mm, lt.values, data)
     f, P, T, B, R, X = state
     Gk = _law_columns(s, lk.knots_mm, lk.values, prep.free_knots)
     Gt = _law_columns(s, lt.knots_mm, lt.values, prep.free_knots)

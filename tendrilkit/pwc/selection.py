@@ -13,7 +13,7 @@ import numpy as np
 from tendrilkit.pwc.costs import _check_signal
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _insert_knot, _Joiner, _merge_knots
 from tendrilkit.pwc.rebuild import _law_sse
-from tendrilkit.pwc.refine import _best_insertions, _hinge_positions, _law_state, _law_states, _refine_laws
+from tendrilkit.pwc.refine import _best_insertions, _hinge_positions, _law_state, _refine_laws
 from tendrilkit.pwc.search import penalty_path
 
 __all__: list[str] = []
@@ -162,14 +162,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             u = _merge_knots(t_new, t_cur.knots_mm, prep.min_gap_mm)
             starts = [(k_cur, path_tau(b)), (k_cur, PiecewiseLinearLaw(t_new, t_cur(t_new), "tau")),
                       (k_cur, PiecewiseLinearLaw(u, t_cur(u), "tau"))]
-        # compared by the SSE of the refinement's own evaluation, from which the best is refined;
-        # the starts not evaluated yet are evaluated together (the same bits as one by one)
-        todo = {}
-        for x in starts:
-            todo.setdefault(laws_key("start", *x), x)
-        todo = {key: x for key, x in todo.items() if key not in memo}
-        if len(todo) > 1:
-            memo.update(zip(todo, _law_states(prep, list(todo.values()))))
+        # compared by the SSE of the refinement's own evaluation, from which the best is refined
         start_k, start_t = min(starts, key=lambda x: start_state(x[0], x[1])[0])
         return scored(*refined(start_k, start_t, *quick, state=start_state(start_k, start_t)))
 
