@@ -7,7 +7,18 @@
    (2026-11, 2 shared cores, load 4): median 14.9 ms CPU per frame (main 0ece53a: 14.8; the fits
    bit-identical); of a frame's CPU, Levenberg-Marquardt 45-55 % (2 iterations for each of ~26
    candidates, 10 for each of ~5 steps taken, the last to convergence), the knot score test 15 %,
-   signals and cost tables 10 %, the starts' evaluations 7 %, joins 6 %, the rest Python;
+   signals and cost tables 10 %, the starts' evaluations 7 %, joins 6 %, the rest Python.
+   Measured 2026-12-01 (load 12-14): an evaluation (integration, registration, SSE) is about 28 us,
+   of which the integration 16-19: a chain of dependent square roots and divisions, about 90 ns a
+   step (the frame held in scalars, or cos/sin taken off the chain, change nothing); laws advanced
+   together overlap on an idle core (3 for about 2 of one), but a candidate's starts evaluated so
+   gained nothing at that load (82 against 81 us for 3; the arrays' packing costs what the overlap
+   saves; not kept). On S3's 60
+   reconstructed frames a fit makes about 190 Jacobians and 360 evaluations in its refinements, half
+   of them rejected damping trials (the step and the last refinement mostly "mu/10 rejected, mu
+   accepted"): keeping mu after a rejection saves 16-20 % of their evaluations (3-4 % of a fit) but
+   changes the fits (not kept); the two trials evaluated together gain nothing (the first is taken
+   half the time). The retry with more lookahead runs on 25 of the 60 frames: 29 % of all their CPU;
 2. the paper's grid search on the same frames;
 3. ``python -m tendrilkit fit`` on a 100-frame curves.csv, process start included
    (issue 17 target: <= 2 s; on the 100 reconstructed frames of the S3 + S4 site outputs (S3's 60,
@@ -205,6 +216,7 @@ t["imports: numpy"] = time.process_time() - c; c = time.process_time()
 import tendrilkit.cli as cli
 hidden = cli._without_numba_extras()  # as the fit command: numba without coverage and cffi
 hidden.__enter__()
+cli._blas_without_scipy_linalg()  # as the fit command: scipy's BLAS modules without scipy.linalg
 import numba
 t["imports: numba (without " + ", ".join(cli.NUMBA_EXTRAS) + ")"] = time.process_time() - c; c = time.process_time()
 import tendrilkit.fitting as F, tendrilkit.io as io, tendrilkit.pwc, tendrilkit.schema as S
@@ -358,7 +370,8 @@ def _print_refinements(title: str, curves: list) -> None:
         try:
             return inner(prep, lk, lt, iterations, rtol, state)
         finally:
-            a = acc.setdefault((iterations, state is not None), [0, 0.0])
+            # a quick candidate is told by its start's state; the steps start from their candidate's end state too
+            a = acc.setdefault((iterations, state is not None and iterations == 2), [0, 0.0])
             a[0] += 1
             a[1] += time.process_time() - c
 

@@ -146,9 +146,47 @@ def _without_numba_extras():
                 del sys.modules[name]
 
 
+def _blas_without_scipy_linalg() -> None:
+    """Load scipy's BLAS and LAPACK Cython modules without running ``scipy.linalg``'s ``__init__``.
+
+    numba's first compiled call sets up its CPU target, which checks for BLAS by importing
+    ``scipy.linalg.cython_blas``; that import runs ``scipy.linalg``'s ``__init__`` (its whole API
+    and scipy's array-API layer, which imports ``numpy.f2py``, ``numpy.ma``, ``numpy.testing``):
+    about 0.2 s of the fit command's start (of 0.3 s numba's set-up), for a package the fit never
+    calls (the compiled kernels take BLAS and LAPACK from those two modules). Here the two modules
+    are imported under a bare ``scipy.linalg`` (only its ``__path__``), which is dropped at once:
+    numba's imports find the modules loaded, and a later ``import scipy.linalg`` imports the
+    package in full, as usual. Only in a process that has imported neither numba nor
+    ``scipy.linalg`` (a command run from the shell); otherwise nothing.
+    """
+    if "numba" in sys.modules or "scipy.linalg" in sys.modules:
+        return
+    import types
+
+    try:
+        import scipy
+    except ImportError:  # numba reports the missing BLAS itself
+        return
+    bare = types.ModuleType("scipy.linalg")
+    bare.__path__ = [os.path.join(os.path.dirname(scipy.__file__), "linalg")]
+    sys.modules["scipy.linalg"] = bare
+    try:
+        import scipy.linalg.cython_blas  # noqa: F401
+        import scipy.linalg.cython_lapack  # noqa: F401
+    except ImportError:  # a scipy built otherwise: numba's own import decides
+        for name in ("scipy.linalg.cython_blas", "scipy.linalg.cython_lapack"):
+            sys.modules.pop(name, None)
+    finally:
+        if sys.modules.get("scipy.linalg") is bare:
+            del sys.modules["scipy.linalg"]
+        if scipy.__dict__.get("linalg") is bare:
+            del scipy.linalg
+
+
 def _cmd_fit(args: argparse.Namespace) -> int:
     _single_threaded_blas()
     with _without_numba_extras():
+        _blas_without_scipy_linalg()
         from tendrilkit.fitting import run_fit
 
         summary = run_fit(Path(args.curves), Path(args.out), workers=args.workers)  # None: every core

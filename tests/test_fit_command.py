@@ -206,6 +206,29 @@ def test_fit_command_starts_numba_without_its_extras_and_gives_them_back(tmp_pat
     assert len(fit) == len(random_pwc_curve(3).points_mm)
 
 
+@pytest.mark.parametrize("imported_first", ["", "import scipy.linalg; "])
+def test_fit_command_loads_blas_without_scipy_linalg(tmp_path, imported_first):
+    """The fit command gives numba scipy's BLAS and LAPACK modules without importing ``scipy.linalg``
+    (a fifth of a second of its start): its compiled kernels (matrix products, solves) run on them and fit
+    the same bytes, and ``scipy.linalg`` imports in full afterwards. A process that imported it first keeps it."""
+    csv = tmp_path / "curves.csv"
+    write_curves(csv, seeds=(3,), degenerate=False)
+    code = (imported_first + "import sys\nfrom tendrilkit.cli import main\n"
+            "code = main(['fit', sys.argv[1], '--out', sys.argv[2]])\n"
+            "loaded = 'scipy.linalg' in sys.modules\n"
+            "import numpy as np, scipy.linalg\nfrom scipy.linalg import solve_banded\n"
+            "print(code, loaded, np.allclose(scipy.linalg.solve(np.eye(2) * 2, np.ones(2)), 0.5), "
+            "'scipy.linalg.cython_lapack' in sys.modules)")
+    r = subprocess.run([sys.executable, "-c", code, str(csv), str(tmp_path / "out")], capture_output=True,
+                       text=True, cwd=REPO)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip().splitlines()[-1] == ("0 False True True" if not imported_first else "0 True True True")
+    other = tmp_path / "ref"
+    run_fit(csv, other)  # in this process, scipy.linalg and numba as the tests load them
+    for name in ("pwc_curves.csv", "pwc_segments.csv", "pwc_metrics.csv"):
+        assert (other / name).read_bytes() == (tmp_path / "out" / name).read_bytes()
+
+
 @pytest.mark.parametrize("x_cells", [["1.5", "-2e-3", "+4", "5."], ["1.5", "", "3", "NA"], ["1", "-nan", "NaN", "2"],
                                      ["1", " 2 ", "3E0", "4"], ["1", "1_0", "2", "3"], ["1", "2", "x", "3"]])
 def test_curves_are_read_as_cell_by_cell(tmp_path, x_cells):

@@ -530,6 +530,27 @@ def test_refinement_from_the_starts_evaluation_is_the_same():
             assert np.array_equal(x.knots_mm, y.knots_mm) and np.array_equal(x.values, y.values)
 
 
+def test_refinement_returns_the_evaluation_of_its_laws():
+    """A refinement's end state is the refined laws' evaluation (``_law_state``), bit for bit: the search
+    starts their further refinement and their score test from it instead of evaluating them again."""
+    from tendrilkit.pwc.laws import join_segments
+    from tendrilkit.pwc.refine import _best_insertions, _law_state, _refine_laws
+    from tendrilkit.pwc.signals import _prepare
+
+    for seed in (5, 11):
+        prep = _prepare(random_pwc_curve(seed).points_mm, None, "l2", None, None)
+        L = prep.s[-1]
+        lk = join_segments(prep.s, prep.fr.kappa, np.searchsorted(prep.s, [0, L / 3, L + 1]), kind="kappa")
+        lt = join_segments(prep.s, prep.fr.tau, np.array([0, prep.s.size]), weights=prep.wt, kind="tau")
+        for iterations, rtol in ((0, 1e-4), (2, 1e-4), (10, 1e-6), (40, 1e-6)):
+            lk2, lt2, sse, end = _refine_laws(prep, lk, lt, iterations, rtol)
+            ref = _law_state(prep, lk2, lt2)
+            assert end[0] == sse == ref[0]
+            for a, b in zip(end[1:], ref[1:]):
+                assert a.tobytes() == b.tobytes()
+            assert _best_insertions(prep, lk2, lt2, end) == _best_insertions(prep, lk2, lt2)
+
+
 def test_gap_fraction_keeps_knots_apart():
     """The fraction of a knot step that keeps consecutive knots ``gap`` apart (0.99 of the room)."""
     from tendrilkit.pwc.refine import _gap_fraction
@@ -562,8 +583,8 @@ def test_refinement_recovers_a_far_tip_value_in_few_iterations():
     vt_off[-1] += 6.0 / L
     sse = {}
     for it in (10, 200):
-        _, sse[it] = _refine_laws_lm(s, data, kk, vk, kt, vt_off, free_knots=False, iterations=it, rtol=0.0)
-    _, sse_true = _refine_laws_lm(s, data, kk, vk, kt, vt, free_knots=False, iterations=0)
+        _, sse[it], _ = _refine_laws_lm(s, data, kk, vk, kt, vt_off, free_knots=False, iterations=it, rtol=0.0)
+    _, sse_true, _ = _refine_laws_lm(s, data, kk, vk, kt, vt, free_knots=False, iterations=0)
     assert sse[200] <= sse_true  # as close as the true laws (the data are the exact positions)
     assert sse[10] <= 1.01 * sse[200], (sse, sse_true)
 
@@ -666,3 +687,4 @@ def test_torsion_path_laws_start_within_the_torsion_measured():
     assert f.sse_mm2 < 2.0
     assert np.abs(f.tau_law.values).max() < 1.0
     assert mean_distance_mm(f.points_mm, resample_curve(make_phantom("S3").curves_mm[44], 4000)) < 0.05
+

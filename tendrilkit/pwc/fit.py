@@ -261,7 +261,7 @@ def fit_piecewise_clothoid(
         law_k = join_segments(s, fr.kappa, bk, weights=prep.wk, kind="kappa")
         law_t = join_segments(s, fr.tau, bt, weights=prep.wt, kind="tau")
         if refine:
-            law_k, law_t, _ = _refine_laws(prep, law_k, law_t)
+            law_k, law_t = _refine_laws(prep, law_k, law_t)[:2]
         return _finish(prep, law_k, law_t, bounds_k=bk, bounds_t=bt, pen_k=penalty_kappa,
                        pen_t=penalty_tau, rng_k=[penalty_kappa] * 2, rng_t=[penalty_tau] * 2,
                        selection="fixed", candidates=np.zeros((0, 6)), refined=refine, positions=positions)

@@ -177,7 +177,7 @@ def grid_search_penalties(
     i, j = path_k.index(pen_k), path_t.index(pen_t)
     lk, lt = laws_k[i], laws_t[j]
     if refine:
-        lk, lt, _ = _refine_laws(prep, lk, lt)
+        lk, lt = _refine_laws(prep, lk, lt)[:2]
     fit = _finish(prep, lk, lt, bounds_k=path_k.bounds[i], bounds_t=path_t.bounds[j], pen_k=pen_k, pen_t=pen_t,
                   rng_k=(path_k.penalty_lo[i], path_k.penalty_hi[i]), rng_t=(path_t.penalty_lo[j], path_t.penalty_hi[j]),
                   selection="grid", candidates=np.zeros((0, 6)), refined=refine, positions=positions)

@@ -227,7 +227,11 @@ def _gap_fraction(knots, inner_step, gap):
 
 @njit(cache=True)
 def _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, P, T, B, R, X):
-    """Levenberg-Marquardt from the evaluation ``f, P, T, B, R, X`` of the start (:func:`_lm_evaluate`'s)."""
+    """Levenberg-Marquardt from the evaluation ``f, P, T, B, R, X`` of the start (:func:`_lm_evaluate`'s).
+
+    Returns the refined ``kk, vk, kt, vt``, their SSE and their evaluation ``P, T, B, R, X`` (the
+    same bits as :func:`_lm_evaluate` of the returned laws: the one that accepted them, or the start's).
+    """
     mk, mt = kk.shape[0], kt.shape[0]
     ik = mk - 2 if (free_knots and mk > 2) else 0
     it = mt - 2 if (free_knots and mt > 2) else 0
@@ -249,7 +253,7 @@ def _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, 
     mu = 1e-4
     n = s.shape[0]
     if not np.isfinite(f):
-        return ck[0], ck[1], ck[2], ck[3], f
+        return ck[0], ck[1], ck[2], ck[3], f, P, T, B, R, X
     r = np.empty(3 * n)
     for _ in range(iterations):
         Gk = _law_columns(s, ck[0], ck[1], free_knots)
@@ -311,7 +315,7 @@ def _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, 
         mu = max(mu / 10.0, 1e-12)
         if rel < rtol:
             break
-    return ck[0], ck[1], ck[2], ck[3], f
+    return ck[0], ck[1], ck[2], ck[3], f, P, T, B, R, X
 
 
 def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, iterations=40, rtol=1e-6, state=None):
@@ -328,22 +332,28 @@ def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, it
     model; a longer step raises the damping); knots stay ``min_gap`` mm
     apart. Stops when an iteration lowers the SSE by less than the fraction
     ``rtol``. ``state``: the start's :func:`_law_state`, if the caller has it
-    (the start is then not evaluated again; the same bits).
+    (the start is then not evaluated again; the same bits). Returns the laws' arrays, their SSE and
+    their :func:`_law_state` (the evaluation the iterations ended on).
     """
     f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
     args = (f(s), f(data), f(kk), f(vk), f(kt), f(vt), bool(free_knots), float(min_gap), int(iterations), float(rtol))
     if state is None:  # one compiled function fewer to load at start-up than a compiled composition
         state = _lm_evaluate(args[0], args[2], args[3], args[4], args[5], args[1])
-    kk2, vk2, kt2, vt2, sse = _lm_from(*args, *state)
-    return (kk2, vk2, kt2, vt2), float(sse)
+    kk2, vk2, kt2, vt2, sse, P, T, B, R, X = _lm_from(*args, *state)
+    return (kk2, vk2, kt2, vt2), float(sse), (float(sse), P, T, B, R, X)
 
 
 def _refine_laws(prep, law_k, law_t, iterations=40, rtol=1e-6, state=None):
+    """The laws refined on ``prep``'s points: ``(law_k, law_t, sse_mm2, end)``.
+
+    ``end`` is the refined laws' :func:`_law_state` (the same bits), where a further refinement
+    of them or their score test (:func:`_best_insertions`) can start without evaluating them again.
+    """
     s = prep.s
-    (kk, vk, kt, vt), sse = _refine_laws_lm(
+    (kk, vk, kt, vt), sse, end = _refine_laws_lm(
         s, prep.data, law_k.knots_mm, law_k.values, law_t.knots_mm, law_t.values,
         free_knots=prep.free_knots, min_gap=prep.min_gap_mm, iterations=iterations, rtol=rtol, state=state)
-    return PiecewiseLinearLaw(kk, vk, "kappa"), PiecewiseLinearLaw(kt, vt, "tau"), sse
+    return PiecewiseLinearLaw(kk, vk, "kappa"), PiecewiseLinearLaw(kt, vt, "tau"), sse, end
 
 
 def _law_state(prep, law_k, law_t):
@@ -383,17 +393,20 @@ def _hinge_positions(prep, lk, lt):
     return xs, [np.min(np.abs(xs[:, None] - law.knots_mm[None, :]), axis=1) >= gap for law in (lk, lt)]
 
 
-def _best_insertions(prep, lk, lt):
+def _best_insertions(prep, lk, lt, state=None):
     """Score test for one more knot: the best new knot position for each law.
 
     At the refined fit, adding a knot at ``x`` adds the hinge :math:`(s - x)_+`
     to the law's span; the first-order drop of the 3D SSE is
     :math:`(c_\\perp^T r)^2 / |c_\\perp|^2` with :math:`c` the hinge's
     Jacobian column made orthogonal to the current ones. Returns
-    ``(x_kappa, gain_kappa), (x_tau, gain_tau)`` (``None`` where no room).
+    ``(x_kappa, gain_kappa), (x_tau, gain_tau)`` (``None`` where no room). ``state``: the laws'
+    :func:`_law_state`, if the caller has it (not evaluated again; the same bits).
     """
     s, data = prep.s, prep.data
-    f, P, T, B, R, X = _lm_evaluate(s, lk.knots_mm, lk.values, lt.knots_mm, lt.values, data)
+    if state is None:
+        state = _lm_evaluate(s, lk.knots_mm, lk.values, lt.knots_mm, lt.values, data)
+    f, P, T, B, R, X = state
     Gk = _law_columns(s, lk.knots_mm, lk.values, prep.free_knots)
     Gt = _law_columns(s, lt.knots_mm, lt.values, prep.free_knots)
     J = _lm_jacobian(s, P, T, B, R, X, Gk, Gt)

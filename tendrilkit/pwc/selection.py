@@ -71,22 +71,29 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
     """
     memo = {} if memo is None else memo
 
+    def laws_key(tag, lk, lt):
+        return (tag, lk.knots_mm.tobytes(), lk.values.tobytes(), lt.knots_mm.tobytes(), lt.values.tobytes())
+
     def refined(lk, lt, iterations=40, rtol=1e-6, state=None):
-        key = ("refine", lk.knots_mm.tobytes(), lk.values.tobytes(), lt.knots_mm.tobytes(), lt.values.tobytes(),
-               iterations, rtol)
+        """``(lk, lt, sse)`` refined; the refined laws' evaluation is kept as their start's."""
+        key = laws_key("refine", lk, lt) + (iterations, rtol)
         if key not in memo:
-            memo[key] = _refine_laws(prep, lk, lt, iterations, rtol, state)
+            if state is None:  # laws a refinement ended on: their evaluation is known
+                state = memo.get(laws_key("start", lk, lt))
+            lk2, lt2, sse, end = _refine_laws(prep, lk, lt, iterations, rtol, state)
+            memo[key] = (lk2, lt2, sse)
+            memo.setdefault(laws_key("start", lk2, lt2), end)  # the same bits as _law_state of them
         return memo[key]
 
     def insertions_at(lk, lt):
-        key = ("insert", lk.knots_mm.tobytes(), lk.values.tobytes(), lt.knots_mm.tobytes(), lt.values.tobytes())
+        key = laws_key("insert", lk, lt)
         if key not in memo:
-            memo[key] = _best_insertions(prep, lk, lt)
+            memo[key] = _best_insertions(prep, lk, lt, memo.get(laws_key("start", lk, lt)))
         return memo[key]
 
     def start_state(lk, lt):
         """The evaluation of a start (its SSE first), where its refinement begins."""
-        key = ("start", lk.knots_mm.tobytes(), lk.values.tobytes(), lt.knots_mm.tobytes(), lt.values.tobytes())
+        key = laws_key("start", lk, lt)
         if key not in memo:
             memo[key] = _law_state(prep, lk, lt)
         return memo[key]
