@@ -82,8 +82,8 @@ from scipy.linalg.lapack import dpbsv as _pbsv
 from tendrilkit.camera import Camera, _project_brown
 from tendrilkit.exceptions import DegenerateCurveError, TendrilLostError
 from tendrilkit.geometry import arc_length, resample_polyline, section_masks
-from tendrilkit.mv_acquire import (ON_PX, TURN_PX, advance, bridge_gap, claim, cone_directions, grow_curve, point_costs,
-                                  runs_out)
+from tendrilkit.mv_acquire import (ON_PX, TURN_PX, _nearest_distance, advance, bridge_gap, claim, cone_directions,
+                                  grow_curve, point_costs, runs_out)
 from tendrilkit.mv_evidence import (COVER_DEPTH_PX, COVER_PX, SkeletonEvidence, _grid_nearest, _inside,
                                     _line_distance, skeleton_distance)
 from tendrilkit.triangulation import triangulate
@@ -118,6 +118,16 @@ BRIDGE_EXTEND_MM = 200.0
 #: three criteria 34.2 -> 34.2 %, mean and max better, ``ok`` with an end or the max over 2 mm 6 -> 7, 21 ms more per
 #: frame; with the pale segmentation options it keeps more of what they gain: README, Options).
 KINK_PX_PER_DEG = 1.0
+#: The tip's extension (:func:`adjust_tip`, :func:`_trim`) is vetoed at a place this many views or more show as the
+#: open board (1 until 2026-12-01: any view). A pale tendril is missed by one view's segmentation here and there
+#: (dev seed 1075: the last 6-16 mm seen on two views' skeletons, the third showing the board); a free tip runs
+#: onto the board in every view.
+BOARD_VETO_VIEWS = 2
+#: A place whose skeleton pixels the curve explains already (a coil's next pass over its last one in a view) still
+#: counts for the extension in that view when every view that sees it has it on its skeleton, one view on new
+#: pixels, and the place lies this far from the curve in 3D at least (mm; the pixel is two passes' crossing, not the
+#: curve running back along itself); 0: explained pixels never count (until 2026-12-01).
+COIL_PASS_MM = 2.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -533,11 +543,10 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
             dirs = cone_directions(t, 30.0, 3)
             P = tip + step_mm * dirs
             d, seen, near, bg = point_costs(evidence, P, nearest=True)
-            on = seen & (d <= ON_PX) & ~bg.any(axis=0)
-            if claims is not None and s_[-1] + ext_mm + step_mm > prior_mm:
-                for v, c in enumerate(claims):
-                    on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
+            on = seen & (d <= ON_PX) & ~(bg.sum(axis=0) >= BOARD_VETO_VIEWS)
             on &= advance(evidence, np.repeat(tip[None], len(P), axis=0), P)
+            if claims is not None and s_[-1] + ext_mm + step_mm > prior_mm:
+                on = _unexplained(on, seen, near, claims, P, np.asarray(X + ext, float))
             ok = on.sum(axis=0) >= 2
             if not ok.any():
                 stopped = True
@@ -588,6 +597,27 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     return np.asarray(X + ext, float)
 
 
+def _unexplained(on: np.ndarray, seen: np.ndarray, near: np.ndarray, claims: list, P: np.ndarray,
+                 curve: np.ndarray) -> np.ndarray:
+    """(V, n) ``on`` at places ``P`` (n, 3) where each view's nearest skeleton pixel (``near``) is not one the curve
+    explains already (``claims``), or is, at a place ``COIL_PASS_MM`` or more from the ``curve`` in 3D (its last
+    3 mm left out), on every view that sees it (``seen``) and new in one (a coil's next pass over its last one)."""
+    claimed = np.array([(near[v] >= 0) & c[np.maximum(near[v], 0)] for v, c in enumerate(claims)])
+    new = on & ~claimed
+    if COIL_PASS_MM <= 0:
+        return new
+    pass_ = (new.sum(axis=0) >= 1) & (on.sum(axis=0) >= 2) & np.all(on | ~seen, axis=0) & (new.sum(axis=0) < 2)
+    if not pass_.any():
+        return new
+    s = arc_length(curve)
+    body = curve[s <= s[-1] - 3.0]
+    if len(body) < 2:
+        return new
+    body = resample_polyline(body, step=0.5)
+    pass_[pass_] = _nearest_distance(P[pass_], body) >= COIL_PASS_MM
+    return np.where(pass_[None, :], on, new)
+
+
 def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.5, radius_px: float = 4.0,
           prior_mm: float = 0.0) -> np.ndarray:
     """The curve up to its last node that two views see on skeleton pixels the curve had not explained yet.
@@ -602,9 +632,10 @@ def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.
     d, seen, near, bg = point_costs(evidence, X, nearest=True)
     on = seen & (d <= ON_PX)
     on[:, 1:] &= advance(evidence, X[:-1], X[1:])
-    on &= ~bg.any(axis=0)  # a view showing the board there contradicts the node
+    on &= ~(bg.sum(axis=0) >= BOARD_VETO_VIEWS)  # views showing the board there contradict the node
     dense = resample_polyline(X, step=0.25)
     s_dense = np.linspace(0.0, s[-1], len(dense))
+    explained = np.zeros_like(on)
     for v, ev in enumerate(evidence):
         ok = on[v] & (near[v] >= 0)
         if not ok.any():
@@ -612,7 +643,17 @@ def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.
         tree = cKDTree(ev.camera.project(dense))
         for i, lst in zip(np.flatnonzero(ok), tree.query_ball_point(ev.skeleton_xy[near[v, ok]], radius_px)):
             if lst and s_dense[min(lst)] <= s[i] - lag_mm and s[i] > prior_mm:
-                on[v, i] = False
+                explained[v, i] = True
+    new = on & ~explained
+    if COIL_PASS_MM > 0:
+        # a coil's next pass over its last one (see _unexplained): every view that sees the node on its skeleton,
+        # one on new pixels, the node COIL_PASS_MM or more from the curve up to 3 mm before it
+        pass_ = (new.sum(axis=0) == 1) & (on.sum(axis=0) >= 2) & np.all(on | ~seen, axis=0)
+        for i in np.flatnonzero(pass_):
+            before = dense[s_dense <= s[i] - 3.0]
+            pass_[i] = len(before) > 0 and float(_nearest_distance(X[i:i + 1], before)[0]) >= COIL_PASS_MM
+        new |= on & pass_[None, :]
+    on = new
     good = np.flatnonzero(on.sum(axis=0) >= 2)
     last = int(good[-1]) if len(good) else 2
     return X[:max(last + 1, 3)]
