@@ -30,7 +30,11 @@ Coverage (:func:`adjust_tip`)
     The tip is moved outward, 0.5 mm at a time, while two views or more see
     the extension on their skeletons, and back while the tip is not on the
     skeleton of at least two views: the curve explains the tendril's pixels
-    from the base outward and can neither shrink nor run on. The views'
+    from the base outward and can neither shrink nor run on. One view
+    showing the board does not stop it where two views see the tendril and
+    that view shows nothing of it near by (a pale tendril its segmentation
+    missed: ``BOARD_VETO_VIEWS``, ``BOARD_ELSEWHERE_PX``); a last such
+    stretch shorter than ``BOARD_RUN_MM`` is undone. The views'
     skeletons hold thin structures only (:data:`tendrilkit.mv_evidence.WIDE_PX`):
     a tip cannot run along the medial axis of a leaf it touches. An
     extension that ends where two views' ROIs end is undone: it ran onto
@@ -82,10 +86,10 @@ from scipy.linalg.lapack import dpbsv as _pbsv
 from tendrilkit.camera import Camera, _project_brown
 from tendrilkit.exceptions import DegenerateCurveError, TendrilLostError
 from tendrilkit.geometry import arc_length, resample_polyline, section_masks
-from tendrilkit.mv_acquire import (ON_PX, TURN_PX, _nearest_distance, advance, bridge_gap, claim, cone_directions,
-                                  grow_curve, point_costs, runs_out)
+from tendrilkit.mv_acquire import (ON_PX, TURN_PX, advance, bridge_gap, claim, cone_directions, grow_curve, point_costs,
+                                  runs_out)
 from tendrilkit.mv_evidence import (COVER_DEPTH_PX, COVER_PX, SkeletonEvidence, _grid_nearest, _inside,
-                                    _line_distance, skeleton_distance)
+                                    _line_distance, mark_near, skeleton_distance)
 from tendrilkit.triangulation import triangulate
 
 __all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "local_kink_deg", "reconstruct_multiview",
@@ -118,16 +122,20 @@ BRIDGE_EXTEND_MM = 200.0
 #: three criteria 34.2 -> 34.2 %, mean and max better, ``ok`` with an end or the max over 2 mm 6 -> 7, 21 ms more per
 #: frame; with the pale segmentation options it keeps more of what they gain: README, Options).
 KINK_PX_PER_DEG = 1.0
-#: The tip's extension (:func:`adjust_tip`, :func:`_trim`) is vetoed at a place this many views or more show as the
-#: open board (1 until 2026-12-01: any view). A pale tendril is missed by one view's segmentation here and there
-#: (dev seed 1075: the last 6-16 mm seen on two views' skeletons, the third showing the board); a free tip runs
-#: onto the board in every view.
+#: The tip's extension (:func:`adjust_tip`; not :func:`_trim`, where any view showing the board contradicts a node)
+#: is vetoed at a place this many views or more show as the open board (1 until 2026-12-01: any view). A pale
+#: tendril is missed by one view's segmentation here and there (dev seed 1075: the last 6-16 mm seen on two views'
+#: skeletons, the third showing the board); a free tip runs onto the board in every view.
 BOARD_VETO_VIEWS = 2
-#: A place whose skeleton pixels the curve explains already (a coil's next pass over its last one in a view) still
-#: counts for the extension in that view when every view that sees it has it on its skeleton, one view on new
-#: pixels, and the place lies this far from the curve in 3D at least (mm; the pixel is two passes' crossing, not the
-#: curve running back along itself); 0: explained pixels never count (until 2026-12-01).
-COIL_PASS_MM = 2.0
+#: An extension's last stretch taken where one view showed the board (two views on their skeletons, the third
+#: not) is undone when shorter than this (mm): past a free tip two views' skeleton ends, or an object the tip
+#: touches, agree a few mm on (dev 9240-9299: tips 0.5-3 mm past the true tip); a pale tendril one view misses
+#: goes on for longer.
+BOARD_RUN_MM = 4.0
+#: Where one view shows the board, the extension goes on only if that view has no skeleton pixels the curve does not
+#: explain within this (pixels) of the place: a view that misses a pale tendril shows nothing of it there; one that
+#: shows the tendril a few pixels away says the two others agree on a ghost (a coil's dense projection).
+BOARD_ELSEWHERE_PX = 10.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -535,6 +543,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     budget_mm = max_extend_mm  # the extension's end: past a gap, a new extension of BRIDGE_EXTEND_MM
     bridges = 0
     pending = None  # where the gaps crossed since the last confirmed extension began, in ext
+    over = []  # per node of ext: taken where a view showed the board (BOARD_VETO_VIEWS)
     while True:
         stopped = False  # by the evidence (not by a length limit)
         while ext_mm + step_mm <= budget_mm + 1e-9:
@@ -546,8 +555,11 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
             on = seen & (d <= ON_PX) & ~(bg.sum(axis=0) >= BOARD_VETO_VIEWS)
             on &= advance(evidence, np.repeat(tip[None], len(P), axis=0), P)
             if claims is not None and s_[-1] + ext_mm + step_mm > prior_mm:
-                on = _unexplained(on, seen, near, claims, P, np.asarray(X + ext, float))
+                for v, c in enumerate(claims):
+                    on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
             ok = on.sum(axis=0) >= 2
+            if BOARD_VETO_VIEWS > 1 and np.any(ok & bg.any(axis=0)):
+                ok &= ~_board_view_sees_it_elsewhere(evidence, claims, P, bg, ok, np.asarray(X + ext, float))
             if not ok.any():
                 stopped = True
                 break
@@ -557,6 +569,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
             # (a wandering extension is too long, and the refit buckles it: mm off, on the skeleton in every view)
             cost = cost + TURN_PX * (np.degrees(np.arccos(np.clip(dirs @ t, -1.0, 1.0))) / 30.0) ** 2
             i = int(np.argmin(cost))
+            over.append(bool(bg[:, i].any()))
             tip = P[i]
             t = 0.7 * t + 0.3 * dirs[i]
             t /= np.linalg.norm(t)
@@ -579,6 +592,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         t = (far - tip) / gap
         tip = far
         ext.append(tip)
+        over.append(False)
         ext_mm += gap
         budget_mm = ext_mm + max(max_extend_mm, BRIDGE_EXTEND_MM)
         bridges += 1
@@ -589,6 +603,13 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         # the far end of the last gap did not lead on along two views (nor did a gap crossed from near it): not
         # the tendril coming out again
         del ext[pending:]
+        del over[pending:]
+    # the last stretch where a view showed the board (after the last two nodes no view did), when short: two views'
+    # skeleton ends past a free tip, not a pale tendril one view misses
+    clear = [k for k in range(1, len(over)) if not over[k] and not over[k - 1]]
+    first = clear[-1] + 1 if clear else 0
+    if any(over[first:]) and _length(np.asarray([X[-1]] + ext, float)[first:]) < BOARD_RUN_MM:
+        del ext[first:]
     if ext and runs_out(evidence, [np.asarray(X + ext, float)], 2.0)[0] \
             and not runs_out(evidence, [np.asarray(X, float)], 2.0)[0]:
         # the extension ends where two views stop seeing (their ROIs' edge): it ran onto something hanging in
@@ -597,25 +618,28 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     return np.asarray(X + ext, float)
 
 
-def _unexplained(on: np.ndarray, seen: np.ndarray, near: np.ndarray, claims: list, P: np.ndarray,
-                 curve: np.ndarray) -> np.ndarray:
-    """(V, n) ``on`` at places ``P`` (n, 3) where each view's nearest skeleton pixel (``near``) is not one the curve
-    explains already (``claims``), or is, at a place ``COIL_PASS_MM`` or more from the ``curve`` in 3D (its last
-    3 mm left out), on every view that sees it (``seen``) and new in one (a coil's next pass over its last one)."""
-    claimed = np.array([(near[v] >= 0) & c[np.maximum(near[v], 0)] for v, c in enumerate(claims)])
-    new = on & ~claimed
-    if COIL_PASS_MM <= 0:
-        return new
-    pass_ = (new.sum(axis=0) >= 1) & (on.sum(axis=0) >= 2) & np.all(on | ~seen, axis=0) & (new.sum(axis=0) < 2)
-    if not pass_.any():
-        return new
+def _board_view_sees_it_elsewhere(evidence: list[SkeletonEvidence], claims: list | None, P: np.ndarray,
+                                  bg: np.ndarray, ok: np.ndarray, curve: np.ndarray) -> np.ndarray:
+    """(n,) bool: of the places ``P`` (n, 3) two views see (``ok``) and a view shows as the board (``bg`` (V, n)),
+    those where such a view has skeleton pixels within ``BOARD_ELSEWHERE_PX`` that the curve does not explain (its
+    ``claims``, its last ``BOARD_RUN_MM`` too): that view sees the tendril go on, elsewhere; the two views agree on
+    a ghost (in a coil's dense projection). A view that misses a pale tendril has none there."""
+    out = np.zeros(len(P), bool)
     s = arc_length(curve)
-    body = curve[s <= s[-1] - 3.0]
-    if len(body) < 2:
-        return new
-    body = resample_polyline(body, step=0.5)
-    pass_[pass_] = _nearest_distance(P[pass_], body) >= COIL_PASS_MM
-    return np.where(pass_[None, :], on, new)
+    recent = resample_polyline(curve[s >= s[-1] - BOARD_RUN_MM - 1.0], step=0.25) if len(curve) >= 2 else curve
+    for v, ev in enumerate(evidence):
+        idx = np.flatnonzero(ok & bg[v])
+        if not len(idx):
+            continue
+        mine = np.zeros(len(ev.skeleton_xy), bool)
+        mark_near(ev, mine, ev.camera.project(recent), 4.0)
+        if claims is not None:
+            mine |= claims[v]
+        for i in idx:
+            near = np.zeros(len(ev.skeleton_xy), bool)
+            mark_near(ev, near, ev.camera.project(P[i:i + 1]), BOARD_ELSEWHERE_PX)
+            out[i] |= bool(np.any(near & ~mine))
+    return out
 
 
 def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.5, radius_px: float = 4.0,
@@ -632,10 +656,9 @@ def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.
     d, seen, near, bg = point_costs(evidence, X, nearest=True)
     on = seen & (d <= ON_PX)
     on[:, 1:] &= advance(evidence, X[:-1], X[1:])
-    on &= ~(bg.sum(axis=0) >= BOARD_VETO_VIEWS)  # views showing the board there contradict the node
+    on &= ~bg.any(axis=0)  # a view showing the board there contradicts the node
     dense = resample_polyline(X, step=0.25)
     s_dense = np.linspace(0.0, s[-1], len(dense))
-    explained = np.zeros_like(on)
     for v, ev in enumerate(evidence):
         ok = on[v] & (near[v] >= 0)
         if not ok.any():
@@ -643,17 +666,7 @@ def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.
         tree = cKDTree(ev.camera.project(dense))
         for i, lst in zip(np.flatnonzero(ok), tree.query_ball_point(ev.skeleton_xy[near[v, ok]], radius_px)):
             if lst and s_dense[min(lst)] <= s[i] - lag_mm and s[i] > prior_mm:
-                explained[v, i] = True
-    new = on & ~explained
-    if COIL_PASS_MM > 0:
-        # a coil's next pass over its last one (see _unexplained): every view that sees the node on its skeleton,
-        # one on new pixels, the node COIL_PASS_MM or more from the curve up to 3 mm before it
-        pass_ = (new.sum(axis=0) == 1) & (on.sum(axis=0) >= 2) & np.all(on | ~seen, axis=0)
-        for i in np.flatnonzero(pass_):
-            before = dense[s_dense <= s[i] - 3.0]
-            pass_[i] = len(before) > 0 and float(_nearest_distance(X[i:i + 1], before)[0]) >= COIL_PASS_MM
-        new |= on & pass_[None, :]
-    on = new
+                on[v, i] = False
     good = np.flatnonzero(on.sum(axis=0) >= 2)
     last = int(good[-1]) if len(good) else 2
     return X[:max(last + 1, 3)]

@@ -627,3 +627,42 @@ def test_acquisition_keeps_the_tendril_at_a_junction_onto_a_longer_branch():
     assert e["tip"] > 20.0, e  # the beam's own choice, onto the branch
     e = _errors(resample_polyline(r.nodes_mm, 200), X)
     assert e["mean"] <= 0.5 and e["max"] <= 2.0 and e["base"] <= 2.0 and e["tip"] <= 2.0, e
+
+
+def _straight_tendril():
+    s = np.linspace(0.0, 1.0, 2000)
+    return np.c_[-5 + 60 * s, 6 * np.sin(2 * s), 20 + 4 * s]
+
+
+def test_tip_goes_on_where_one_view_shows_the_board(monkeypatch):
+    """A pale tendril's last 12 mm missed by one view's segmentation (the board there): two views see it on their
+    skeletons, so the curve reaches the tip; with any view's board vetoing the extension (``BOARD_VETO_VIEWS`` 1,
+    before 2026-12-01) it stops where the view lost it."""
+    import tendrilkit.multiview as M
+
+    X = _straight_tendril()
+    images, cams, exp = render_tube_views(X, width_px=9)
+    L = float(np.linalg.norm(np.diff(X, axis=0), axis=1).sum())
+    s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
+    gone = cams[1].project(X[s >= L - 12.0])
+    cv2.polylines(images[1], [np.round(gone * 16).astype(np.int32)], False, (235, 235, 235), 17, cv2.LINE_8, 4)
+    B = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=8.0)
+    evs = _evidence(images, cams, exp)
+    r = reconstruct_multiview(evs, B)
+    assert _errors(resample_polyline(r.nodes_mm, 200), X)["tip"] <= 2.0
+    monkeypatch.setattr(M, "BOARD_VETO_VIEWS", 1)
+    r = reconstruct_multiview(evs, B)
+    assert _errors(resample_polyline(r.nodes_mm, 200), X)["tip"] >= 8.0
+
+
+def test_tip_does_not_run_on_over_the_board():
+    """Past a free tip every view shows the board: the curve ends at the tip (the veto needs two views)."""
+    X = _straight_tendril()
+    images, cams, exp = render_tube_views(X, width_px=9)
+    B = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=8.0)
+    r = reconstruct_multiview(_evidence(images, cams, exp), B)
+    e = _errors(resample_polyline(r.nodes_mm, 200), X)
+    L = float(np.linalg.norm(np.diff(X, axis=0), axis=1).sum())
+    length = float(np.linalg.norm(np.diff(r.nodes_mm, axis=0), axis=1).sum())
+    assert e["tip"] <= 2.0 and length <= L + 2.0, (e, length, L)
+
