@@ -135,7 +135,7 @@ BOARD_RUN_MM = 4.0
 #: Where one view shows the board, the extension goes on only if that view has no skeleton pixels the curve does not
 #: explain within this (pixels) of the place: a view that misses a pale tendril shows nothing of it there; one that
 #: shows the tendril a few pixels away says the two others agree on a ghost (a coil's dense projection).
-BOARD_ELSEWHERE_PX = 10.0
+BOARD_ELSEWHERE_PX = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -558,7 +558,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
                 for v, c in enumerate(claims):
                     on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
             ok = on.sum(axis=0) >= 2
-            if BOARD_VETO_VIEWS > 1 and np.any(ok & bg.any(axis=0)):
+            if BOARD_VETO_VIEWS > 1 and BOARD_ELSEWHERE_PX > 0 and np.any(ok & bg.any(axis=0)):
                 ok &= ~_board_view_sees_it_elsewhere(evidence, claims, P, bg, ok, np.asarray(X + ext, float))
             if not ok.any():
                 stopped = True
