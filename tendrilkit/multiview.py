@@ -30,11 +30,10 @@ Coverage (:func:`adjust_tip`)
     The tip is moved outward, 0.5 mm at a time, while two views or more see
     the extension on their skeletons, and back while the tip is not on the
     skeleton of at least two views: the curve explains the tendril's pixels
-    from the base outward and can neither shrink nor run on. One view
-    showing the board does not stop it where two views see the tendril and
-    that view shows nothing of it near by (a pale tendril its segmentation
-    missed: ``BOARD_VETO_VIEWS``, ``BOARD_ELSEWHERE_PX``); a last such
-    stretch shorter than ``BOARD_RUN_MM`` is undone. The views'
+    from the base outward and can neither shrink nor run on. A place one
+    view shows as the open board stops it (``BOARD_VETO_VIEWS``: with 2, two
+    views must; a last stretch over one view's board shorter than
+    ``BOARD_RUN_MM`` is then undone). The views'
     skeletons hold thin structures only (:data:`tendrilkit.mv_evidence.WIDE_PX`):
     a tip cannot run along the medial axis of a leaf it touches. An
     extension that ends where two views' ROIs end is undone: it ran onto
@@ -89,7 +88,7 @@ from tendrilkit.geometry import arc_length, resample_polyline, section_masks
 from tendrilkit.mv_acquire import (ON_PX, TURN_PX, advance, bridge_gap, claim, cone_directions, grow_curve, point_costs,
                                   runs_out)
 from tendrilkit.mv_evidence import (COVER_DEPTH_PX, COVER_PX, SkeletonEvidence, _grid_nearest, _inside,
-                                    _line_distance, mark_near, skeleton_distance)
+                                    _line_distance, skeleton_distance)
 from tendrilkit.triangulation import triangulate
 
 __all__ = ["MultiviewResult", "refine_curve", "adjust_tip", "curve_support", "local_kink_deg", "reconstruct_multiview",
@@ -123,19 +122,19 @@ BRIDGE_EXTEND_MM = 200.0
 #: frame; with the pale segmentation options it keeps more of what they gain: README, Options).
 KINK_PX_PER_DEG = 1.0
 #: The tip's extension (:func:`adjust_tip`; not :func:`_trim`, where any view showing the board contradicts a node)
-#: is vetoed at a place this many views or more show as the open board (1 until 2026-12-01: any view). A pale
-#: tendril is missed by one view's segmentation here and there (dev seed 1075: the last 6-16 mm seen on two views'
-#: skeletons, the third showing the board); a free tip runs onto the board in every view.
-BOARD_VETO_VIEWS = 2
-#: An extension's last stretch taken where one view showed the board (two views on their skeletons, the third
-#: not) is undone when shorter than this (mm): past a free tip two views' skeleton ends, or an object the tip
-#: touches, agree a few mm on (dev 9240-9299: tips 0.5-3 mm past the true tip); a pale tendril one view misses
-#: goes on for longer.
+#: stops at a place this many views or more show as the open board: 1, any view (the default). With 2, where two
+#: views see a pale tendril one view's segmentation missed (dev seed 1075: its last 6-16 mm) the tip goes on, a last
+#: such stretch under ``BOARD_RUN_MM`` undone. Measured 2026-12-01 (all three criteria, stops short, tip off, ok
+#: with an end or the max over 2 mm): dev 1040-1079 40.8 -> 41.7 %, 47 -> 41, 77 -> 80, 9 -> 10; dev 9240-9299
+#: 44.2 -> 44.2 %, 52 -> 44, 127 -> 134, 12 -> 13; validation 1160-1199 48.8 -> 50.0 % (3 gained, none lost),
+#: 29 -> 24, 65 -> 66, 14 -> 14, mean <= 0.5 mm 66.2 -> 65.4 %; silent unchanged. Not the default: the tip runs off
+#: in pale coils, where two views agree on a ghost in the coil's dense projection (requiring that view to show no
+#: unexplained skeleton within 10 px, against ghosts, lost the gains too: dev 40.8 -> 40.8 %, 44.2 -> 43.9 %).
+BOARD_VETO_VIEWS = 1
+#: With ``BOARD_VETO_VIEWS`` 2: an extension's last stretch taken where one view showed the board is undone when
+#: shorter than this (mm): past a free tip two views' skeleton ends, or an object the tip touches, agree a few mm on
+#: (dev 9240-9299: tips 0.5-3 mm past the true tip without it); a pale tendril one view misses goes on for longer.
 BOARD_RUN_MM = 4.0
-#: Where one view shows the board, the extension goes on only if that view has no skeleton pixels the curve does not
-#: explain within this (pixels) of the place: a view that misses a pale tendril shows nothing of it there; one that
-#: shows the tendril a few pixels away says the two others agree on a ghost (a coil's dense projection).
-BOARD_ELSEWHERE_PX = 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -558,8 +557,6 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
                 for v, c in enumerate(claims):
                     on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
             ok = on.sum(axis=0) >= 2
-            if BOARD_VETO_VIEWS > 1 and BOARD_ELSEWHERE_PX > 0 and np.any(ok & bg.any(axis=0)):
-                ok &= ~_board_view_sees_it_elsewhere(evidence, claims, P, bg, ok, np.asarray(X + ext, float))
             if not ok.any():
                 stopped = True
                 break
@@ -616,30 +613,6 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         # from outside (a second tendril, a petiole); the tendril's tip is a free end inside every ROI
         return np.asarray(X, float)
     return np.asarray(X + ext, float)
-
-
-def _board_view_sees_it_elsewhere(evidence: list[SkeletonEvidence], claims: list | None, P: np.ndarray,
-                                  bg: np.ndarray, ok: np.ndarray, curve: np.ndarray) -> np.ndarray:
-    """(n,) bool: of the places ``P`` (n, 3) two views see (``ok``) and a view shows as the board (``bg`` (V, n)),
-    those where such a view has skeleton pixels within ``BOARD_ELSEWHERE_PX`` that the curve does not explain (its
-    ``claims``, its last ``BOARD_RUN_MM`` too): that view sees the tendril go on, elsewhere; the two views agree on
-    a ghost (in a coil's dense projection). A view that misses a pale tendril has none there."""
-    out = np.zeros(len(P), bool)
-    s = arc_length(curve)
-    recent = resample_polyline(curve[s >= s[-1] - BOARD_RUN_MM - 1.0], step=0.25) if len(curve) >= 2 else curve
-    for v, ev in enumerate(evidence):
-        idx = np.flatnonzero(ok & bg[v])
-        if not len(idx):
-            continue
-        mine = np.zeros(len(ev.skeleton_xy), bool)
-        mark_near(ev, mine, ev.camera.project(recent), 4.0)
-        if claims is not None:
-            mine |= claims[v]
-        for i in idx:
-            near = np.zeros(len(ev.skeleton_xy), bool)
-            mark_near(ev, near, ev.camera.project(P[i:i + 1]), BOARD_ELSEWHERE_PX)
-            out[i] |= bool(np.any(near & ~mine))
-    return out
 
 
 def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.5, radius_px: float = 4.0,
