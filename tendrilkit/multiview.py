@@ -30,7 +30,10 @@ Coverage (:func:`adjust_tip`)
     The tip is moved outward, 0.5 mm at a time, while two views or more see
     the extension on their skeletons, and back while the tip is not on the
     skeleton of at least two views: the curve explains the tendril's pixels
-    from the base outward and can neither shrink nor run on. The views'
+    from the base outward and can neither shrink nor run on. A place one
+    view shows as the open board stops it (``BOARD_VETO_VIEWS``: with 2, two
+    views must; a last stretch over one view's board shorter than
+    ``BOARD_RUN_MM`` is then undone). The views'
     skeletons hold thin structures only (:data:`tendrilkit.mv_evidence.WIDE_PX`):
     a tip cannot run along the medial axis of a leaf it touches. An
     extension that ends where two views' ROIs end is undone: it ran onto
@@ -118,6 +121,20 @@ BRIDGE_EXTEND_MM = 200.0
 #: three criteria 34.2 -> 34.2 %, mean and max better, ``ok`` with an end or the max over 2 mm 6 -> 7, 21 ms more per
 #: frame; with the pale segmentation options it keeps more of what they gain: README, Options).
 KINK_PX_PER_DEG = 1.0
+#: The tip's extension (:func:`adjust_tip`; not :func:`_trim`, where any view showing the board contradicts a node)
+#: stops at a place this many views or more show as the open board: 1, any view (the default). With 2, where two
+#: views see a pale tendril one view's segmentation missed (dev seed 1075: its last 6-16 mm) the tip goes on, a last
+#: such stretch under ``BOARD_RUN_MM`` undone. Measured 2026-12-01 (all three criteria, stops short, tip off, ok
+#: with an end or the max over 2 mm): dev 1040-1079 40.8 -> 41.7 %, 47 -> 41, 77 -> 80, 9 -> 10; dev 9240-9299
+#: 44.2 -> 44.2 %, 52 -> 44, 127 -> 134, 12 -> 13; validation 1160-1199 48.8 -> 50.0 % (3 gained, none lost),
+#: 29 -> 24, 65 -> 66, 14 -> 14, mean <= 0.5 mm 66.2 -> 65.4 %; silent unchanged. Not the default: the tip runs off
+#: in pale coils, where two views agree on a ghost in the coil's dense projection (requiring that view to show no
+#: unexplained skeleton within 10 px, against ghosts, lost the gains too: dev 40.8 -> 40.8 %, 44.2 -> 43.9 %).
+BOARD_VETO_VIEWS = 1
+#: With ``BOARD_VETO_VIEWS`` 2: an extension's last stretch taken where one view showed the board is undone when
+#: shorter than this (mm): past a free tip two views' skeleton ends, or an object the tip touches, agree a few mm on
+#: (dev 9240-9299: tips 0.5-3 mm past the true tip without it); a pale tendril one view misses goes on for longer.
+BOARD_RUN_MM = 4.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -525,6 +542,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     budget_mm = max_extend_mm  # the extension's end: past a gap, a new extension of BRIDGE_EXTEND_MM
     bridges = 0
     pending = None  # where the gaps crossed since the last confirmed extension began, in ext
+    over = []  # per node of ext: taken where a view showed the board (BOARD_VETO_VIEWS)
     while True:
         stopped = False  # by the evidence (not by a length limit)
         while ext_mm + step_mm <= budget_mm + 1e-9:
@@ -533,11 +551,11 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
             dirs = cone_directions(t, 30.0, 3)
             P = tip + step_mm * dirs
             d, seen, near, bg = point_costs(evidence, P, nearest=True)
-            on = seen & (d <= ON_PX) & ~bg.any(axis=0)
+            on = seen & (d <= ON_PX) & ~(bg.sum(axis=0) >= BOARD_VETO_VIEWS)
+            on &= advance(evidence, np.repeat(tip[None], len(P), axis=0), P)
             if claims is not None and s_[-1] + ext_mm + step_mm > prior_mm:
                 for v, c in enumerate(claims):
                     on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
-            on &= advance(evidence, np.repeat(tip[None], len(P), axis=0), P)
             ok = on.sum(axis=0) >= 2
             if not ok.any():
                 stopped = True
@@ -548,6 +566,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
             # (a wandering extension is too long, and the refit buckles it: mm off, on the skeleton in every view)
             cost = cost + TURN_PX * (np.degrees(np.arccos(np.clip(dirs @ t, -1.0, 1.0))) / 30.0) ** 2
             i = int(np.argmin(cost))
+            over.append(bool(bg[:, i].any()))
             tip = P[i]
             t = 0.7 * t + 0.3 * dirs[i]
             t /= np.linalg.norm(t)
@@ -570,6 +589,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         t = (far - tip) / gap
         tip = far
         ext.append(tip)
+        over.append(False)
         ext_mm += gap
         budget_mm = ext_mm + max(max_extend_mm, BRIDGE_EXTEND_MM)
         bridges += 1
@@ -580,6 +600,13 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         # the far end of the last gap did not lead on along two views (nor did a gap crossed from near it): not
         # the tendril coming out again
         del ext[pending:]
+        del over[pending:]
+    # the last stretch where a view showed the board (after the last two nodes no view did), when short: two views'
+    # skeleton ends past a free tip, not a pale tendril one view misses
+    clear = [k for k in range(1, len(over)) if not over[k] and not over[k - 1]]
+    first = clear[-1] + 1 if clear else 0
+    if any(over[first:]) and _length(np.asarray([X[-1]] + ext, float)[first:]) < BOARD_RUN_MM:
+        del ext[first:]
     if ext and runs_out(evidence, [np.asarray(X + ext, float)], 2.0)[0] \
             and not runs_out(evidence, [np.asarray(X, float)], 2.0)[0]:
         # the extension ends where two views stop seeing (their ROIs' edge): it ran onto something hanging in
