@@ -121,7 +121,8 @@ def unseen_detour_mm(points_mm: np.ndarray, fixed: np.ndarray) -> float:
     Returns
     -------
     float
-        mm (0 when no unfixed stretch lies between two fixed points).
+        mm (0 when no unfixed stretch lies between two fixed points); points with a NaN coordinate are
+        dropped first.
 
     Examples
     --------
@@ -130,7 +131,10 @@ def unseen_detour_mm(points_mm: np.ndarray, fixed: np.ndarray) -> float:
     5.083
     """
     X = np.asarray(points_mm, float).reshape(-1, 3)
-    idx = np.flatnonzero(np.asarray(fixed, bool).reshape(len(X)))
+    fixed = np.asarray(fixed, bool).reshape(len(X))
+    finite = np.all(np.isfinite(X), axis=1)  # a point missing from the curve is neither fixed nor a detour
+    X, fixed = X[finite], fixed[finite]
+    idx = np.flatnonzero(fixed)
     gaps = np.flatnonzero(np.diff(idx) > 1) if len(idx) >= 2 else np.zeros(0, int)
     if not len(gaps):
         return 0.0

@@ -946,3 +946,6 @@ def test_fixed_points_and_detour_on_hand_made_curves():
     g[13:] = False
     Y[15:, 2] += 20.0
     assert unseen_detour_mm(Y, g) == 0.0
+    # a point missing from the curve (NaN) is dropped, not a NaN figure
+    Z = np.insert(Y, 3, np.nan, axis=0)
+    assert unseen_detour_mm(Z, np.insert(f, 3, False)) == pytest.approx(unseen_detour_mm(Y, f))
