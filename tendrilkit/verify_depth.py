@@ -36,7 +36,16 @@ development seeds 9240-9299 (360 frames), the 159 right ones at most 0.71 mm
 :data:`MIN_EPIPOLAR_ANGLE_DEG` (10 degrees): with 0 the points where the tendril
 runs along the epipolar plane count as fixed, and seed 9242 frame 2 reads
 0.09 mm; with 15 degrees 23.5 mm and the right frames of seeds 1040-1079 at
-most 0.15 mm.
+most 0.15 mm. Validation seeds 1160-1199 (``bench_generalize``, 240 frames):
+no status changed against main (all three 48.8 %, 1 silent, 14 ``ok`` with the
+max or an end over 2 mm, 45 of 159 frames within 0.5 mm mean flagged, 9 of 117
+right on all three); three frames read over 3 mm, all flagged by other checks
+already. The site phantoms read at most 0.006 mm and stay ``ok``.
+
+Not seen by it: a curve displaced smoothly across an unfixed stretch without
+getting longer (development seed 1068 frames 1-2, 2.6 mm off over a leaf,
+0.17 mm); a tight coil whose passes merge into one blob in two views would
+read as unfixed, and its turns as a detour (none among the development seeds).
 """
 
 from __future__ import annotations

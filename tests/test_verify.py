@@ -949,3 +949,13 @@ def test_fixed_points_and_detour_on_hand_made_curves():
     # a point missing from the curve (NaN) is dropped, not a NaN figure
     Z = np.insert(Y, 3, np.nan, axis=0)
     assert unseen_detour_mm(Z, np.insert(f, 3, False)) == pytest.approx(unseen_detour_mm(Y, f))
+
+
+def test_verify_depth_docstring_examples_run():
+    """The Examples of tendrilkit.verify_depth (what ``pytest --doctest-modules`` runs)."""
+    import doctest
+
+    import tendrilkit.verify_depth as module
+
+    res = doctest.testmod(module)
+    assert res.attempted >= 3 and res.failed == 0
