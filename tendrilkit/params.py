@@ -462,6 +462,7 @@ class Verification(_Strict):
     max_tip_tone_frac: float = Field(0.05, ge=0, le=1)
     max_off_colour_run_px: PositiveFloat = 100.0
     max_open_tip_px: NonNegFloat = 3.0
+    max_unseen_detour_mm: PositiveFloat = 3.0
 
 
 class Analysis(_Strict):

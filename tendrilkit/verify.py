@@ -136,6 +136,7 @@ from tendrilkit.verify_base import WIDE_RATIO, base_on_tendril, near_base
 from tendrilkit.verify_beyond import beyond_tip_px
 from tendrilkit.verify_branch import turn_branch_message, turn_branch_px
 from tendrilkit.verify_coverage import coverage_frac, tendril_radius_px
+from tendrilkit.verify_depth import fixed_points, line_seen, unseen_detour_message, unseen_detour_mm
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
 from tendrilkit.verify_tip import (TIP_PX, crossing_samples, failing_views, local_inside_px, on_wide, open_tip_message,
@@ -374,6 +375,16 @@ class Thresholds:
         (:mod:`tendrilkit.verify_calibration`, which gives the measurements:
         right calibrations at most 0.095 px, the one that left random seed
         9201's curves 11 % too large 2.04 px). In the message only.
+    max_unseen_detour_mm : float
+        Largest excess of the curve's 3D length over the straight chord
+        across a stretch where no pair of views fixes its depth (neither
+        sees the tendril's line there, or the tendril runs along their
+        epipolar plane), mm (``unseen_detour_mm``,
+        :mod:`tendrilkit.verify_depth`, which gives the measurements):
+        a detour out along the views' rays and back that every projection
+        hides (3 mm: right frames of development seeds 1040-1079 and
+        9240-9299 at most 0.71 mm, the curve reported ``ok`` 17.8 mm out
+        and back over a leaf 22.4 mm).
     """
 
     tolerance_px: float = 2.0
@@ -404,6 +415,7 @@ class Thresholds:
     max_tip_tone_frac: float = 0.05
     max_off_colour_run_px: float = 100.0
     max_open_tip_px: float = 3.0
+    max_unseen_detour_mm: float = 3.0
 
     @classmethod
     def from_params(cls, section) -> "Thresholds":
@@ -432,7 +444,9 @@ def view_columns(n_views: int) -> list[str]:
     # the tip continuation where the tone agrees and no object lies ahead: one view suffices (issue 13, verify_tip)
     cols += [f"open_tip_px_v{v}" for v in range(1, n_views + 1)]
     # the longest stretch on wide pixels read as a crossing, left out of wide_run_px (issue 13, verify_tip)
-    return cols + [f"wide_crossing_px_v{v}" for v in range(1, n_views + 1)]
+    cols += [f"wide_crossing_px_v{v}" for v in range(1, n_views + 1)]
+    # the curve's detour where fewer than two views see the tendril's line (issue 13, verify_depth)
+    return cols + ["unseen_detour_mm"]
 
 
 def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
@@ -488,6 +502,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     out: dict = {c: None for c in view_columns(len(cameras))}
     checked = 0
     widths: list[float] = []
+    seen_line = np.zeros((len(cameras), len(X)), bool)  # per view, the points it sees on the tendril's line
     for v, (cam, ev) in enumerate(zip(cameras, evidence)):
         if ev is None:
             continue
@@ -554,6 +569,12 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                                                              min_turn_deg=junction_turn_deg,
                                                              min_branch_px=junction_line_px)
             out[f"distal_widening_ratio_v{v + 1}"] = distal_widening(X, cam, ev, tol_px=tolerance_px)
+            fin = np.all(np.isfinite(xy), axis=1)
+            if fin.any():  # the curve's own points (not the resampled projection): where the images fix its depth
+                xf = xy[fin]
+                in_view = ~ev.in_keep_out(xf) & cam.in_image(xf) & roi_contains(ev, xf)
+                seen_line[v, fin] = line_seen(in_view, sample_distance(ev, xf) <= tolerance_px,
+                                              on_wide(ev, xf, inside_px, radius_px, wide_ratio=WIDE_RATIO))
             if images is not None and images[v] is not None:  # the image's tone and colour (the frame's pixels)
                 crop = _roi_crop(images[v], ev)
                 out[f"tip_tone_frac_v{v + 1}"] = tip_tone_frac(crop, ev, dense, on_mask, radius_px, channel=channel)
@@ -561,6 +582,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     out["views_checked"] = checked
     out["line_width_mm"] = float(np.median(widths)) if widths else None
     out["self_distance_mm"] = self_distance_mm(X)
+    out["unseen_detour_mm"] = unseen_detour_mm(X, fixed_points(X, [c.center_world for c in cameras], seen_line))
     return out
 
 
@@ -658,13 +680,14 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     (``open_tip_px_v<i>``, computed here from three of them and the tone's
     limit, :func:`tendrilkit.verify_tip.open_tip_px`: it is ``None`` in
     :func:`verify_curve`'s own result); the messages are
-    :func:`image_check_messages`' and, after them, those of six checks
+    :func:`image_check_messages`' and, after them, those of seven checks
     whose figures are the last columns (:func:`tendrilkit.verify_object.tip_object_message`,
     :func:`tendrilkit.verify_branch.turn_branch_message`,
     :func:`tendrilkit.verify_widen.distal_widening_message`,
     :func:`tendrilkit.verify_tone.tip_tone_message`,
     :func:`tendrilkit.verify_tone.off_colour_message`,
-    :func:`tendrilkit.verify_tip.open_tip_message`).
+    :func:`tendrilkit.verify_tip.open_tip_message`,
+    :func:`tendrilkit.verify_depth.unseen_detour_message`).
 
     Parameters
     ----------
@@ -702,4 +725,5 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     t = tip_tone_message(q, V, th.max_tip_tone_frac)
     c = off_colour_message(q, V, th.max_off_colour_run_px)
     o = open_tip_message(q, V, th.max_open_tip_px)
-    return msgs + [x for x in (m, j, d, t, c, o) if x]
+    u = unseen_detour_message(q.get("unseen_detour_mm"), th.max_unseen_detour_mm)
+    return msgs + [x for x in (m, j, d, t, c, o, u) if x]

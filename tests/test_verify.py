@@ -807,19 +807,21 @@ def test_every_checks_figure_is_a_frames_column(scene):
     cols = view_columns(2)
     for stem in ("tip_object_px", "turn_branch_px", "distal_widening_ratio"):
         assert [f"{stem}_v1", f"{stem}_v2"] == [c for c in cols if c.startswith(stem)]
-    assert cols[-14:-8] == ["tip_object_px_v1", "tip_object_px_v2", "turn_branch_px_v1", "turn_branch_px_v2",
+    assert cols[-15:-9] == ["tip_object_px_v1", "tip_object_px_v2", "turn_branch_px_v1", "turn_branch_px_v2",
                             "distal_widening_ratio_v1", "distal_widening_ratio_v2"]  # added at the table's end
-    assert cols[-8:-4] == ["tip_tone_frac_v1", "tip_tone_frac_v2", "off_colour_run_px_v1",
+    assert cols[-9:-5] == ["tip_tone_frac_v1", "tip_tone_frac_v2", "off_colour_run_px_v1",
                            "off_colour_run_px_v2"]  # and the tone and colour figures after them
-    assert cols[-4:-2] == ["open_tip_px_v1", "open_tip_px_v2"]  # then the open tip's
-    assert cols[-2:] == ["wide_crossing_px_v1", "wide_crossing_px_v2"]  # then the merged check's crossings
+    assert cols[-5:-3] == ["open_tip_px_v1", "open_tip_px_v2"]  # then the open tip's
+    assert cols[-3:-1] == ["wide_crossing_px_v1", "wide_crossing_px_v2"]  # then the merged check's crossings
+    assert cols[-1] == "unseen_detour_mm"  # last the unseen detour's (verify_depth)
     q = verify_curve(_tendril_mm(), cams, ev)
     assert set(cols) <= set(q)
     assert q["distal_widening_ratio_v1"] is not None and q["distal_widening_ratio_v1"] <= Thresholds().max_distal_widening
     assert q["turn_branch_px_v1"] is None  # a right curve turns off no line
     from tendrilkit.schema import frames_table
 
-    assert frames_table(2).columns[-6:] == tuple(cols[-6:])
+    assert frames_table(2).columns[-7:] == tuple(cols[-7:])
+    assert q["unseen_detour_mm"] == 0.0  # a right curve the views fix everywhere
 
 
 
@@ -901,3 +903,59 @@ def test_partner_only_side_never_pairs_a_shallow_departure(turn_deg, monkeypatch
     monkeypatch.setattr(vx, "PARTNER_MIN_SIN", 0.0)
     if turn_deg <= 35.0:  # what the sine requirement closes (the turn alone let these through)
         assert vx.crossing_branches(curve, xy, lab, np.array([1]), cov_tol=4.0, width_px=5.0).tolist() == [True]
+
+
+def test_detour_over_a_leaf_no_view_fixes_is_caught():
+    """Over a leaf both views see the curve on dark pixels whatever its depth: a curve bent out along the views'
+    rays and back there passes every image check but the unseen detour (development seed 9242 frame 2)."""
+    cams, ev = _scene(_leaf_across(0.5))
+    T = _tendril_mm()
+    q = verify_curve(T, cams, ev)
+    assert q["unseen_detour_mm"] < 0.5  # the right curve: smooth across the leaf
+    assert not any(m.startswith("unseen detour") for m in verify_frame(T, cams, ev, dict(q), Thresholds()))
+    bent = T.copy()
+    s = np.linspace(0.0, 1.0, 200)
+    inside = (s > 0.42) & (s < 0.58)  # inside the leaf in both views (about 7 mm of the tendril)
+    bent[inside, 2] -= 12.0 * np.sin(np.pi * (s[inside] - 0.42) / 0.16)  # 12 mm towards the cameras and back
+    q = verify_curve(bent, cams, ev)
+    assert all(q[f"on_tendril_frac_v{v}"] == 1.0 for v in (1, 2))  # the images see nothing wrong
+    assert q["unseen_detour_mm"] > 5.0
+    msgs = verify_frame(bent, cams, ev, {}, Thresholds())
+    assert any(m.startswith("unseen detour") for m in msgs)
+
+
+def test_fixed_points_and_detour_on_hand_made_curves():
+    from tendrilkit.verify_depth import fixed_points, unseen_detour_mm
+
+    # a straight line square to the baseline, seen by both views: fixed everywhere, no detour
+    X = np.column_stack([np.zeros(21), np.linspace(-10, 10, 21), np.full(21, 300.0)])
+    C = [np.zeros(3), np.array([50.0, 0, 0])]
+    seen = np.ones((2, 21), bool)
+    assert fixed_points(X, C, seen).all()
+    # one view blind in the middle: unfixed there, but the straight line makes no detour
+    seen[1, 8:13] = False
+    f = fixed_points(X, C, seen)
+    assert not f[8:13].any() and f[:8].all() and f[13:].all()
+    assert unseen_detour_mm(X, f) == pytest.approx(0.0, abs=1e-9)
+    # bent 5 mm in depth where it is unfixed: the detour is the excess over the chord
+    Y = X.copy()
+    Y[10, 2] += 5.0
+    assert unseen_detour_mm(Y, f) == pytest.approx(2 * np.hypot(1.0, 5.0) - 2.0)
+    # an unfixed stretch running to the tip is not measured (the tip checks' concern)
+    g = f.copy()
+    g[13:] = False
+    Y[15:, 2] += 20.0
+    assert unseen_detour_mm(Y, g) == 0.0
+    # a point missing from the curve (NaN) is dropped, not a NaN figure
+    Z = np.insert(Y, 3, np.nan, axis=0)
+    assert unseen_detour_mm(Z, np.insert(f, 3, False)) == pytest.approx(unseen_detour_mm(Y, f))
+
+
+def test_verify_depth_docstring_examples_run():
+    """The Examples of tendrilkit.verify_depth (what ``pytest --doctest-modules`` runs)."""
+    import doctest
+
+    import tendrilkit.verify_depth as module
+
+    res = doctest.testmod(module)
+    assert res.attempted >= 3 and res.failed == 0
