@@ -42,6 +42,7 @@ import cv2
 import numpy as np
 
 from tendrilkit.segmentation.faint import reduce_grey
+from tendrilkit.segmentation.kernels import binary_morphology
 
 __all__ = ["light_line_pixels", "lines_in_front", "bridge_line_gaps", "board_level"]
 
@@ -198,7 +199,9 @@ def _on_box(mask: np.ndarray, op: int, kernel: np.ndarray) -> np.ndarray:
     reads nothing). Closing: the dilation reaches at most ``r`` beyond the mask's box; a pixel whose erosion
     would read beyond the grown box lies more than ``r`` from the mask's box, 0 in the dilation and with it.
     Outside the grown box both are 0. A leaf's or the stem's opening (the light lines' wide objects) spans
-    about half a view's region of interest.
+    about half a view's region of interest. On the box, the binary image's rows are packed 64 pixels to a word
+    (:func:`tendrilkit.segmentation.kernels.binary_morphology`: OpenCV's pixels for a 0 / 255 mask, about 3
+    times faster for the disk of 11 px).
     """
     x, y, w, h = cv2.boundingRect(mask)
     out = np.zeros_like(mask)
@@ -207,7 +210,7 @@ def _on_box(mask: np.ndarray, op: int, kernel: np.ndarray) -> np.ndarray:
     m = 2 * max(kernel.shape[0] // 2, kernel.shape[1] // 2)
     H, W = mask.shape
     r0, r1, c0, c1 = max(y - m, 0), min(y + h + m, H), max(x - m, 0), min(x + w + m, W)
-    out[r0:r1, c0:c1] = cv2.morphologyEx(np.ascontiguousarray(mask[r0:r1, c0:c1]), op, kernel)
+    out[r0:r1, c0:c1] = binary_morphology(np.ascontiguousarray(mask[r0:r1, c0:c1]), op, kernel)
     return out
 
 
