@@ -132,10 +132,9 @@ def faint_pixels(
             return np.zeros((h, w), np.uint8)
     if exclude is not None and exclude.any():  # the board's level only: the other objects' pixels filled in from it
         valid = cv2.compare(exclude, 0, cv2.CMP_EQ)
-        # the board's share (0 or 1 exactly: 255 / 255) and its grey levels reduced as two channels of one image
-        # in one pass (each channel as reduced alone, bit for bit: the area's weights and sums are per channel)
-        both = cv2.merge([np.divide(valid, 255, dtype=np.float32), cv2.bitwise_and(grey, valid).astype(np.float32)])
-        share, total = cv2.split(cv2.resize(both, size, interpolation=cv2.INTER_AREA))
+        # 0 or 1 exactly (255 / 255), in one pass
+        share = cv2.resize(np.divide(valid, 255, dtype=np.float32), size, interpolation=cv2.INTER_AREA)
+        total = cv2.resize(cv2.bitwise_and(grey, valid).astype(np.float32), size, interpolation=cv2.INTER_AREA)
         hole = cv2.compare(share, 0.5, cv2.CMP_LT)
         small = np.clip(np.round(total / np.maximum(share, np.float32(0.5))), 0, 255).astype(np.uint8)
         small = _fill_from_board(small, hole)
