@@ -84,6 +84,8 @@ def _pack(mask: np.ndarray) -> np.ndarray:
 
 def _unpack(words: np.ndarray, w: int) -> np.ndarray:
     bits = np.unpackbits(np.ascontiguousarray(words).view(np.uint8), axis=1, count=w, bitorder="little")
+    if bits.size < 2:  # OpenCV takes a 1 x 1 array for a scalar
+        return bits * np.uint8(255)
     return cv2.compare(bits, 0, cv2.CMP_GT)
 
 
