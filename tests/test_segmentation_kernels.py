@@ -156,3 +156,42 @@ def test_pale_foreground_is_8382d0es(monkeypatch):
             changed += int(not np.array_equal(foreground_roi(img, **marks)[0], want))
         np.testing.assert_array_equal(got, want)
     assert changed >= 1  # the rule acts on these scenes: the comparison can fail
+
+
+def _fill_from_board_8382d0e(small, hole):
+    """faint._fill_from_board as it was at main 8382d0e (whole-image dilations per step)."""
+    if not hole.any():
+        return small
+    out = small.copy()
+    out[hole > 0] = 0
+    todo = hole > 0
+    kernel = np.ones((3, 3), np.uint8)
+    for _ in range(max(small.shape)):
+        if not todo.any():
+            break
+        grown = cv2.dilate(out, kernel)
+        reach = todo & (cv2.dilate((~todo).view(np.uint8), kernel) > 0)
+        if not reach.any():
+            break
+        out[reach] = grown[reach]
+        todo &= ~reach
+    out[todo] = 255
+    return out
+
+
+def test_fill_from_board_is_8382d0es():
+    """The compiled growth (kernels.grow_fill): the same levels as the whole-image dilations, on holes of every
+    shape, touching the sides, a whole image of hole (255), a single pixel of board."""
+    from tendrilkit.segmentation.faint import _fill_from_board
+
+    rng = np.random.default_rng(7)
+    for k in range(80):
+        shape = tuple(int(v) for v in rng.integers(2, 90, 2))
+        small = rng.integers(0, 256, shape).astype(np.uint8)
+        hole = _random_mask(rng, shape, float(rng.choice([0.0, 0.05, 0.5])))
+        if k % 9 == 0:
+            hole[:] = 255
+        if k % 9 == 1:
+            hole[:] = 255
+            hole[int(rng.integers(0, shape[0])), int(rng.integers(0, shape[1]))] = 0
+        np.testing.assert_array_equal(_fill_from_board(small, hole), _fill_from_board_8382d0e(small, hole))

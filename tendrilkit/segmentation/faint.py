@@ -6,6 +6,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from tendrilkit.segmentation.kernels import grow_fill
+
 __all__ = ["faint_pixels", "drop_unanchored", "reduce_grey"]
 
 _BAND_ROWS = 64  # rows per band of faint_pixels' float work
@@ -274,25 +276,14 @@ def _fill_from_board(small: np.ndarray, hole: np.ndarray) -> np.ndarray:
     board's levels): the board is the brightest thing in a view, so a pale
     tendril beside a leaf never lends its level to the leaf's hole (as an
     interpolation from every side would); what is left after as many steps as
-    the image's longer side (no board at all) is 255.
+    the image's longer side (no board at all) is 255. Compiled
+    (:func:`tendrilkit.segmentation.kernels.grow_fill`: each step visits the
+    hole pixels next to the last step's only; the same levels as the
+    whole-image dilations, test).
     """
     if not hole.any():
         return small
-    out = small.copy()
-    out[hole > 0] = 0
-    todo = hole > 0
-    kernel = np.ones((3, 3), np.uint8)
-    for _ in range(max(small.shape)):
-        if not todo.any():
-            break
-        grown = cv2.dilate(out, kernel)
-        reach = todo & (cv2.dilate((~todo).view(np.uint8), kernel) > 0)
-        if not reach.any():
-            break
-        out[reach] = grown[reach]
-        todo &= ~reach
-    out[todo] = 255
-    return out
+    return grow_fill(small, hole)
 
 
 def _weighted_median(values: np.ndarray, counts: np.ndarray) -> np.float32:
@@ -323,7 +314,7 @@ def _ratio_mad(grey: np.ndarray, bg: np.ndarray) -> float:
                               [0, 256, 0, 256]).ravel()
     else:
         counts = np.bincount((grey.astype(np.int64) << 8 | bg).ravel(), minlength=65536)
-    pairs = np.flatnonzero(counts)
+    pairs = np.flatnonzero(counts > 0)  # (a bool array: several times faster than a float one)
     ratio = (pairs >> 8).astype(np.float32) / (pairs & 255).astype(np.float32)
     m = _weighted_median(ratio, counts[pairs])
     return float(_weighted_median(np.abs(ratio - m), counts[pairs]))

@@ -7,6 +7,10 @@
   half width ``a`` is the AND of ``2 a + 1`` shifted words, the element's the AND over its rows of its rows'
   runs (OR for a dilation). The light lines' disk of 11 px: OpenCV visits its 97 offsets per pixel; here a
   word of 64 pixels takes about 25 word operations.
+* :func:`grow_fill`: a hole of a uint8 image filled from its rim one pixel a step, each pixel with the largest
+  level of its 3 x 3 neighbours at the step before (the faint pixels' board level beside a leaf: the loop of
+  ``cv2.dilate`` over the whole reduced image it replaces, about 0.1 ms a step), visiting only the hole's pixels
+  next to the last step's.
 * :func:`median_blur`: ``cv2.medianBlur`` of a uint8 image by an odd square window (replicated border), by a
   running histogram along each row (Huang's): the same median, the image's middle value of its window.
 """
@@ -17,7 +21,7 @@ import cv2
 import numpy as np
 from numba import njit
 
-__all__ = ["binary_morphology", "median_blur"]
+__all__ = ["binary_morphology", "median_blur", "grow_fill"]
 
 _OPS = {cv2.MORPH_ERODE: (True,), cv2.MORPH_DILATE: (False,), cv2.MORPH_OPEN: (True, False),
         cv2.MORPH_CLOSE: (False, True)}
@@ -195,4 +199,88 @@ def _median_rows(img, r):  # pragma: no cover - compiled
                 below += hist[m]
                 m += 1
             out[y, x] = m
+    return out
+
+
+def grow_fill(image: np.ndarray, hole: np.ndarray) -> np.ndarray:
+    """``image`` (uint8, 2D) with its ``hole`` pixels (nonzero) filled from the rim in, one pixel a step.
+
+    Step by step, every hole pixel with a pixel outside the hole among its
+    8 neighbours takes the largest of its 3 x 3 neighbourhood's levels at
+    the step before (hole pixels count as 0), and leaves the hole; after as
+    many steps as the image's longer side, or when no hole pixel has such a
+    neighbour, what is left is 255. The same as, per step, a 3 x 3
+    ``cv2.dilate`` of the levels and of the pixels outside the hole over the
+    whole image (OpenCV's border: outside the image counts for nothing).
+    Returns a new array.
+    """
+    img = np.ascontiguousarray(image, dtype=np.uint8)
+    todo = np.ascontiguousarray(np.asarray(hole) != 0)
+    if img.ndim != 2 or todo.shape != img.shape:
+        raise ValueError(f"hole must have the shape of image {img.shape}, got {np.asarray(hole).shape}")
+    return _grow_fill(img, todo.view(np.uint8).copy())
+
+
+@njit(cache=True)
+def _grow_fill(img, todo):  # pragma: no cover - compiled
+    h, w = img.shape
+    out = img.copy()
+    n = 0
+    for r in range(h):
+        for c in range(w):
+            if todo[r, c]:
+                out[r, c] = 0
+                n += 1
+    fr = np.empty(n, np.int64)  # this step's pixels (rows, columns)
+    fc = np.empty(n, np.int64)
+    val = np.empty(n, np.uint8)
+    queued = np.zeros((h, w), np.uint8)
+    m = 0
+    for r in range(h):  # the first step: hole pixels with a neighbour outside the hole
+        for c in range(w):
+            if todo[r, c]:
+                edge = False
+                for dr in range(-1, 2):
+                    for dc in range(-1, 2):
+                        rr, cc = r + dr, c + dc
+                        if 0 <= rr < h and 0 <= cc < w and not todo[rr, cc]:
+                            edge = True
+                if edge:
+                    fr[m] = r
+                    fc[m] = c
+                    queued[r, c] = 1
+                    m += 1
+    steps = 0
+    while m > 0 and steps < max(h, w):
+        steps += 1
+        for k in range(m):  # every level from the step before
+            r, c = fr[k], fc[k]
+            best = 0
+            for dr in range(-1, 2):
+                for dc in range(-1, 2):
+                    rr, cc = r + dr, c + dc
+                    if 0 <= rr < h and 0 <= cc < w and out[rr, cc] > best:
+                        best = out[rr, cc]
+            val[k] = best
+        for k in range(m):
+            out[fr[k], fc[k]] = val[k]
+            todo[fr[k], fc[k]] = 0
+        m2 = 0
+        nr = np.empty(n, np.int64)
+        nc = np.empty(n, np.int64)
+        for k in range(m):  # the next step: the hole pixels next to this step's
+            r, c = fr[k], fc[k]
+            for dr in range(-1, 2):
+                for dc in range(-1, 2):
+                    rr, cc = r + dr, c + dc
+                    if 0 <= rr < h and 0 <= cc < w and todo[rr, cc] and not queued[rr, cc]:
+                        queued[rr, cc] = 1
+                        nr[m2] = rr
+                        nc[m2] = cc
+                        m2 += 1
+        fr, fc, m = nr, nc, m2
+    for r in range(h):
+        for c in range(w):
+            if todo[r, c]:
+                out[r, c] = 255
     return out
