@@ -108,7 +108,10 @@ def faint_pixels(
     1.7 ms more per 1080p phantom view's ROI (median CPU of
     :func:`segment_view` 4.9 -> 6.6 ms, ``bench_evidence.py masks``, load 10);
     the plain reduction it replaces is not made (since 2026-12-01: about 1 ms
-    per view less).
+    per view less). With ``at`` only the bands holding its pixels are worked
+    (the pale options' plain pass at the faint pixels, absent where no pixel
+    is faint: about half the whole pass's cost per view, and no pass in a third
+    of the views); the holes' filling is compiled (:func:`_fill_from_board`).
 
     Example
     -------
@@ -230,8 +233,11 @@ def drop_unanchored(faint: np.ndarray, plain: np.ndarray, *, min_plain_frac: flo
     Notes
     -----
     Only where ``exclude`` found pixels: one labelling of the faint pixels
-    and two counts per region (about 1 ms on a 1080p phantom view's region
-    of interest).
+    on their box and two counts per region at their pixels (about 0.3 ms on
+    a 1080p phantom view's region of interest; 1-2 ms when the whole crop was
+    labelled and counted, before 2026-12-01's issue 17 work). ``plain`` is
+    read at the faint pixels only: :func:`foreground_roi` decides the plain
+    rule there alone (:func:`faint_pixels`' ``at``).
 
     Example
     -------

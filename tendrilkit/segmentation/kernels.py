@@ -11,8 +11,6 @@
   level of its 3 x 3 neighbours at the step before (the faint pixels' board level beside a leaf: the loop of
   ``cv2.dilate`` over the whole reduced image it replaces, about 0.1 ms a step), visiting only the hole's pixels
   next to the last step's.
-* :func:`median_blur`: ``cv2.medianBlur`` of a uint8 image by an odd square window (replicated border), by a
-  running histogram along each row (Huang's): the same median, the image's middle value of its window.
 """
 
 from __future__ import annotations
@@ -21,7 +19,7 @@ import cv2
 import numpy as np
 from numba import njit
 
-__all__ = ["binary_morphology", "median_blur", "grow_fill"]
+__all__ = ["binary_morphology", "grow_fill"]
 
 _OPS = {cv2.MORPH_ERODE: (True,), cv2.MORPH_DILATE: (False,), cv2.MORPH_OPEN: (True, False),
         cv2.MORPH_CLOSE: (False, True)}
@@ -146,59 +144,6 @@ def _morph_words(x, width, hw, erode):  # pragma: no cover - compiled
                     acc |= v
             out[r, i] = acc
         out[r, nw - 1] &= ~pad
-    return out
-
-
-def median_blur(image: np.ndarray, ksize: int) -> np.ndarray:
-    """``cv2.medianBlur(image, ksize)`` of a uint8 image, bit for bit (odd ``ksize`` >= 3; replicated border)."""
-    img = np.asarray(image)
-    if img.ndim != 2 or img.dtype != np.uint8 or ksize < 3 or ksize % 2 == 0 or min(img.shape) < 1:
-        return cv2.medianBlur(img, ksize)
-    return _median_rows(np.ascontiguousarray(img), ksize // 2)
-
-
-@njit(cache=True)
-def _median_rows(img, r):  # pragma: no cover - compiled
-    """The median of every pixel's (2 r + 1)^2 window, the border replicated: a histogram slid along each row."""
-    h, w = img.shape
-    out = np.empty((h, w), np.uint8)
-    half = (2 * r + 1) * (2 * r + 1) // 2  # the middle value's rank, 0-based
-    rows = np.empty(2 * r + 1, np.int64)
-    hist = np.zeros(256, np.int64)
-    for y in range(h):
-        for k in range(2 * r + 1):
-            rows[k] = min(max(y + k - r, 0), h - 1)
-        hist[:] = 0
-        for k in range(2 * r + 1):
-            for dx in range(-r, r + 1):
-                hist[img[rows[k], min(max(dx, 0), w - 1)]] += 1
-        # m: the median; below: how many of the window's values are under m
-        m = 0
-        below = 0
-        while below + hist[m] <= half:
-            below += hist[m]
-            m += 1
-        out[y, 0] = m
-        for x in range(1, w):
-            cout = min(max(x - 1 - r, 0), w - 1)
-            cin = min(max(x + r, 0), w - 1)
-            if cout != cin:
-                for k in range(2 * r + 1):
-                    v = img[rows[k], cout]
-                    hist[v] -= 1
-                    if v < m:
-                        below -= 1
-                    v = img[rows[k], cin]
-                    hist[v] += 1
-                    if v < m:
-                        below += 1
-            while below > half:
-                m -= 1
-                below -= hist[m]
-            while below + hist[m] <= half:
-                below += hist[m]
-                m += 1
-            out[y, x] = m
     return out
 
 
