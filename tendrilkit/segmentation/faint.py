@@ -6,7 +6,9 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["faint_pixels", "drop_unanchored"]
+from tendrilkit.segmentation.kernels import grow_fill
+
+__all__ = ["faint_pixels", "drop_unanchored", "reduce_grey"]
 
 _BAND_ROWS = 64  # rows per band of faint_pixels' float work
 
@@ -19,6 +21,8 @@ def faint_pixels(
     background_px: int = 36,
     local_window_px: int = 9,
     exclude: np.ndarray | None = None,
+    at: np.ndarray | None = None,
+    reduced: np.ndarray | None = None,
 ) -> np.ndarray:
     r"""Pixels darker than their local background by a relative contrast: thin, pale structures.
 
@@ -73,6 +77,17 @@ def faint_pixels(
         (their own depth counts as 0 there, so they are never faint pixels
         themselves unless darker than ``local_contrast``; the caller drops
         them, as :func:`foreground_roi` does).
+    at : (h, w) uint8 array, optional
+        Nonzero on the only pixels to decide (the others are 0 in the
+        result): each of them gets the value it gets without ``at``, bit for
+        bit (the depth is computed only in the bands of rows holding them, on
+        the columns of the candidates within ``local_window_px // 2`` of
+        them). :func:`drop_unanchored` reads the plain rule at the faint
+        pixels only.
+    reduced : (h // 4, w // 4) uint8 array, optional
+        ``cv2.resize(grey, (w // 4, h // 4), interpolation=cv2.INTER_AREA)``
+        when already made (:func:`reduce_grey`; the light lines' board level
+        reads it too); used without ``exclude`` (or with an empty one).
 
     Returns
     -------
@@ -93,7 +108,10 @@ def faint_pixels(
     1.7 ms more per 1080p phantom view's ROI (median CPU of
     :func:`segment_view` 4.9 -> 6.6 ms, ``bench_evidence.py masks``, load 10);
     the plain reduction it replaces is not made (since 2026-12-01: about 1 ms
-    per view less).
+    per view less). With ``at`` only the bands holding its pixels are worked
+    (the pale options' plain pass at the faint pixels, absent where no pixel
+    is faint: about half the whole pass's cost per view, and no pass in a third
+    of the views); the holes' filling is compiled (:func:`_fill_from_board`).
 
     Example
     -------
@@ -107,8 +125,16 @@ def faint_pixels(
     h, w = grey.shape
     if exclude is not None and exclude.shape != grey.shape:
         raise ValueError(f"exclude must have the shape of grey {grey.shape}, got {exclude.shape}")
+    if at is not None and at.shape != grey.shape:
+        raise ValueError(f"at must have the shape of grey {grey.shape}, got {at.shape}")
     step = 4
     size = (max(w // step, 1), max(h // step, 1))
+    if reduced is not None and reduced.shape != size[::-1]:
+        raise ValueError(f"reduced must have the shape {size[::-1]} (grey's 4x reduction), got {reduced.shape}")
+    if at is not None:
+        at = cv2.compare(at, 0, cv2.CMP_GT)
+        if not at.any():
+            return np.zeros((h, w), np.uint8)
     if exclude is not None and exclude.any():  # the board's level only: the other objects' pixels filled in from it
         valid = cv2.compare(exclude, 0, cv2.CMP_EQ)
         # 0 or 1 exactly (255 / 255), in one pass
@@ -118,7 +144,7 @@ def faint_pixels(
         small = np.clip(np.round(total / np.maximum(share, np.float32(0.5))), 0, 255).astype(np.uint8)
         small = _fill_from_board(small, hole)
     else:
-        small = cv2.resize(grey, size, interpolation=cv2.INTER_AREA)
+        small = reduced if reduced is not None else reduce_grey(grey)
     k = max(3, (int(background_px) // step) | 1)
     bg_small = cv2.medianBlur(small, k) if min(small.shape) >= 2 else small
     bg = cv2.max(cv2.resize(bg_small, (w, h), interpolation=cv2.INTER_LINEAR), 1)  # uint8, 1-255
@@ -134,13 +160,24 @@ def faint_pixels(
     r = int(local_window_px) // 2
     # The float work in bands of rows, on the columns of their candidates only: at a pixel with d > c the
     # window's largest d is at a pixel with d > c (d itself is one), within r rows of the band.
+    # With ``at``: only the bands holding its pixels, and the candidates within r columns of them (all those a
+    # pixel of ``at`` sees in its window).
     for y0 in range(0, h, _BAND_ROWS):
         y1 = min(y0 + _BAND_ROWS, h)
         e0, e1 = max(y0 - r, 0), min(y1 + r, h)
+        if at is not None:
+            ax, _, aw, _ = cv2.boundingRect(at[y0:y1])
+            if aw == 0:
+                continue
         bx, _, bw, _ = cv2.boundingRect(candidate[y0:y1])
         if bw == 0:
             continue
         bx, _, bw, _ = cv2.boundingRect(candidate[e0:e1])
+        if at is not None:
+            lo, hi = max(bx, ax - r), min(bx + bw, ax + aw + r)
+            if hi <= lo:
+                continue
+            bx, bw = lo, hi - lo
         g, b = grey[e0:e1, bx:bx + bw], bg[e0:e1, bx:bx + bw]
         depth = np.float32(1.0) - g.astype(np.float32) / b.astype(np.float32)
         if exclude is None:
@@ -151,7 +188,15 @@ def faint_pixels(
             half = np.float32(0.5) * cv2.dilate(own, kernel)
         out[y0:y1, bx:bx + bw] = cv2.bitwise_and(cv2.compare(depth, c, cv2.CMP_GT),
                                                  cv2.compare(depth, half, cv2.CMP_GT))[y0 - e0:y1 - e0]
-    return out
+    return out if at is None else cv2.bitwise_and(out, at)
+
+
+def reduce_grey(grey: np.ndarray) -> np.ndarray:
+    """The 4x area reduction of a grey image (``(h // 4, w // 4)``, at least 1 x 1) from which
+    :func:`faint_pixels` (without ``exclude``) and the light lines' board level
+    (:func:`tendrilkit.segmentation.lines.board_level`) take their local levels: made once, read by both."""
+    h, w = grey.shape
+    return cv2.resize(grey, (max(w // 4, 1), max(h // 4, 1)), interpolation=cv2.INTER_AREA)
 
 
 def drop_unanchored(faint: np.ndarray, plain: np.ndarray, *, min_plain_frac: float = 0.5) -> np.ndarray:
@@ -188,8 +233,11 @@ def drop_unanchored(faint: np.ndarray, plain: np.ndarray, *, min_plain_frac: flo
     Notes
     -----
     Only where ``exclude`` found pixels: one labelling of the faint pixels
-    and two counts per region (about 1 ms on a 1080p phantom view's region
-    of interest).
+    on their box and two counts per region at their pixels (about 0.3 ms on
+    a 1080p phantom view's region of interest; 1-2 ms when the whole crop was
+    labelled and counted, before 2026-12-01's issue 17 work). ``plain`` is
+    read at the faint pixels only: :func:`foreground_roi` decides the plain
+    rule there alone (:func:`faint_pixels`' ``at``).
 
     Example
     -------
@@ -210,12 +258,20 @@ def drop_unanchored(faint: np.ndarray, plain: np.ndarray, *, min_plain_frac: flo
     extra = cv2.bitwise_and(fa, cv2.compare(pl, 0, cv2.CMP_EQ))
     if not extra.any():
         return fa
-    n, lab = cv2.connectedComponents(fa, connectivity=8)
-    total = np.bincount(lab.ravel(), minlength=n)
-    found = np.bincount(lab[cv2.bitwise_and(fa, pl) > 0], minlength=n)
+    # the regions labelled on the faint pixels' box (each lies in it whole: the same regions), counted at their
+    # pixels only
+    x, y, w, h = cv2.boundingRect(fa)
+    sub = fa[y:y + h, x:x + w]
+    n, lab = cv2.connectedComponents(sub, connectivity=8)
+    rc = cv2.findNonZero(sub).reshape(-1, 2)
+    r, c = rc[:, 1], rc[:, 0]
+    at = lab[r, c]
+    total = np.bincount(at, minlength=n)
+    found = np.bincount(at[pl[y:y + h, x:x + w][r, c] > 0], minlength=n)
     alone = found < min_plain_frac * total
     alone[0] = False
-    fa[alone[lab] & (extra > 0)] = 0
+    drop = alone[at] & (extra[y:y + h, x:x + w][r, c] > 0)
+    sub[r[drop], c[drop]] = 0
     return fa
 
 
@@ -226,25 +282,14 @@ def _fill_from_board(small: np.ndarray, hole: np.ndarray) -> np.ndarray:
     board's levels): the board is the brightest thing in a view, so a pale
     tendril beside a leaf never lends its level to the leaf's hole (as an
     interpolation from every side would); what is left after as many steps as
-    the image's longer side (no board at all) is 255.
+    the image's longer side (no board at all) is 255. Compiled
+    (:func:`tendrilkit.segmentation.kernels.grow_fill`: each step visits the
+    hole pixels next to the last step's only; the same levels as the
+    whole-image dilations, test).
     """
     if not hole.any():
         return small
-    out = small.copy()
-    out[hole > 0] = 0
-    todo = hole > 0
-    kernel = np.ones((3, 3), np.uint8)
-    for _ in range(max(small.shape)):
-        if not todo.any():
-            break
-        grown = cv2.dilate(out, kernel)
-        reach = todo & (cv2.dilate((~todo).view(np.uint8), kernel) > 0)
-        if not reach.any():
-            break
-        out[reach] = grown[reach]
-        todo &= ~reach
-    out[todo] = 255
-    return out
+    return grow_fill(small, hole)
 
 
 def _weighted_median(values: np.ndarray, counts: np.ndarray) -> np.float32:
@@ -275,7 +320,7 @@ def _ratio_mad(grey: np.ndarray, bg: np.ndarray) -> float:
                               [0, 256, 0, 256]).ravel()
     else:
         counts = np.bincount((grey.astype(np.int64) << 8 | bg).ravel(), minlength=65536)
-    pairs = np.flatnonzero(counts)
+    pairs = np.flatnonzero(counts > 0)  # (a bool array: several times faster than a float one)
     ratio = (pairs >> 8).astype(np.float32) / (pairs & 255).astype(np.float32)
     m = _weighted_median(ratio, counts[pairs])
     return float(_weighted_median(np.abs(ratio - m), counts[pairs]))

@@ -9,7 +9,7 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from tendrilkit.segmentation.faint import drop_unanchored, faint_pixels
+from tendrilkit.segmentation.faint import drop_unanchored, faint_pixels, reduce_grey
 from tendrilkit.segmentation.lines import bridge_line_gaps, light_line_pixels, lines_in_front
 
 __all__ = ["LabelledForeground", "label_foreground", "grey_image", "foreground_roi", "faint_options"]
@@ -206,6 +206,7 @@ def foreground_roi(
         r = int(opening_radius_px)
         kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
         fg = cv2.morphologyEx(fg, cv2.MORPH_OPEN, kernel)
+    reduced = None  # grey's 4x area reduction, made once for the plain faint pixels and the board's level
     dark = fg  # the threshold's pixels (what a light line is in front of)
     if local_contrast > 0:  # not opened: a pale tendril's faint pixels are as narrow as its half-depth core
         near = fg
@@ -219,13 +220,17 @@ def foreground_roi(
             faint[b0:b1, a0:a1] = 0
         if local_margin_px > 0:
             faint = cv2.bitwise_and(faint, cv2.compare(near, 0, cv2.CMP_EQ))
-        if local_exclude_dark:  # a pale part of an object beside it (a taped stretch of the stem) is no tendril
+        if local_exclude_dark and faint.any():  # a pale part of an object beside it (a taped stem) is no tendril
+            # the plain rule is read at the faint pixels only (drop_unanchored): decided there alone, the same values
+            reduced = reduce_grey(grey)
             plain = faint_pixels(grey, local_contrast=local_contrast, local_noise_k=local_noise_k,
-                                 background_px=background_px, local_window_px=local_window_px)
+                                 background_px=background_px, local_window_px=local_window_px, at=faint,
+                                 reduced=reduced)
             faint = drop_unanchored(faint, plain)
         fg = cv2.bitwise_or(fg, faint)
     if line_width_px > 0:  # 4c: a pale line in front of a darker object (lighter than it, darker than the board)
-        lines = light_line_pixels(grey, fg, width_px=int(line_width_px), contrast=max(float(local_contrast), 0.05))
+        lines = light_line_pixels(grey, fg, width_px=int(line_width_px), contrast=max(float(local_contrast), 0.05),
+                                  reduced=reduced)
         if keep_out is not None and a1 > a0 and b1 > b0 and lines[b0:b1, a0:a1].any():
             # the painted box is a gap through the node, no light line in front of it: its pieces are dropped
             n, lab = cv2.connectedComponents(lines, connectivity=8)

@@ -137,7 +137,16 @@ def thin_strips(mask: np.ndarray, strip: int = 96) -> np.ndarray:
 
 @njit(cache=True)
 def _thin_padded(sk, lut):  # pragma: no cover - compiled
-    """Thin the 0/1 array ``sk`` (a zero border of one pixel around the mask) in place."""
+    """Thin the 0/1 array ``sk`` (a zero border of one pixel around the mask) in place.
+
+    The pixels evaluated are the foreground's with a background neighbour; one
+    that two sub-iterations in a row (one of each kind) kept, its neighbours
+    unchanged since, is kept by every later one until a neighbour is removed
+    (its neighbourhood code and the sub-iteration's kind decide), so it leaves
+    the list and comes back with a neighbour's removal: a thin line already
+    thinned is not evaluated again every sub-iteration while a wide region
+    goes on thinning (the same removals, sub-iteration by sub-iteration).
+    """
     h, w = sk.shape
     n_fg = 0
     for r in range(1, h - 1):
@@ -147,6 +156,7 @@ def _thin_padded(sk, lut):  # pragma: no cover - compiled
     cr = np.empty(n_fg, np.int32)
     cc = np.empty(n_fg, np.int32)
     listed = np.zeros((h, w), np.uint8)
+    calm = np.zeros((h, w), np.uint8)  # sub-iterations in a row that kept the pixel, its neighbours unchanged
     n = 0
     for r in range(1, h - 1):
         for c in range(1, w - 1):
@@ -170,27 +180,36 @@ def _thin_padded(sk, lut):  # pragma: no cover - compiled
                 if k == 3 or (k == 1 and first) or (k == 2 and not first):
                     gone[i] = 1
                     n_gone += 1
+                elif calm[r, c] < 2:
+                    calm[r, c] += 1
             if n_gone == 0:
                 continue
             removed = True
             for i in range(n):
                 if gone[i]:
                     sk[cr[i], cc[i]] = 0
-            m = 0
             n_old = n
-            for i in range(n_old):  # the removed pixels' neighbours join the list; the removed leave it
+            for i in range(n_old):  # the removed pixels' neighbours join the list (their calm ends)
+                if gone[i]:
+                    r, c = cr[i], cc[i]
+                    for dr in range(-1, 2):
+                        for dc in range(-1, 2):
+                            rr, c2 = r + dr, c + dc
+                            if sk[rr, c2]:
+                                calm[rr, c2] = 0
+                                if not listed[rr, c2]:
+                                    listed[rr, c2] = 1
+                                    cr[n] = rr
+                                    cc[n] = c2
+                                    n += 1
+            m = 0
+            for i in range(n_old):  # the removed and the calm leave the list
                 r, c = cr[i], cc[i]
                 if gone[i]:
                     gone[i] = 0
                     listed[r, c] = 0
-                    for dr in range(-1, 2):
-                        for dc in range(-1, 2):
-                            rr, c2 = r + dr, c + dc
-                            if sk[rr, c2] and not listed[rr, c2]:
-                                listed[rr, c2] = 1
-                                cr[n] = rr
-                                cc[n] = c2
-                                n += 1
+                elif calm[r, c] >= 2:
+                    listed[r, c] = 0
                 else:
                     cr[m] = r
                     cc[m] = c
