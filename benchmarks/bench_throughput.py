@@ -136,7 +136,9 @@ def frame_loop(exp, cameras, frames) -> tuple[float, float, list, float]:
     evidence.view_evidence = timed
     try:
         t0 = _clocks()
-        results = list(_iter_chunk(frames, [None] * exp.n_views, exp, cameras, True))
+        # the runner's state at a chunk's start: no curve (multiview) or no centroids per view (chain)
+        start = None if exp.reconstruction.method == "multiview" else [None] * exp.n_views
+        results = list(_iter_chunk(frames, start, exp, cameras, True))
         w, c = _since(t0)
     finally:
         evidence.view_evidence = plain

@@ -180,13 +180,13 @@ def test_a_process_that_cannot_open_a_video_fails_that_view_with_the_reason(refe
     cameras = read_cameras(out / "cameras.json")
     first = Path(exp.videos[0])
     first.rename(first.with_suffix(".gone"))  # as on a worker that does not see this file
-    res = list(_iter_chunk([0, 1], [None] * exp.n_views, exp, cameras, False))
+    res = list(_iter_chunk([0, 1], None, exp, cameras, False))
     assert [r.frame for r in res] == [0, 1]
     for r in res:
         assert "view 1: FrameReadError: cannot open the video here" in r.message and "video not found" in r.message
     for v in exp.videos[1:]:
         Path(v).rename(Path(v).with_suffix(".gone"))
-    res = list(_iter_chunk([2], [None] * exp.n_views, exp, cameras, False))
+    res = list(_iter_chunk([2], None, exp, cameras, False))
     assert res[0].status == "failed" and res[0].message.count("cannot open the video here") == exp.n_views
 
 
