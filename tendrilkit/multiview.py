@@ -118,6 +118,17 @@ BRIDGE_EXTEND_MM = 200.0
 #: three criteria 34.2 -> 34.2 %, mean and max better, ``ok`` with an end or the max over 2 mm 6 -> 7, 21 ms more per
 #: frame; with the pale segmentation options it keeps more of what they gain: README, Options).
 KINK_PX_PER_DEG = 1.0
+#: The tendril's width along the curve (:func:`skeleton_widths`): a skeleton pixel whose depth inside its dark region
+#: (``inside_px``, about the half width) is ``WIDE_RATIO`` times or more the curve's own near the base (its median
+#: from ``REF_FROM_MM`` to ``REF_TO_MM`` of arc length, per view) lies on something wider than the tendril (a shoot, a
+#: petiole, the stem: they pass for thin structures in the skeleton). A tendril tapers to its tip; a curve whose
+#: last ``WIDE_TAIL_MM`` or more run wide in two views (at ``WIDE_SHARE`` of their nodes) left the tendril where that
+#: run begins (:func:`wide_tail_start`), and the tip's extension does not step onto such pixels.
+WIDE_RATIO = 1.5
+REF_FROM_MM = 5.0
+REF_TO_MM = 35.0
+WIDE_TAIL_MM = 6.0
+WIDE_SHARE = 0.7
 
 
 @dataclass(frozen=True, eq=False)
@@ -463,6 +474,59 @@ def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm
     return X
 
 
+def skeleton_widths(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, d=None, seen=None, near=None) -> np.ndarray:
+    """(V, n) per view, the depth inside its dark region (``inside_px``, px) of the skeleton pixel nearest each
+    point's projection, where the point is on the view's skeleton (within ``ON_PX``, seen); NaN elsewhere.
+
+    ``d``, ``seen``, ``near``: :func:`tendrilkit.mv_acquire.point_costs` of the points (``nearest=True``), if known.
+    """
+    if d is None:
+        d, seen, near, _ = point_costs(evidence, P_mm, nearest=True)
+    W = np.full(d.shape, np.nan)
+    for v, ev in enumerate(evidence):
+        ok = seen[v] & (d[v] <= ON_PX) & (near[v] >= 0)
+        if ok.any():
+            xy = ev.skeleton_xy[near[v, ok]].astype(int) - ev.offset_xy
+            W[v, ok] = ev.inside_px[xy[:, 1], xy[:, 0]]
+    return W
+
+
+def reference_widths(X_mm: np.ndarray, evidence: list[SkeletonEvidence]) -> np.ndarray:
+    """(V,) the curve's median skeleton width per view from ``REF_FROM_MM`` to ``REF_TO_MM`` of arc length (NaN: fewer
+    than 3 nodes on the view's skeleton there)."""
+    X = np.asarray(X_mm, float)
+    s = arc_length(X)
+    P = X[(s >= REF_FROM_MM) & (s <= REF_TO_MM)]
+    ref = np.full(len(evidence), np.nan)
+    if len(P) == 0:
+        return ref
+    W = skeleton_widths(evidence, P)
+    for v in range(len(evidence)):
+        w = W[v][np.isfinite(W[v])]
+        if len(w) >= 3:
+            ref[v] = float(np.median(w))
+    return ref
+
+
+def wide_tail_start(X_mm: np.ndarray, evidence: list[SkeletonEvidence], ref: np.ndarray | None = None) -> int | None:
+    """The node where the curve's wide tail begins (see ``WIDE_RATIO``), or None: the earliest node past
+    ``REF_TO_MM`` from which at least ``WIDE_TAIL_MM`` run to the tip with ``WIDE_SHARE`` of the nodes wide in two
+    views, itself wide in two."""
+    X = np.asarray(X_mm, float)
+    s = arc_length(X)
+    if len(X) < 3 or s[-1] < REF_TO_MM + WIDE_TAIL_MM:
+        return None
+    ref = reference_widths(X, evidence) if ref is None else ref
+    if np.isfinite(ref).sum() < 2:
+        return None
+    W = skeleton_widths(evidence, X)
+    with np.errstate(invalid="ignore"):
+        wide = (W >= WIDE_RATIO * ref[:, None]).sum(axis=0) >= 2
+    share = np.cumsum(wide[::-1])[::-1] / np.arange(len(X), 0, -1)  # share of wide nodes from each node to the tip
+    ok = wide & (share >= WIDE_SHARE) & (s[-1] - s >= WIDE_TAIL_MM) & (s > REF_TO_MM)
+    return int(np.flatnonzero(ok)[0]) if ok.any() else None
+
+
 def _support(evidence, P):
     d, seen = point_costs(evidence, P)
     on = seen & (d <= ON_PX)
@@ -508,7 +572,8 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         Nodes ending at the new tip (spacing of the input up to the tip;
         the caller resamples).
     """
-    X = [np.asarray(p, float) for p in _trim(np.asarray(X_mm, float), evidence, prior_mm=prior_mm)]
+    ref = reference_widths(np.asarray(X_mm, float), evidence)
+    X = [np.asarray(p, float) for p in _trim(np.asarray(X_mm, float), evidence, prior_mm=prior_mm, ref=ref)]
     ext = []
     tip = X[-1]
     t = X[-1] - X[max(len(X) - 1 - max(int(round(2.0 / max(np.linalg.norm(X[-1] - X[-2]), 1e-6))), 1), 0)]
@@ -534,6 +599,8 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
             P = tip + step_mm * dirs
             d, seen, near, bg = point_costs(evidence, P, nearest=True)
             on = seen & (d <= ON_PX) & ~bg.any(axis=0)
+            with np.errstate(invalid="ignore"):  # not onto something wider than the tendril
+                on &= ~(skeleton_widths(evidence, P, d=d, seen=seen, near=near) >= WIDE_RATIO * ref[:, None])
             if claims is not None and s_[-1] + ext_mm + step_mm > prior_mm:
                 for v, c in enumerate(claims):
                     on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
@@ -589,13 +656,18 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
 
 
 def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.5, radius_px: float = 4.0,
-          prior_mm: float = 0.0) -> np.ndarray:
+          prior_mm: float = 0.0, ref: np.ndarray | None = None) -> np.ndarray:
     """The curve up to its last node that two views see on skeleton pixels the curve had not explained yet.
 
     A node's nearest skeleton pixel is explained already when the projection of the curve at least
     ``lag_mm`` before the node passed within ``radius_px`` of it. Nodes within ``prior_mm`` of arc length
-    from the base need only lie on the skeletons (see :func:`adjust_tip`).
+    from the base need only lie on the skeletons (see :func:`adjust_tip`). With ``ref`` (the curve's
+    :func:`reference_widths`), a curve is first cut where its wide tail begins (:func:`wide_tail_start`).
     """
+    if ref is not None:
+        j = wide_tail_start(X, evidence, ref)
+        if j is not None:
+            X = X[:max(j, 3)]
     from scipy.spatial import cKDTree
 
     s = arc_length(X)
@@ -730,6 +802,9 @@ def _choose_acquired(grown: list, evidence: list[SkeletonEvidence], B: np.ndarra
     on every view (a few ms), pays ``KINK_PX_PER_DEG`` per degree of its :func:`local_kink_deg` (where it left the
     tendril); the least is fitted to the end (tip extended, refined again).
     """
+    # a candidate that ran onto something wider than the tendril is cut where it did (the tip's extension goes on
+    # from there along the tendril, across the crossing)
+    grown = [(G[:max(j, 3)] if (j := wide_tail_start(G, evidence)) is not None else G, sc) for G, sc in grown]
     if len(grown) == 1:
         return _fit(grown[0][0], evidence, B, segment_mm)
     refined = [refine_curve(_resample(G, segment_mm), evidence, base_mm=B, segment_mm=segment_mm) for G, _ in grown]
