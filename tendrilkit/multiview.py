@@ -48,6 +48,15 @@ Coverage (:func:`adjust_tip`)
     undone together unless the extension past the last goes on along two
     views for ``BRIDGE_CONFIRM_MM``.
 
+Width (:func:`wide_tail_start`)
+    A shoot, a petiole or the stem crossing or touching the tendril passes
+    for a thin structure in the skeleton, but it is wider than the tendril,
+    which tapers to its tip: a curve whose tail runs on skeleton pixels
+    ``WIDE_RATIO`` times as deep inside their dark region as its own near
+    the base, in two views, left the tendril where that tail begins. The
+    acquisition's candidates are cut there, and the tip's extension
+    (:func:`adjust_tip`, its trim) does not step onto such pixels.
+
 Tracking (:func:`reconstruct_multiview`)
     A frame starts from the previous frame's curve (identity carried in 3D),
     whose length is a prior: up to it, the tip is kept and extended wherever

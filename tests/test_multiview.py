@@ -627,3 +627,58 @@ def test_acquisition_keeps_the_tendril_at_a_junction_onto_a_longer_branch():
     assert e["tip"] > 20.0, e  # the beam's own choice, onto the branch
     e = _errors(resample_polyline(r.nodes_mm, 200), X)
     assert e["mean"] <= 0.5 and e["max"] <= 2.0 and e["base"] <= 2.0 and e["tip"] <= 2.0, e
+
+
+def _tendril_with_a_wide_shoot(angle_deg: float = 25.0, width_px: int = 17):
+    """A 61 mm tendril (7 px wide) and a straight shoot 2.4 times as wide leaving it ``angle_deg`` off, 70 % along,
+    longer than the rest of the tendril (45 mm), its free end inside every ROI: thin enough to be skeleton
+    evidence (``mv_evidence.WIDE_PX``), at an angle the kink choice does not reject."""
+    s = np.linspace(0.0, 1.0, 2000)
+    X = np.c_[-5 + 60 * s, 6 * np.sin(2.5 * s), 20 + 4 * s]
+    images, cams, exp = render_tube_views(X, width_px=7, margin_px=60)
+    i = int(0.7 * len(X))
+    t = (X[i] - X[i - 20]) / np.linalg.norm(X[i] - X[i - 20])
+    n = np.cross(t, [0.0, 0.0, 1.0])
+    n /= np.linalg.norm(n)
+    d = np.cos(np.radians(angle_deg)) * t + np.sin(np.radians(angle_deg)) * n
+    other = X[i] + np.linspace(0.0, 45.0, 200)[:, None] * d
+    for img, cam in zip(images, cams):
+        cv2.polylines(img, [np.round(cam.project(other) * 16).astype(np.int32)], False, (40, 40, 40), width_px,
+                      cv2.LINE_AA, 4)
+    B = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=8.0)
+    return X, _evidence(images, cams, exp), B
+
+
+def test_curve_does_not_run_onto_a_wider_shoot(monkeypatch):
+    """Without the width rule the curve leaves the tendril at the junction and runs along the shoot (11 mm off at
+    its tip); with it, it is cut where it ran onto pixels 1.5 times as deep as its own near the base and the tip's
+    extension does not step onto them: every point within 0.5 mm of the tendril (it stops at the junction: the
+    rest of the tendril, past the merged pixels, is not reached)."""
+    import tendrilkit.multiview as M
+
+    X, ev, B = _tendril_with_a_wide_shoot()
+    e = _errors(resample_polyline(reconstruct_multiview(ev, B).nodes_mm, 200), X)
+    assert e["mean"] <= 0.5 and e["max"] <= 0.5 and e["base"] <= 2.0, e
+    monkeypatch.setattr(M, "WIDE_RATIO", np.inf)
+    e = _errors(resample_polyline(reconstruct_multiview(ev, B).nodes_mm, 200), X)
+    assert e["max"] > 5.0, e
+
+
+def test_wide_tail_start_finds_where_the_curve_left_the_tendril():
+    """``wide_tail_start`` on a curve along the tendril to the junction, then along the shoot: the node where the
+    shoot begins (within 3 mm of the junction); the tendril alone, or a curve too short to have a reference, none."""
+    from tendrilkit.geometry import arc_length
+    from tendrilkit.multiview import wide_tail_start
+
+    X, ev, B = _tendril_with_a_wide_shoot()
+    i = int(0.7 * len(X))
+    t = (X[i] - X[i - 20]) / np.linalg.norm(X[i] - X[i - 20])
+    n = np.cross(t, [0.0, 0.0, 1.0])
+    n /= np.linalg.norm(n)
+    d = np.cos(np.radians(25.0)) * t + np.sin(np.radians(25.0)) * n
+    C = np.vstack([resample_polyline(X[:i + 1], 43), X[i] + np.arange(1.0, 40.0)[:, None] * d])
+    j = wide_tail_start(C, ev)
+    s = arc_length(C)
+    assert j is not None and abs(s[j] - arc_length(X[:i + 1])[-1]) <= 3.0, (j, s[j] if j is not None else None)
+    assert wide_tail_start(resample_polyline(X, 61), ev) is None
+    assert wide_tail_start(resample_polyline(X[:int(0.5 * len(X))], 30), ev) is None
