@@ -133,6 +133,14 @@ KINK_PX_PER_DEG = 1.0
 #: petiole, the stem: they pass for thin structures in the skeleton). A tendril tapers to its tip; a curve whose
 #: last ``WIDE_TAIL_MM`` or more run wide in two views (at ``WIDE_SHARE`` of their nodes) left the tendril where that
 #: run begins (:func:`wide_tail_start`), and the tip's extension does not step onto such pixels.
+#: Measured 2026-12-01 (``rerun_multiview.py`` with the fit): dev 1040-1079 all three 40.8 -> 41.7 %, ``tip off``
+#: 77 -> 62, ``ok`` off 9 -> 9; dev 9240-9299 44.2 -> 44.7 %, 127 -> 109, 12 -> 14; validation 1160-1199 48.8 -> 49.2 %,
+#: mean <= 0.5 mm 66.2 -> 70.8 %, ``ok`` off 14 -> 12, silent 1 -> 1. Tried and not kept: (a) ``bridge_gap``'s far
+#: end and its lead not on such pixels either (a synthetic shoot's junction is then crossed to the tip): dev 1040-1079
+#: 41.7 -> 41.7 %, 9240-9299 44.7 -> 44.2 % (1 gained, 3 lost); (b) an acquired curve covering under 90 % of the
+#: skeleton grown again from where unexplained pieces fork off it in two views, kept on a better precision x
+#: coverage: on dev seeds 1059, 1066, 1067 the truth scores lower than the wrong curve (the touched components hold
+#: the other object's pixels; a pale tendril beside a darker shoot lies off the skeletons), two frames worse.
 WIDE_RATIO = 1.5
 REF_FROM_MM = 5.0
 REF_TO_MM = 35.0
