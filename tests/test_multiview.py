@@ -682,3 +682,21 @@ def test_wide_tail_start_finds_where_the_curve_left_the_tendril():
     assert j is not None and abs(s[j] - arc_length(X[:i + 1])[-1]) <= 3.0, (j, s[j] if j is not None else None)
     assert wide_tail_start(resample_polyline(X, 61), ev) is None
     assert wide_tail_start(resample_polyline(X[:int(0.5 * len(X))], 30), ev) is None
+
+
+def test_tipoff_census_measures_the_departure_along_the_truth():
+    """``benchmarks/diagnose_tipoff.py``'s distance of a curve's nodes to the truth and their arc length along it: a
+    curve along the truth for 30 mm, then 10 mm straight off at right angles, leaves at 30 mm (its last node within
+    2 mm of the truth lies 30-32 mm along it) with a tail of 8-10 mm."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from diagnose_tipoff import _nearest_on
+
+    T = np.c_[np.linspace(0.0, 60.0, 241), np.zeros(241), np.zeros(241)]
+    C = np.vstack([np.c_[np.arange(0.0, 31.0), np.zeros(31), np.zeros(31)],
+                   np.c_[np.full(10, 30.0), np.arange(1.0, 11.0), np.zeros(10)]])
+    d, along = _nearest_on(C, T)
+    assert np.allclose(d[:31], 0.0) and np.allclose(d[31:], np.arange(1.0, 11.0))
+    assert np.allclose(along[:31], np.arange(0.0, 31.0)) and np.allclose(along[31:], 30.0)
+    j = int(np.flatnonzero(d <= 2.0)[-1])
+    s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(C, axis=0), axis=1))]
+    assert 30.0 <= along[j] <= 32.0 and 8.0 <= s[-1] - s[j] <= 10.0
