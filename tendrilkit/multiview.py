@@ -51,6 +51,15 @@ Coverage (:func:`adjust_tip`)
     undone together unless the extension past the last goes on along two
     views for ``BRIDGE_CONFIRM_MM``.
 
+Width (:func:`wide_tail_start`)
+    A shoot, a petiole or the stem crossing or touching the tendril passes
+    for a thin structure in the skeleton, but it is wider than the tendril,
+    which tapers to its tip: a curve whose tail runs on skeleton pixels
+    ``WIDE_RATIO`` times as deep inside their dark region as its own near
+    the base, in two views, left the tendril where that tail begins. The
+    acquisition's candidates are cut there, and the tip's extension
+    (:func:`adjust_tip`, its trim) does not step onto such pixels.
+
 Tracking (:func:`reconstruct_multiview`)
     A frame starts from the previous frame's curve (identity carried in 3D),
     whose length is a prior: up to it, the tip is kept and extended wherever
@@ -135,6 +144,25 @@ BOARD_VETO_VIEWS = 1
 #: shorter than this (mm): past a free tip two views' skeleton ends, or an object the tip touches, agree a few mm on
 #: (dev 9240-9299: tips 0.5-3 mm past the true tip without it); a pale tendril one view misses goes on for longer.
 BOARD_RUN_MM = 4.0
+#: The tendril's width along the curve (:func:`skeleton_widths`): a skeleton pixel whose depth inside its dark region
+#: (``inside_px``, about the half width) is ``WIDE_RATIO`` times or more the curve's own near the base (its median
+#: from ``REF_FROM_MM`` to ``REF_TO_MM`` of arc length, per view) lies on something wider than the tendril (a shoot, a
+#: petiole, the stem: they pass for thin structures in the skeleton). A tendril tapers to its tip; a curve whose
+#: last ``WIDE_TAIL_MM`` or more run wide in two views (at ``WIDE_SHARE`` of their nodes) left the tendril where that
+#: run begins (:func:`wide_tail_start`), and the tip's extension does not step onto such pixels.
+#: Measured 2026-12-01 (``rerun_multiview.py`` with the fit): dev 1040-1079 all three 40.8 -> 41.7 %, ``tip off``
+#: 77 -> 62, ``ok`` off 9 -> 9; dev 9240-9299 44.2 -> 44.7 %, 127 -> 109, 12 -> 14; validation 1160-1199 48.8 -> 49.2 %,
+#: mean <= 0.5 mm 66.2 -> 70.8 %, ``ok`` off 14 -> 12, silent 1 -> 1. Tried and not kept: (a) ``bridge_gap``'s far
+#: end and its lead not on such pixels either (a synthetic shoot's junction is then crossed to the tip): dev 1040-1079
+#: 41.7 -> 41.7 %, 9240-9299 44.7 -> 44.2 % (1 gained, 3 lost); (b) an acquired curve covering under 90 % of the
+#: skeleton grown again from where unexplained pieces fork off it in two views, kept on a better precision x
+#: coverage: on dev seeds 1059, 1066, 1067 the truth scores lower than the wrong curve (the touched components hold
+#: the other object's pixels; a pale tendril beside a darker shoot lies off the skeletons), two frames worse.
+WIDE_RATIO = 1.5
+REF_FROM_MM = 5.0
+REF_TO_MM = 35.0
+WIDE_TAIL_MM = 6.0
+WIDE_SHARE = 0.7
 
 
 @dataclass(frozen=True, eq=False)
@@ -480,6 +508,59 @@ def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm
     return X
 
 
+def skeleton_widths(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, d=None, seen=None, near=None) -> np.ndarray:
+    """(V, n) per view, the depth inside its dark region (``inside_px``, px) of the skeleton pixel nearest each
+    point's projection, where the point is on the view's skeleton (within ``ON_PX``, seen); NaN elsewhere.
+
+    ``d``, ``seen``, ``near``: :func:`tendrilkit.mv_acquire.point_costs` of the points (``nearest=True``), if known.
+    """
+    if d is None:
+        d, seen, near, _ = point_costs(evidence, P_mm, nearest=True)
+    W = np.full(d.shape, np.nan)
+    for v, ev in enumerate(evidence):
+        ok = seen[v] & (d[v] <= ON_PX) & (near[v] >= 0)
+        if ok.any():
+            xy = ev.skeleton_xy[near[v, ok]].astype(int) - ev.offset_xy
+            W[v, ok] = ev.inside_px[xy[:, 1], xy[:, 0]]
+    return W
+
+
+def reference_widths(X_mm: np.ndarray, evidence: list[SkeletonEvidence]) -> np.ndarray:
+    """(V,) the curve's median skeleton width per view from ``REF_FROM_MM`` to ``REF_TO_MM`` of arc length (NaN: fewer
+    than 3 nodes on the view's skeleton there)."""
+    X = np.asarray(X_mm, float)
+    s = arc_length(X)
+    P = X[(s >= REF_FROM_MM) & (s <= REF_TO_MM)]
+    ref = np.full(len(evidence), np.nan)
+    if len(P) == 0:
+        return ref
+    W = skeleton_widths(evidence, P)
+    for v in range(len(evidence)):
+        w = W[v][np.isfinite(W[v])]
+        if len(w) >= 3:
+            ref[v] = float(np.median(w))
+    return ref
+
+
+def wide_tail_start(X_mm: np.ndarray, evidence: list[SkeletonEvidence], ref: np.ndarray | None = None) -> int | None:
+    """The node where the curve's wide tail begins (see ``WIDE_RATIO``), or None: the earliest node past
+    ``REF_TO_MM`` from which at least ``WIDE_TAIL_MM`` run to the tip with ``WIDE_SHARE`` of the nodes wide in two
+    views, itself wide in two."""
+    X = np.asarray(X_mm, float)
+    s = arc_length(X)
+    if len(X) < 3 or s[-1] < REF_TO_MM + WIDE_TAIL_MM:
+        return None
+    ref = reference_widths(X, evidence) if ref is None else ref
+    if np.isfinite(ref).sum() < 2:
+        return None
+    W = skeleton_widths(evidence, X)
+    with np.errstate(invalid="ignore"):
+        wide = (W >= WIDE_RATIO * ref[:, None]).sum(axis=0) >= 2
+    share = np.cumsum(wide[::-1])[::-1] / np.arange(len(X), 0, -1)  # share of wide nodes from each node to the tip
+    ok = wide & (share >= WIDE_SHARE) & (s[-1] - s >= WIDE_TAIL_MM) & (s > REF_TO_MM)
+    return int(np.flatnonzero(ok)[0]) if ok.any() else None
+
+
 def _support(evidence, P):
     d, seen = point_costs(evidence, P)
     on = seen & (d <= ON_PX)
@@ -525,7 +606,8 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
         Nodes ending at the new tip (spacing of the input up to the tip;
         the caller resamples).
     """
-    X = [np.asarray(p, float) for p in _trim(np.asarray(X_mm, float), evidence, prior_mm=prior_mm)]
+    ref = reference_widths(np.asarray(X_mm, float), evidence)
+    X = [np.asarray(p, float) for p in _trim(np.asarray(X_mm, float), evidence, prior_mm=prior_mm, ref=ref)]
     ext = []
     tip = X[-1]
     t = X[-1] - X[max(len(X) - 1 - max(int(round(2.0 / max(np.linalg.norm(X[-1] - X[-2]), 1e-6))), 1), 0)]
@@ -553,6 +635,8 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
             d, seen, near, bg = point_costs(evidence, P, nearest=True)
             on = seen & (d <= ON_PX) & ~(bg.sum(axis=0) >= BOARD_VETO_VIEWS)
             on &= advance(evidence, np.repeat(tip[None], len(P), axis=0), P)
+            with np.errstate(invalid="ignore"):  # not onto something wider than the tendril
+                on &= ~(skeleton_widths(evidence, P, d=d, seen=seen, near=near) >= WIDE_RATIO * ref[:, None])
             if claims is not None and s_[-1] + ext_mm + step_mm > prior_mm:
                 for v, c in enumerate(claims):
                     on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
@@ -616,13 +700,18 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
 
 
 def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.5, radius_px: float = 4.0,
-          prior_mm: float = 0.0) -> np.ndarray:
+          prior_mm: float = 0.0, ref: np.ndarray | None = None) -> np.ndarray:
     """The curve up to its last node that two views see on skeleton pixels the curve had not explained yet.
 
     A node's nearest skeleton pixel is explained already when the projection of the curve at least
     ``lag_mm`` before the node passed within ``radius_px`` of it. Nodes within ``prior_mm`` of arc length
-    from the base need only lie on the skeletons (see :func:`adjust_tip`).
+    from the base need only lie on the skeletons (see :func:`adjust_tip`). With ``ref`` (the curve's
+    :func:`reference_widths`), a curve is first cut where its wide tail begins (:func:`wide_tail_start`).
     """
+    if ref is not None:
+        j = wide_tail_start(X, evidence, ref)
+        if j is not None:
+            X = X[:max(j, 3)]
     from scipy.spatial import cKDTree
 
     s = arc_length(X)
@@ -757,6 +846,9 @@ def _choose_acquired(grown: list, evidence: list[SkeletonEvidence], B: np.ndarra
     on every view (a few ms), pays ``KINK_PX_PER_DEG`` per degree of its :func:`local_kink_deg` (where it left the
     tendril); the least is fitted to the end (tip extended, refined again).
     """
+    # a candidate that ran onto something wider than the tendril is cut where it did (the tip's extension goes on
+    # from there along the tendril, across the crossing)
+    grown = [(G[:max(j, 3)] if (j := wide_tail_start(G, evidence)) is not None else G, sc) for G, sc in grown]
     if len(grown) == 1:
         return _fit(grown[0][0], evidence, B, segment_mm)
     refined = [refine_curve(_resample(G, segment_mm), evidence, base_mm=B, segment_mm=segment_mm) for G, _ in grown]

@@ -718,3 +718,76 @@ def test_diagnose_short_reads_what_each_view_shows_beyond_the_tip():
     assert frac[0] >= 0.9 and frac[2] >= 0.9, frac
     assert np.mean(st[1] == STATES.index("board")) >= 0.9
     assert stop_rule(evs, curve).startswith("board")
+
+
+def _tendril_with_a_wide_shoot(angle_deg: float = 25.0, width_px: int = 17):
+    """A 61 mm tendril (7 px wide) and a straight shoot 2.4 times as wide leaving it ``angle_deg`` off, 70 % along,
+    longer than the rest of the tendril (45 mm), its free end inside every ROI: thin enough to be skeleton
+    evidence (``mv_evidence.WIDE_PX``), at an angle the kink choice does not reject."""
+    s = np.linspace(0.0, 1.0, 2000)
+    X = np.c_[-5 + 60 * s, 6 * np.sin(2.5 * s), 20 + 4 * s]
+    images, cams, exp = render_tube_views(X, width_px=7, margin_px=60)
+    i = int(0.7 * len(X))
+    t = (X[i] - X[i - 20]) / np.linalg.norm(X[i] - X[i - 20])
+    n = np.cross(t, [0.0, 0.0, 1.0])
+    n /= np.linalg.norm(n)
+    d = np.cos(np.radians(angle_deg)) * t + np.sin(np.radians(angle_deg)) * n
+    other = X[i] + np.linspace(0.0, 45.0, 200)[:, None] * d
+    for img, cam in zip(images, cams):
+        cv2.polylines(img, [np.round(cam.project(other) * 16).astype(np.int32)], False, (40, 40, 40), width_px,
+                      cv2.LINE_AA, 4)
+    B = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=8.0)
+    return X, _evidence(images, cams, exp), B
+
+
+def test_curve_does_not_run_onto_a_wider_shoot(monkeypatch):
+    """Without the width rule the curve leaves the tendril at the junction and runs along the shoot (11 mm off at
+    its tip); with it, it is cut where it ran onto pixels 1.5 times as deep as its own near the base and the tip's
+    extension does not step onto them: every point within 0.5 mm of the tendril (it stops at the junction: the
+    rest of the tendril, past the merged pixels, is not reached)."""
+    import tendrilkit.multiview as M
+
+    X, ev, B = _tendril_with_a_wide_shoot()
+    e = _errors(resample_polyline(reconstruct_multiview(ev, B).nodes_mm, 200), X)
+    assert e["mean"] <= 0.5 and e["max"] <= 0.5 and e["base"] <= 2.0, e
+    monkeypatch.setattr(M, "WIDE_RATIO", np.inf)
+    e = _errors(resample_polyline(reconstruct_multiview(ev, B).nodes_mm, 200), X)
+    assert e["max"] > 5.0, e
+
+
+def test_wide_tail_start_finds_where_the_curve_left_the_tendril():
+    """``wide_tail_start`` on a curve along the tendril to the junction, then along the shoot: the node where the
+    shoot begins (within 3 mm of the junction); the tendril alone, or a curve too short to have a reference, none."""
+    from tendrilkit.geometry import arc_length
+    from tendrilkit.multiview import wide_tail_start
+
+    X, ev, B = _tendril_with_a_wide_shoot()
+    i = int(0.7 * len(X))
+    t = (X[i] - X[i - 20]) / np.linalg.norm(X[i] - X[i - 20])
+    n = np.cross(t, [0.0, 0.0, 1.0])
+    n /= np.linalg.norm(n)
+    d = np.cos(np.radians(25.0)) * t + np.sin(np.radians(25.0)) * n
+    C = np.vstack([resample_polyline(X[:i + 1], 43), X[i] + np.arange(1.0, 40.0)[:, None] * d])
+    j = wide_tail_start(C, ev)
+    s = arc_length(C)
+    assert j is not None and abs(s[j] - arc_length(X[:i + 1])[-1]) <= 3.0, (j, s[j] if j is not None else None)
+    assert wide_tail_start(resample_polyline(X, 61), ev) is None
+    assert wide_tail_start(resample_polyline(X[:int(0.5 * len(X))], 30), ev) is None
+
+
+def test_tipoff_census_measures_the_departure_along_the_truth():
+    """``benchmarks/diagnose_tipoff.py``'s distance of a curve's nodes to the truth and their arc length along it: a
+    curve along the truth for 30 mm, then 10 mm straight off at right angles, leaves at 30 mm (its last node within
+    2 mm of the truth lies 30-32 mm along it) with a tail of 8-10 mm."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from diagnose_tipoff import _nearest_on
+
+    T = np.c_[np.linspace(0.0, 60.0, 241), np.zeros(241), np.zeros(241)]
+    C = np.vstack([np.c_[np.arange(0.0, 31.0), np.zeros(31), np.zeros(31)],
+                   np.c_[np.full(10, 30.0), np.arange(1.0, 11.0), np.zeros(10)]])
+    d, along = _nearest_on(C, T)
+    assert np.allclose(d[:31], 0.0) and np.allclose(d[31:], np.arange(1.0, 11.0))
+    assert np.allclose(along[:31], np.arange(0.0, 31.0)) and np.allclose(along[31:], 30.0)
+    j = int(np.flatnonzero(d <= 2.0)[-1])
+    s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(C, axis=0), axis=1))]
+    assert 30.0 <= along[j] <= 32.0 and 8.0 <= s[-1] - s[j] <= 10.0
