@@ -156,8 +156,11 @@ def _blas_without_scipy_linalg() -> None:
     calls (the compiled kernels take BLAS and LAPACK from those two modules). Here the two modules
     are imported under a bare ``scipy.linalg`` (only its ``__path__``), which is dropped at once:
     numba's imports find the modules loaded, and a later ``import scipy.linalg`` imports the
-    package in full, as usual. Only in a process that has imported neither numba nor
-    ``scipy.linalg`` (a command run from the shell); otherwise nothing.
+    package in full, as usual, except that the two are not its attributes (``from scipy.linalg
+    import cython_blas`` and ``import scipy.linalg.cython_blas as cb`` work, the attribute
+    ``scipy.linalg.cython_blas`` does not; nothing here reads it, and the command's process ends
+    with the fit). Only in a process that has imported neither numba nor ``scipy.linalg`` (a
+    command run from the shell); otherwise nothing.
     """
     if "numba" in sys.modules or "scipy.linalg" in sys.modules:
         return
