@@ -98,10 +98,10 @@ def fixed_points(points_mm: np.ndarray, centres_world: list, seen: np.ndarray, *
     True
     """
     X = np.asarray(points_mm, float).reshape(-1, 3)
-    seen = np.asarray(seen, bool).reshape(-1, len(X))
     fixed = np.zeros(len(X), bool)
-    if len(X) < 2:
+    if len(X) < 2:  # (before the reshape below: an empty curve has no row length to read)
         return fixed
+    seen = np.asarray(seen, bool).reshape(-1, len(X))
     T = np.gradient(X, axis=0)
     T /= np.maximum(np.linalg.norm(T, axis=1, keepdims=True), 1e-12)
     sin_min = np.sin(np.radians(min_angle_deg))
@@ -130,8 +130,9 @@ def unseen_detour_mm(points_mm: np.ndarray, fixed: np.ndarray) -> float:
     Returns
     -------
     float
-        mm (0 when no unfixed stretch lies between two fixed points); points with a NaN coordinate are
-        dropped first.
+        mm (0 when no unfixed stretch lies between two fixed points; NaN, nothing measured, when fewer
+        than two points are fixed: the views fix no stretch to measure from); points with a NaN
+        coordinate are dropped first.
 
     Examples
     --------
@@ -144,7 +145,9 @@ def unseen_detour_mm(points_mm: np.ndarray, fixed: np.ndarray) -> float:
     finite = np.all(np.isfinite(X), axis=1)  # a point missing from the curve is neither fixed nor a detour
     X, fixed = X[finite], fixed[finite]
     idx = np.flatnonzero(fixed)
-    gaps = np.flatnonzero(np.diff(idx) > 1) if len(idx) >= 2 else np.zeros(0, int)
+    if len(idx) < 2:
+        return float("nan")
+    gaps = np.flatnonzero(np.diff(idx) > 1)
     if not len(gaps):
         return 0.0
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))])

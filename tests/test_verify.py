@@ -949,6 +949,13 @@ def test_fixed_points_and_detour_on_hand_made_curves():
     # a point missing from the curve (NaN) is dropped, not a NaN figure
     Z = np.insert(Y, 3, np.nan, axis=0)
     assert unseen_detour_mm(Z, np.insert(f, 3, False)) == pytest.approx(unseen_detour_mm(Y, f))
+    # nothing fixed, or one point: nothing measured (NaN, an empty cell), not a clean 0
+    assert np.isnan(unseen_detour_mm(Y, np.zeros(len(Y), bool)))
+    one = np.zeros(len(Y), bool)
+    one[4] = True
+    assert np.isnan(unseen_detour_mm(Y, one))
+    # an empty curve: no point fixed, no error
+    assert fixed_points(np.zeros((0, 3)), [np.zeros(3), np.array([0, 100.0, 0])], np.zeros((2, 0), bool)).shape == (0,)
 
 
 def test_verify_depth_docstring_examples_run():
