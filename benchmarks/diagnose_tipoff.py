@@ -93,8 +93,9 @@ def census(out: Path, tag: str, seeds: tuple[int, int] | None = None) -> pd.Data
             good = np.flatnonzero(d <= 2.0)
             j = int(good[-1]) if len(good) else 0
             tail = resample_polyline(rec[j:], step=0.5) if s[-1] - s[j] > 0.5 else rec[j:]
-            ev = [e for e in pickle.loads((out / "evidence-cache" / f"{scene}-{r.frame}.pkl").read_bytes())[1]
-                  if e is not None]
+            cached = pickle.loads((out / "evidence-cache" / f"{scene}-{r.frame}.pkl").read_bytes())[1]
+            views = [v for v, e in enumerate(cached) if e is not None]  # the columns keep the views' own numbers
+            ev = [cached[v] for v in views]
             dd, seen, near, bg, cov = point_costs(ev, tail, nearest=True, covered=True)
             i = frames.index(r.frame)
             row = {"scene": scene, "frame": int(r.frame), "status": r.status,
@@ -102,12 +103,12 @@ def census(out: Path, tag: str, seeds: tuple[int, int] | None = None) -> pd.Data
                    "tip_off_mm": round(float(d[-1]), 1), "tail_mm": round(float(s[-1] - s[j]), 1),
                    "left_at": "past tip" if L - along[j] <= 3.0 else "mid", "short_mm": round(L - along[j], 1),
                    "length_mm": round(float(s[-1]), 1), "true_mm": round(L, 1), "mean_mm": r.mean_mm}
-            for v in range(len(ev)):
-                row[f"on_{v + 1}"] = round(float(np.mean(seen[v] & (dd[v] <= ON_PX))), 2)
-                row[f"covered_{v + 1}"] = round(float(np.mean(cov[v])), 2)
-                row[f"unseen_{v + 1}"] = round(float(np.mean(~seen[v] & ~cov[v])), 2)
-                row[f"board_{v + 1}"] = round(float(np.mean(bg[v])), 2)
-            row["tail_views"] = int(sum(row.get(f"on_{v + 1}", 0) >= 0.5 for v in range(len(ev))))
+            for k, v in enumerate(views):
+                row[f"on_{v + 1}"] = round(float(np.mean(seen[k] & (dd[k] <= ON_PX))), 2)
+                row[f"covered_{v + 1}"] = round(float(np.mean(cov[k])), 2)
+                row[f"unseen_{v + 1}"] = round(float(np.mean(~seen[k] & ~cov[k])), 2)
+                row[f"board_{v + 1}"] = round(float(np.mean(bg[k])), 2)
+            row["tail_views"] = int(sum(row.get(f"on_{v + 1}", 0) >= 0.5 for v in views))
             row["runs_out"] = bool(runs_out(ev, [rec], 2.0)[0])
             row["objects"] = ";".join(objects)
             rows.append(row)
