@@ -58,53 +58,45 @@ def view_states(evidence, P: np.ndarray, body: np.ndarray | None) -> np.ndarray:
 
 
 def stop_rule(evidence, X: np.ndarray) -> str:
-    """Which of :func:`tendrilkit.multiview.adjust_tip`'s conditions leaves no direction of its first step from the
-    curve's tip with two views on: each dropped alone (``board``: one view showing the board vetoes, ``claims``:
-    explained pixels, ``advance``: a step along a line of sight); ``evidence``: none of them (fewer than two views
-    on), ``goes on``: a direction has two views on (a later step, or the refinement, stopped it)."""
+    """Which of :func:`tendrilkit.multiview.adjust_tip`'s conditions (:func:`~tendrilkit.multiview.step_conditions`)
+    leaves no direction of its first step from the curve's tip with two views on, at 0.5, 1.5 and 3 mm: each
+    dropped alone (``board``: the board's veto, ``claims``: explained pixels, ``advance``: a step along a line of
+    sight, ``wide``: pixels wider than the tendril); ``several``: only all dropped together; ``evidence``: none of
+    them (fewer than two views on); ``goes on``: a direction has two views on (a later step, or the refinement,
+    stopped it). Explained pixels count here whatever the tracked prior length (the extension ignores them up to it)."""
     from tendrilkit.geometry import arc_length, resample_polyline
-    from tendrilkit.mv_acquire import ON_PX, advance, claim, cone_directions, point_costs
+    from tendrilkit.mv_acquire import claim, cone_directions
+    from tendrilkit.multiview import reference_widths, step_conditions
 
     s = arc_length(X)
     t = X[-1] - X[np.searchsorted(s, s[-1] - 2.0)]
     t = t / max(np.linalg.norm(t), 1e-9)
     body = X[s <= s[-1] - 3.0]
     claims = claim(evidence, None, resample_polyline(body, step=0.25)) if len(body) >= 2 else None
+    ref = reference_widths(X, evidence)
     dirs = cone_directions(t, 30.0, 3)
     out = []
     for step in (0.5, 1.5, 3.0):
-        P = X[-1] + step * dirs
-        d, seen, near, bg = point_costs(evidence, P, nearest=True)
-        base = seen & (d <= ON_PX)
-        veto_bg = bg.any(axis=0)
-        cl = np.zeros_like(base)
+        c = step_conditions(evidence, X[-1], X[-1] + step * dirs, ref)
+        near = c["near"]
+        cl = np.zeros_like(c["on"])
         if claims is not None:
-            for v, c in enumerate(claims):
-                cl[v] = (near[v] >= 0) & c[np.maximum(near[v], 0)]
-        adv = advance(evidence, np.repeat(X[-1][None], len(P), axis=0), P)
+            for v, cv in enumerate(claims):
+                cl[v] = (near[v] >= 0) & cv[np.maximum(near[v], 0)]
+        vetoes = {"board": c["board"], "claims": cl, "advance": ~c["advance"], "wide": c["wide"]}
 
-        def ok(use_bg=True, use_cl=True, use_adv=True):
-            on = base.copy()
-            if use_bg:
-                on &= ~veto_bg
-            if use_cl:
-                on &= ~cl
-            if use_adv:
-                on &= adv
+        def ok(*dropped):
+            on = c["on"].copy()
+            for name, veto in vetoes.items():
+                if name not in dropped:
+                    on &= ~veto
             return bool((on.sum(axis=0) >= 2).any())
 
         if ok():
             out.append("goes on")
-        elif not ok(use_bg=True, use_cl=True, use_adv=True) and ok(use_bg=False):
-            out.append("board")
-        elif ok(use_cl=False):
-            out.append("claims")
-        elif ok(use_adv=False):
-            out.append("advance")
-        elif ok(False, False, False):
-            out.append("several")
         else:
-            out.append("evidence")
+            alone = [name for name in vetoes if ok(name)]
+            out.append(alone[0] if alone else ("several" if ok(*vetoes) else "evidence"))
     return "/".join(out)
 
 

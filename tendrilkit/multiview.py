@@ -88,7 +88,6 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 from numba import njit
-from scipy.linalg import solveh_banded
 from scipy.linalg.lapack import dpbsv as _pbsv
 
 from tendrilkit.camera import Camera, _project_brown
@@ -561,6 +560,29 @@ def wide_tail_start(X_mm: np.ndarray, evidence: list[SkeletonEvidence], ref: np.
     return int(np.flatnonzero(ok)[0]) if ok.any() else None
 
 
+def step_conditions(evidence: list[SkeletonEvidence], tip_mm: np.ndarray, P_mm: np.ndarray, ref: np.ndarray) -> dict:
+    """The conditions of one step of the tip's extension (:func:`adjust_tip`) from ``tip_mm`` to each point of
+    ``P_mm`` (k, 3), per view: (V, k) bool arrays ``on`` (on the view's skeleton, seen), ``board`` (the place is
+    the open board in ``BOARD_VETO_VIEWS`` views or more: vetoed in every view), ``advance`` (the step is not along
+    the view's line of sight), ``wide`` (on skeleton pixels ``WIDE_RATIO`` times as deep as ``ref``, the curve's
+    :func:`reference_widths`); and :func:`~tendrilkit.mv_acquire.point_costs`' ``d``, ``seen``, ``near``, ``bg``. A view
+    counts a point when ``on & ~board & advance & ~wide`` (and, past the prior length, the pixel is not explained
+    yet: ``near`` against the claims). ``benchmarks/diagnose_short.py`` reads which condition stopped a tip."""
+    d, seen, near, bg = point_costs(evidence, P_mm, nearest=True)
+    board = np.broadcast_to(bg.sum(axis=0) >= BOARD_VETO_VIEWS, d.shape)
+    adv = advance(evidence, np.repeat(np.asarray(tip_mm, float)[None], len(P_mm), axis=0), P_mm)
+    with np.errstate(invalid="ignore"):  # not onto something wider than the tendril
+        wide = skeleton_widths(evidence, P_mm, d=d, seen=seen, near=near) >= WIDE_RATIO * ref[:, None]
+    return {"on": seen & (d <= ON_PX), "board": board, "advance": adv, "wide": wide, "d": d, "seen": seen,
+            "near": near, "bg": bg}
+
+
+def _cut_wide_tail(X: np.ndarray, evidence: list[SkeletonEvidence], ref: np.ndarray | None = None) -> np.ndarray:
+    """The curve cut where its wide tail begins (:func:`wide_tail_start`; at least 3 nodes kept), else itself."""
+    j = wide_tail_start(X, evidence, ref)
+    return X if j is None else X[:max(j, 3)]
+
+
 def _support(evidence, P):
     d, seen = point_costs(evidence, P)
     on = seen & (d <= ON_PX)
@@ -632,11 +654,9 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
                 break
             dirs = cone_directions(t, 30.0, 3)
             P = tip + step_mm * dirs
-            d, seen, near, bg = point_costs(evidence, P, nearest=True)
-            on = seen & (d <= ON_PX) & ~(bg.sum(axis=0) >= BOARD_VETO_VIEWS)
-            on &= advance(evidence, np.repeat(tip[None], len(P), axis=0), P)
-            with np.errstate(invalid="ignore"):  # not onto something wider than the tendril
-                on &= ~(skeleton_widths(evidence, P, d=d, seen=seen, near=near) >= WIDE_RATIO * ref[:, None])
+            c = step_conditions(evidence, tip, P, ref)
+            d, seen, near, bg = c["d"], c["seen"], c["near"], c["bg"]
+            on = c["on"] & ~c["board"] & c["advance"] & ~c["wide"]
             if claims is not None and s_[-1] + ext_mm + step_mm > prior_mm:
                 for v, c in enumerate(claims):
                     on[v] &= ~((near[v] >= 0) & c[np.maximum(near[v], 0)])
@@ -709,9 +729,7 @@ def _trim(X: np.ndarray, evidence: list[SkeletonEvidence], *, lag_mm: float = 1.
     :func:`reference_widths`), a curve is first cut where its wide tail begins (:func:`wide_tail_start`).
     """
     if ref is not None:
-        j = wide_tail_start(X, evidence, ref)
-        if j is not None:
-            X = X[:max(j, 3)]
+        X = _cut_wide_tail(X, evidence, ref)
     from scipy.spatial import cKDTree
 
     s = arc_length(X)
@@ -848,7 +866,7 @@ def _choose_acquired(grown: list, evidence: list[SkeletonEvidence], B: np.ndarra
     """
     # a candidate that ran onto something wider than the tendril is cut where it did (the tip's extension goes on
     # from there along the tendril, across the crossing)
-    grown = [(G[:max(j, 3)] if (j := wide_tail_start(G, evidence)) is not None else G, sc) for G, sc in grown]
+    grown = [(_cut_wide_tail(G, evidence), sc) for G, sc in grown]
     if len(grown) == 1:
         return _fit(grown[0][0], evidence, B, segment_mm)
     refined = [refine_curve(_resample(G, segment_mm), evidence, base_mm=B, segment_mm=segment_mm) for G, _ in grown]
