@@ -566,10 +566,10 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     if len(seeds) == 0:
         none_ = np.vstack([B, B])  # nothing any two views agree on
         return none_ if candidates <= 1 else [(none_, 0.0)]
-    # a hypothesis: (nodes list, score, unconfirmed tail, last direction, claims, blind tail, nodes array)
+    # a hypothesis: (nodes (m, 3), score, unconfirmed tail, last direction, claims, blind tail)
     none = [np.zeros(len(ev.skeleton_xy), bool) for ev in evidence]
-    hyps = [([B], 0.0, 0, d, none, 0, B[None]) for d in seeds]  # the nodes also as one (m, 3) array
-    finished: list[tuple[list, float, int]] = []
+    hyps = [(B[None], 0.0, 0, d, none, 0) for d in seeds]
+    finished: list[tuple[np.ndarray, float, int]] = []
     look = np.array([2.0, 3.0, 4.0])
     cone = _local_cone(cone_deg, 3)
     narrow = _local_cone(20.0, 2)
@@ -613,7 +613,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             cost = cost + TURN_PX * (turn / cone_deg) ** 2
         for h, hyp in enumerate(hyps):  # self-avoidance
             if len(hyp[0]) > 6:
-                old = hyp[6][:-5]
+                old = hyp[0][:-5]
                 sel = slice(h * len(local), (h + 1) * len(local))
                 dd = _nearest_distance(pts[sel], old)
                 cost[sel] += np.where(dd < 1.2, 5.0, 0.0)
@@ -662,8 +662,8 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
                     new_claims[k].append(c)
             for k in grown:
                 claims[k] = new_claims[k]
-        hyps = [(parents[j][0] + [pts[i]], float(score[i]), int(tail[i]), dirs[i], claims[j], int(blind_tail[i]),
-                 np.concatenate([parents[j][6], pts[i][None]])) for j, i in enumerate(idx)]
+        hyps = [(np.concatenate([parents[j][0], pts[i][None]]), float(score[i]), int(tail[i]), dirs[i], claims[j],
+                 int(blind_tail[i])) for j, i in enumerate(idx)]
         if not hyps:
             break
     finished.extend(h[:3] for h in hyps)
