@@ -171,16 +171,21 @@ def test_the_fit_commands_writer_writes_what_pandas_writes(tmp_path):
         write_columns({"frame": [0]}, tmp_path / "bad.csv", PWC_CURVES)
 
 
+def _last_line(code: str, csv, out) -> str:
+    """The last line ``code`` prints, run in a fresh Python from the repository (``sys.argv[1:]``: ``csv``, ``out``);
+    it must exit 0."""
+    r = subprocess.run([sys.executable, "-c", code, str(csv), str(out)], capture_output=True, text=True, cwd=REPO)
+    assert r.returncode == 0, r.stderr
+    return r.stdout.strip().splitlines()[-1]
+
+
 def test_fit_command_imports_no_pandas(tmp_path):
     csv = tmp_path / "curves.csv"
     write_curves(csv, seeds=(3,), degenerate=False)
     code = ("import sys, runpy; sys.argv = ['tendrilkit', 'fit', sys.argv[1], '--out', sys.argv[2]]\n"
             "try:\n    runpy.run_module('tendrilkit', run_name='__main__')\nexcept SystemExit as e:\n"
             "    assert e.code == 0, e.code\nprint('pandas' in sys.modules)")
-    r = subprocess.run([sys.executable, "-c", code, str(csv), str(tmp_path / "out")], capture_output=True,
-                       text=True, cwd=REPO)
-    assert r.returncode == 0, r.stderr
-    assert r.stdout.strip().splitlines()[-1] == "False"
+    assert _last_line(code, csv, tmp_path / "out") == "False"
     assert (tmp_path / "out" / "pwc_metrics.csv").read_text().count("\n") == 2
 
 
@@ -195,10 +200,8 @@ def test_fit_command_starts_numba_without_its_extras_and_gives_them_back(tmp_pat
             "code = main(['fit', sys.argv[1], '--out', sys.argv[2]])\n"
             "import numba.misc.coverage_support as c, numba.core.typing.cffi_utils as f, cffi, coverage\n"
             "print(code, c.coverage_available, f.ffi is not None, sys.modules['cffi'] is cffi)")
-    r = subprocess.run([sys.executable, "-c", code, str(csv), str(tmp_path / "out")], capture_output=True,
-                       text=True, cwd=REPO)
-    assert r.returncode == 0, r.stderr
-    assert r.stdout.strip().splitlines()[-1] == ("0 False False True" if not imported_first else "0 True True True")
+    expected = "0 False False True" if not imported_first else "0 True True True"
+    assert _last_line(code, csv, tmp_path / "out") == expected
     fit = pd.read_csv(tmp_path / "out" / "pwc_curves.csv")
     other = tmp_path / "ref"
     run_fit(csv, other)  # in this process, numba as the tests load it
@@ -219,10 +222,8 @@ def test_fit_command_loads_blas_without_scipy_linalg(tmp_path, imported_first):
             "import numpy as np, scipy.linalg\nfrom scipy.linalg import solve_banded\n"
             "print(code, loaded, np.allclose(scipy.linalg.solve(np.eye(2) * 2, np.ones(2)), 0.5), "
             "'scipy.linalg.cython_lapack' in sys.modules)")
-    r = subprocess.run([sys.executable, "-c", code, str(csv), str(tmp_path / "out")], capture_output=True,
-                       text=True, cwd=REPO)
-    assert r.returncode == 0, r.stderr
-    assert r.stdout.strip().splitlines()[-1] == ("0 False True True" if not imported_first else "0 True True True")
+    expected = "0 False True True" if not imported_first else "0 True True True"
+    assert _last_line(code, csv, tmp_path / "out") == expected
     other = tmp_path / "ref"
     run_fit(csv, other)  # in this process, scipy.linalg and numba as the tests load them
     for name in ("pwc_curves.csv", "pwc_segments.csv", "pwc_metrics.csv"):

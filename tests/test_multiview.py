@@ -634,18 +634,25 @@ def _straight_tendril():
     return np.c_[-5 + 60 * s, 6 * np.sin(2 * s), 20 + 4 * s]
 
 
-def test_tip_goes_on_where_one_view_shows_the_board(monkeypatch):
-    """A pale tendril's last 12 mm missed by one view's segmentation (the board there): two views see it on their
-    skeletons. With one view's board not vetoing the extension (``BOARD_VETO_VIEWS`` 2) the curve reaches the tip;
-    with the default (any view's board vetoes) it stops where the view lost it."""
-    import tendrilkit.multiview as M
-
+def _tip_missed_by_view_2():
+    """The straight tendril, its last 12 mm painted over with the board in view 2 (a pale tip that view's segmentation
+    misses): ``(X, s, L, images, cams, exp)``, ``s`` the truth's arc length, ``L`` its length (mm)."""
     X = _straight_tendril()
     images, cams, exp = render_tube_views(X, width_px=9)
     L = float(np.linalg.norm(np.diff(X, axis=0), axis=1).sum())
     s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
     gone = cams[1].project(X[s >= L - 12.0])
     cv2.polylines(images[1], [np.round(gone * 16).astype(np.int32)], False, (235, 235, 235), 17, cv2.LINE_8, 4)
+    return X, s, L, images, cams, exp
+
+
+def test_tip_goes_on_where_one_view_shows_the_board(monkeypatch):
+    """A pale tendril's last 12 mm missed by one view's segmentation (the board there): two views see it on their
+    skeletons. With one view's board not vetoing the extension (``BOARD_VETO_VIEWS`` 2) the curve reaches the tip;
+    with the default (any view's board vetoes) it stops where the view lost it."""
+    import tendrilkit.multiview as M
+
+    X, s, L, images, cams, exp = _tip_missed_by_view_2()
     B = base_point_from_marks([m.base_point for m in exp.views], cams, max_px=8.0)
     evs = _evidence(images, cams, exp)
     r = reconstruct_multiview(evs, B)
@@ -704,12 +711,7 @@ def test_diagnose_short_reads_what_each_view_shows_beyond_the_tip():
     sys.path.insert(0, str(ROOT / "benchmarks"))
     from diagnose_short import STATES, stop_rule, view_states
 
-    X = _straight_tendril()
-    images, cams, exp = render_tube_views(X, width_px=9)
-    L = float(np.linalg.norm(np.diff(X, axis=0), axis=1).sum())
-    s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
-    gone = cams[1].project(X[s >= L - 12.0])
-    cv2.polylines(images[1], [np.round(gone * 16).astype(np.int32)], False, (235, 235, 235), 17, cv2.LINE_8, 4)
+    X, s, L, images, cams, exp = _tip_missed_by_view_2()
     evs = _evidence(images, cams, exp)
     curve = resample_polyline(X[s <= L - 12.0], step=1.0)
     beyond = resample_polyline(X[s >= L - 11.0], step=0.5)[:-2]

@@ -172,20 +172,14 @@ def test_morphology_on_the_masks_box_is_the_whole_images(op):
     the whole image's; masks small and large, touching the image's sides, along a side's first pixels, empty."""
     from tendrilkit.segmentation.lines import _on_box
 
+    from tests.test_segmentation_kernels import _random_mask
+
     rng = np.random.default_rng(21)
     for k in range(120):
         shape = tuple(int(v) for v in rng.integers(5, 120, 2))
-        mask = np.zeros(shape, np.uint8)
-        for _ in range(int(rng.integers(0, 6))):
-            c = (int(rng.integers(-10, shape[1] + 10)), int(rng.integers(-10, shape[0] + 10)))
-            if rng.random() < 0.5:
-                cv2.circle(mask, c, int(rng.integers(1, 25)), 255, -1)
-            else:
-                cv2.line(mask, c, (int(rng.integers(0, shape[1])), int(rng.integers(0, shape[0]))), 255,
-                         int(rng.integers(1, 6)))
+        mask = _random_mask(rng, shape, 0.01)  # discs, lines, specks
         if k % 10 == 0:
             mask[:, : int(rng.integers(1, 4))] = 255  # along the left side
-        mask[rng.random(shape) < 0.01] = 255          # specks
         for side in (3, 7, 11):
             kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (side, side))
             np.testing.assert_array_equal(_on_box(mask, op, kernel), cv2.morphologyEx(mask, op, kernel))
