@@ -583,6 +583,37 @@ def test_best_of_starts_is_the_starts_evaluated_one_by_one():
                     assert x.tobytes() == y.tobytes()
 
 
+def test_compiled_score_test_matches_its_numpy_form():
+    """``_score_gains`` (the score test in one compiled call) against the projection written in numpy:
+    the same gains to round-off, the same best knot per law."""
+    from tendrilkit.pwc.laws import join_segments
+    from tendrilkit.pwc.refine import (_best_insertions, _hinge_means, _hinge_positions, _law_columns,
+                                       _law_state, _lm_jacobian, _refine_laws)
+    from tendrilkit.pwc.signals import _prepare
+
+    for seed in (5, 11, 17):
+        prep = _prepare(random_pwc_curve(seed).points_mm, None, "l2", None, None)
+        s, data, L = prep.s, prep.data, prep.s[-1]
+        lk = join_segments(s, prep.fr.kappa, np.searchsorted(s, [0, L / 3, L + 1]), kind="kappa")
+        lt = join_segments(s, prep.fr.tau, np.array([0, s.size]), weights=prep.wt, kind="tau")
+        lk, lt = _refine_laws(prep, lk, lt, 10, 1e-6)[:2]
+        f, P, T, B, R, X = _law_state(prep, lk, lt)
+        J = _lm_jacobian(s, P, T, B, R, X, _law_columns(s, lk.knots_mm, lk.values, True),
+                         _law_columns(s, lt.knots_mm, lt.values, True))
+        Js = J / (np.sqrt(np.einsum("ij,ij->j", J, J)) + 1e-300)
+        H = Js.T @ Js + 1e-10 * np.eye(J.shape[1])
+        xs, oks = _hinge_positions(prep, lk, lt)
+        nk = int(oks[0].sum())
+        C = _lm_jacobian(s, P, T, B, R, X, _hinge_means(s, xs[oks[0]]), _hinge_means(s, xs[oks[1]]))
+        C = C[:, : nk + int(oks[1].sum())]
+        Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
+        gain = (Cp.T @ (X - data).ravel()) ** 2 / (np.einsum("ij,ij->j", Cp, Cp) + 1e-300)
+        got = _best_insertions(prep, lk, lt)
+        for ok, g, found in zip(oks, (gain[:nk], gain[nk:]), got):
+            j = int(np.argmax(g))
+            assert found[0] == xs[ok][j] and found[1] == pytest.approx(g[j], rel=1e-9)
+
+
 def test_gap_fraction_keeps_knots_apart():
     """The fraction of a knot step that keeps consecutive knots ``gap`` apart (0.99 of the room)."""
     from tendrilkit.pwc.refine import _gap_fraction

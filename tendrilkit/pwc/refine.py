@@ -462,33 +462,67 @@ def _best_insertions(prep, lk, lt, state=None):
     :func:`_law_state`, if the caller has it (not evaluated again; the same bits).
     """
     s, data = prep.s, prep.data
+    xs, oks = _hinge_positions(prep, lk, lt)
+    if not (oks[0].any() or oks[1].any()):
+        return [None, None]
     if state is None:
         state = _law_state(prep, lk, lt)
     f, P, T, B, R, X = state
-    Gk = _law_columns(s, lk.knots_mm, lk.values, prep.free_knots)
-    Gt = _law_columns(s, lt.knots_mm, lt.values, prep.free_knots)
-    J = _lm_jacobian(s, P, T, B, R, X, Gk, Gt)
-    # projection off the current columns by the (small) normal equations; column-scaled
-    scale = np.sqrt(np.einsum("ij,ij->j", J, J)) + 1e-300
-    Js = J / scale
-    H = Js.T @ Js
-    H.flat[:: H.shape[0] + 1] += 1e-10
-    r = (X - data).ravel()
-    xs, oks = _hinge_positions(prep, lk, lt)
-    nk, nt = int(oks[0].sum()), int(oks[1].sum())
-    if nk + nt == 0:
-        return [None, None]
-    # both laws' hinge columns in one pass (each column is computed on its own)
-    C = _lm_jacobian(s, P, T, B, R, X, _hinge_means(s, xs[oks[0]]), _hinge_means(s, xs[oks[1]]))[:, : nk + nt]
-    Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
-    num = (Cp.T @ r) ** 2
-    den = np.einsum("ij,ij->j", Cp, Cp) + 1e-300
+    c = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    gain = _score_gains(s, data, P, T, B, R, X, c(lk.knots_mm), c(lk.values), c(lt.knots_mm), c(lt.values),
+                        bool(prep.free_knots), xs[oks[0]], xs[oks[1]])
     out = []
-    for ok, cols in zip(oks, (slice(0, nk), slice(nk, nk + nt))):
+    for ok, g in zip(oks, gain):
         if not ok.any():
             out.append(None)
             continue
-        gain = num[cols] / den[cols]
-        j = int(np.argmax(gain))
-        out.append((float(xs[ok][j]), float(gain[j])))
+        j = int(np.argmax(g))
+        out.append((float(xs[ok][j]), float(g[j])))
     return out
+
+
+@njit(cache=True)
+def _score_gains(s, data, P, T, B, R, X, kk, vk, kt, vt, free_knots, xk, xt):
+    """The score test's first-order SSE drops of the hinges at ``xk`` (curvature) and ``xt`` (torsion).
+
+    :func:`_best_insertions`'s arithmetic in one compiled call: the Jacobian of the current laws
+    column-scaled, each hinge's column projected off it through the (ridged) normal equations,
+    gain :math:`(c_\\perp^T r)^2 / |c_\\perp|^2`. Returns the two laws' gains, (len(xk),) and (len(xt),).
+    """
+    J = _lm_jacobian(s, P, T, B, R, X, _law_columns(s, kk, vk, free_knots), _law_columns(s, kt, vt, free_knots))
+    rows, p = J.shape
+    Js = np.empty((rows, p))
+    for q in range(p):
+        a = 0.0
+        for i in range(rows):
+            a += J[i, q] * J[i, q]
+        sc = np.sqrt(a) + 1e-300
+        for i in range(rows):
+            Js[i, q] = J[i, q] / sc
+    H = Js.T @ Js
+    for q in range(p):
+        H[q, q] += 1e-10
+    r = np.empty(rows)
+    n = X.shape[0]
+    for j in range(n):
+        for c3 in range(3):
+            r[3 * j + c3] = X[j, c3] - data[j, c3]
+    nk, nt = xk.shape[0], xt.shape[0]
+    # both laws' hinge columns in one pass (each column is computed on its own)
+    C = np.ascontiguousarray(_lm_jacobian(s, P, T, B, R, X, _hinge_means(s, xk), _hinge_means(s, xt))[:, :nk + nt])
+    Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
+    gk = np.empty(nk)
+    gt = np.empty(nt)
+    for q in range(nk + nt):
+        num = 0.0
+        den = 0.0
+        for i in range(rows):
+            v = Cp[i, q]
+            num += v * r[i]
+            den += v * v
+        g = num * num / (den + 1e-300)
+        if q < nk:
+            gk[q] = g
+        else:
+            gt[q - nk] = g
+    return gk, gt
