@@ -487,10 +487,11 @@ def test_searches_sharing_a_memo_give_the_same_fits(monkeypatch):
     from tendrilkit.pwc.signals import _prepare
 
     calls, paths, sses = [], [], []
-    refine, path, law_state = S._refine_laws, S.penalty_path, S._law_state
+    refine, path, starts = S._refine_laws, S.penalty_path, S._refine_starts
     monkeypatch.setattr(S, "_refine_laws", lambda *a: calls.append(1) or refine(*a))
     monkeypatch.setattr(S, "penalty_path", lambda *a, **k: paths.append(1) or path(*a, **k))
-    monkeypatch.setattr(S, "_law_state", lambda *a: sses.append(1) or law_state(*a))
+    # a path candidate's starts evaluated and the best refined, in one call
+    monkeypatch.setattr(S, "_refine_starts", lambda *a, **k: sses.append(1) or starts(*a, **k))
     prep = _prepare(random_pwc_curve(3).points_mm, None, "l2", None, None)
     kw = dict(criterion="bic", target_r2=0.999, max_segments=10, refine=True, insertions=True,
               quick_iterations=4, max_candidates=40)
@@ -549,6 +550,68 @@ def test_refinement_returns_the_evaluation_of_its_laws():
             for a, b in zip(end[1:], ref[1:]):
                 assert a.tobytes() == b.tobytes()
             assert _best_insertions(prep, lk2, lt2, end) == _best_insertions(prep, lk2, lt2)
+
+
+def test_best_of_starts_is_the_starts_evaluated_one_by_one():
+    """``_refine_starts`` (one compiled call per path candidate) gives, bit for bit, what the compiled
+    functions called one by one give: every start evaluated (``_lm_evaluate``), the first of least SSE
+    refined from its evaluation (``_lm_from``); ties and a start that cannot be integrated included."""
+    from tendrilkit.pwc.laws import PiecewiseLinearLaw, join_segments
+    from tendrilkit.pwc.refine import _lm_evaluate, _lm_from, _refine_starts
+    from tendrilkit.pwc.signals import _prepare
+
+    for seed in (5, 11):
+        prep = _prepare(random_pwc_curve(seed).points_mm, None, "l2", None, None)
+        L = prep.s[-1]
+        lk = join_segments(prep.s, prep.fr.kappa, np.searchsorted(prep.s, [0, L / 3, L + 1]), kind="kappa")
+        lt = join_segments(prep.s, prep.fr.tau, np.array([0, prep.s.size]), weights=prep.wt, kind="tau")
+        kc = PiecewiseLinearLaw(lk.knots_mm, np.full(lk.knots_mm.size, float(np.median(prep.fr.kappa))), "kappa")
+        t0 = PiecewiseLinearLaw(np.array([0.0, L / 2, L]), np.zeros(3), "tau")
+        wild = PiecewiseLinearLaw(lk.knots_mm, np.full(lk.knots_mm.size, np.inf), "kappa")
+        for starts in ([(lk, lt), (kc, t0), (lk, t0)], [(kc, t0), (lk, lt)], [(lk, lt), (lk, lt)],
+                       [(wild, lt), (kc, t0)], [(wild, lt)], [(lk, t0)]):
+            for iterations, rtol in ((0, 1e-4), (2, 1e-4), (40, 1e-6)):
+                i, laws, sse, end = _refine_starts(prep.s, prep.data, starts, free_knots=True,
+                                                   min_gap=prep.min_gap_mm, iterations=iterations, rtol=rtol)
+                evals = [_lm_evaluate(prep.s, a.knots_mm, a.values, b.knots_mm, b.values, prep.data) for a, b in starts]
+                j = min(range(len(starts)), key=lambda q: evals[q][0])
+                a, b = starts[j]
+                ref = _lm_from(prep.s, prep.data, a.knots_mm, a.values, b.knots_mm, b.values, True, prep.min_gap_mm,
+                               iterations, rtol, *evals[j])
+                assert i == j and (sse == ref[4] or (np.isinf(sse) and np.isinf(ref[4])))
+                for x, y in zip(laws + end[1:], ref[:4] + ref[5:]):
+                    assert x.tobytes() == y.tobytes()
+
+
+def test_compiled_score_test_matches_its_numpy_form():
+    """``_score_gains`` (the score test in one compiled call) against the projection written in numpy:
+    the same gains to round-off, the same best knot per law."""
+    from tendrilkit.pwc.laws import join_segments
+    from tendrilkit.pwc.refine import (_best_insertions, _hinge_means, _hinge_positions, _law_columns,
+                                       _law_state, _lm_jacobian, _refine_laws)
+    from tendrilkit.pwc.signals import _prepare
+
+    for seed in (5, 11, 17):
+        prep = _prepare(random_pwc_curve(seed).points_mm, None, "l2", None, None)
+        s, data, L = prep.s, prep.data, prep.s[-1]
+        lk = join_segments(s, prep.fr.kappa, np.searchsorted(s, [0, L / 3, L + 1]), kind="kappa")
+        lt = join_segments(s, prep.fr.tau, np.array([0, s.size]), weights=prep.wt, kind="tau")
+        lk, lt = _refine_laws(prep, lk, lt, 10, 1e-6)[:2]
+        f, P, T, B, R, X = _law_state(prep, lk, lt)
+        J = _lm_jacobian(s, P, T, B, R, X, _law_columns(s, lk.knots_mm, lk.values, True),
+                         _law_columns(s, lt.knots_mm, lt.values, True))
+        Js = J / (np.sqrt(np.einsum("ij,ij->j", J, J)) + 1e-300)
+        H = Js.T @ Js + 1e-10 * np.eye(J.shape[1])
+        xs, oks = _hinge_positions(prep, lk, lt)
+        nk = int(oks[0].sum())
+        C = _lm_jacobian(s, P, T, B, R, X, _hinge_means(s, xs[oks[0]]), _hinge_means(s, xs[oks[1]]))
+        C = C[:, : nk + int(oks[1].sum())]
+        Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
+        gain = (Cp.T @ (X - data).ravel()) ** 2 / (np.einsum("ij,ij->j", Cp, Cp) + 1e-300)
+        got = _best_insertions(prep, lk, lt)
+        for ok, g, found in zip(oks, (gain[:nk], gain[nk:]), got):
+            j = int(np.argmax(g))
+            assert found[0] == xs[ok][j] and found[1] == pytest.approx(g[j], rel=1e-9)
 
 
 def test_gap_fraction_keeps_knots_apart():

@@ -318,6 +318,64 @@ def _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, 
     return ck[0], ck[1], ck[2], ck[3], f, P, T, B, R, X
 
 
+@njit(cache=True)
+def _refine_best(s, data, knots_k, ends_k, values_k, knots_t, ends_t, values_t, free_knots, min_gap, iterations,
+                 rtol, have_state, f, P, T, B, R, X):
+    """The best of several starts refined: one compiled call for a candidate of the search.
+
+    Start ``i`` is the laws ``knots_k[ends_k[i]:ends_k[i + 1]]`` (values ``values_k`` alike) and
+    ``knots_t[ends_t[i]:ends_t[i + 1]]``. Each start is evaluated (:func:`_lm_evaluate`; with
+    ``have_state`` and one start, ``f, P, T, B, R, X`` is its evaluation, not computed again), the
+    first of least SSE is refined (:func:`_lm_from`, ``iterations`` 0: not refined). Returns its index,
+    then :func:`_lm_from`'s results: the same bits as those functions called one by one.
+    """
+    best = -1
+    m = ends_k.shape[0] - 1
+    if not (have_state and m == 1):
+        for i in range(m):
+            a0, a1, b0, b1 = ends_k[i], ends_k[i + 1], ends_t[i], ends_t[i + 1]
+            fi, Pi, Ti, Bi, Ri, Xi = _lm_evaluate(s, knots_k[a0:a1], values_k[a0:a1], knots_t[b0:b1],
+                                                  values_t[b0:b1], data)
+            if best < 0 or fi < f:
+                best, f, P, T, B, R, X = i, fi, Pi, Ti, Bi, Ri, Xi
+    else:
+        best = 0
+    a0, a1, b0, b1 = ends_k[best], ends_k[best + 1], ends_t[best], ends_t[best + 1]
+    kk2, vk2, kt2, vt2, sse, P, T, B, R, X = _lm_from(
+        s, data, knots_k[a0:a1].copy(), values_k[a0:a1].copy(), knots_t[b0:b1].copy(), values_t[b0:b1].copy(),
+        free_knots, min_gap, iterations, rtol, f, P, T, B, R, X)
+    return best, kk2, vk2, kt2, vt2, sse, P, T, B, R, X
+
+
+_NO_STATE = (np.inf, np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)), np.eye(3), np.zeros((0, 3)))
+
+
+def _refine_starts(s, data, starts, *, free_knots, min_gap, iterations, rtol, state=None):
+    """The first of ``starts`` (pairs of laws) of least SSE, refined (:func:`_refine_best`).
+
+    Returns its index in ``starts``, the refined laws' arrays ``(kk, vk, kt, vt)``, their SSE and
+    their :func:`_law_state` (the evaluation the iterations ended on). ``state``: the evaluation of
+    the only start, if known.
+    """
+    c = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    if len(starts) == 1:
+        (lk, lt), = starts
+        kk, vk, kt, vt = c(lk.knots_mm), c(lk.values), c(lt.knots_mm), c(lt.values)
+        ek, et = np.array([0, kk.size]), np.array([0, kt.size])
+    else:
+        kk = np.concatenate([c(a.knots_mm) for a, _ in starts])
+        vk = np.concatenate([c(a.values) for a, _ in starts])
+        kt = np.concatenate([c(b.knots_mm) for _, b in starts])
+        vt = np.concatenate([c(b.values) for _, b in starts])
+        ek = np.cumsum([0] + [a.knots_mm.size for a, _ in starts])
+        et = np.cumsum([0] + [b.knots_mm.size for _, b in starts])
+    have = state is not None and len(starts) == 1
+    best, kk2, vk2, kt2, vt2, sse, P, T, B, R, X = _refine_best(
+        s, data, kk, ek, vk, kt, et, vt, bool(free_knots), float(min_gap), int(iterations), float(rtol), have,
+        *(state if have else _NO_STATE))
+    return int(best), (kk2, vk2, kt2, vt2), float(sse), (float(sse), P, T, B, R, X)
+
+
 def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, iterations=40, rtol=1e-6, state=None):
     """Levenberg-Marquardt on the knot values (and inner knot positions), compiled.
 
@@ -336,10 +394,10 @@ def _refine_laws_lm(s, data, kk, vk, kt, vt, *, free_knots=True, min_gap=1.0, it
     their :func:`_law_state` (the evaluation the iterations ended on).
     """
     f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
-    args = (f(s), f(data), f(kk), f(vk), f(kt), f(vt), bool(free_knots), float(min_gap), int(iterations), float(rtol))
-    if state is None:  # one compiled function fewer to load at start-up than a compiled composition
-        state = _lm_evaluate(args[0], args[2], args[3], args[4], args[5], args[1])
-    kk2, vk2, kt2, vt2, sse, P, T, B, R, X = _lm_from(*args, *state)
+    kk, vk, kt, vt = f(kk), f(vk), f(kt), f(vt)
+    _, kk2, vk2, kt2, vt2, sse, P, T, B, R, X = _refine_best(
+        f(s), f(data), kk, np.array([0, kk.size]), vk, kt, np.array([0, kt.size]), vt, bool(free_knots),
+        float(min_gap), int(iterations), float(rtol), state is not None, *(_NO_STATE if state is None else state))
     return (kk2, vk2, kt2, vt2), float(sse), (float(sse), P, T, B, R, X)
 
 
@@ -362,8 +420,8 @@ def _law_state(prep, law_k, law_t):
     :func:`_lm_evaluate`'s evaluation, which is where :func:`_refine_laws` starts (``state``): the
     automatic selection compares its starts by this SSE and refines the best from it.
     """
-    f = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
-    return _lm_evaluate(prep.s, f(law_k.knots_mm), f(law_k.values), f(law_t.knots_mm), f(law_t.values), prep.data)
+    return _refine_starts(prep.s, prep.data, [(law_k, law_t)], free_knots=prep.free_knots, min_gap=prep.min_gap_mm,
+                          iterations=0, rtol=0.0)[3]
 
 
 @njit(cache=True)
@@ -404,33 +462,67 @@ def _best_insertions(prep, lk, lt, state=None):
     :func:`_law_state`, if the caller has it (not evaluated again; the same bits).
     """
     s, data = prep.s, prep.data
-    if state is None:
-        state = _lm_evaluate(s, lk.knots_mm, lk.values, lt.knots_mm, lt.values, data)
-    f, P, T, B, R, X = state
-    Gk = _law_columns(s, lk.knots_mm, lk.values, prep.free_knots)
-    Gt = _law_columns(s, lt.knots_mm, lt.values, prep.free_knots)
-    J = _lm_jacobian(s, P, T, B, R, X, Gk, Gt)
-    # projection off the current columns by the (small) normal equations; column-scaled
-    scale = np.sqrt(np.einsum("ij,ij->j", J, J)) + 1e-300
-    Js = J / scale
-    H = Js.T @ Js
-    H.flat[:: H.shape[0] + 1] += 1e-10
-    r = (X - data).ravel()
     xs, oks = _hinge_positions(prep, lk, lt)
-    nk, nt = int(oks[0].sum()), int(oks[1].sum())
-    if nk + nt == 0:
+    if not (oks[0].any() or oks[1].any()):
         return [None, None]
-    # both laws' hinge columns in one pass (each column is computed on its own)
-    C = _lm_jacobian(s, P, T, B, R, X, _hinge_means(s, xs[oks[0]]), _hinge_means(s, xs[oks[1]]))[:, : nk + nt]
-    Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
-    num = (Cp.T @ r) ** 2
-    den = np.einsum("ij,ij->j", Cp, Cp) + 1e-300
+    if state is None:
+        state = _law_state(prep, lk, lt)
+    f, P, T, B, R, X = state
+    c = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    gain = _score_gains(s, data, P, T, B, R, X, c(lk.knots_mm), c(lk.values), c(lt.knots_mm), c(lt.values),
+                        bool(prep.free_knots), xs[oks[0]], xs[oks[1]])
     out = []
-    for ok, cols in zip(oks, (slice(0, nk), slice(nk, nk + nt))):
+    for ok, g in zip(oks, gain):
         if not ok.any():
             out.append(None)
             continue
-        gain = num[cols] / den[cols]
-        j = int(np.argmax(gain))
-        out.append((float(xs[ok][j]), float(gain[j])))
+        j = int(np.argmax(g))
+        out.append((float(xs[ok][j]), float(g[j])))
     return out
+
+
+@njit(cache=True)
+def _score_gains(s, data, P, T, B, R, X, kk, vk, kt, vt, free_knots, xk, xt):
+    """The score test's first-order SSE drops of the hinges at ``xk`` (curvature) and ``xt`` (torsion).
+
+    :func:`_best_insertions`'s arithmetic in one compiled call: the Jacobian of the current laws
+    column-scaled, each hinge's column projected off it through the (ridged) normal equations,
+    gain :math:`(c_\\perp^T r)^2 / |c_\\perp|^2`. Returns the two laws' gains, (len(xk),) and (len(xt),).
+    """
+    J = _lm_jacobian(s, P, T, B, R, X, _law_columns(s, kk, vk, free_knots), _law_columns(s, kt, vt, free_knots))
+    rows, p = J.shape
+    Js = np.empty((rows, p))
+    for q in range(p):
+        a = 0.0
+        for i in range(rows):
+            a += J[i, q] * J[i, q]
+        sc = np.sqrt(a) + 1e-300
+        for i in range(rows):
+            Js[i, q] = J[i, q] / sc
+    H = Js.T @ Js
+    for q in range(p):
+        H[q, q] += 1e-10
+    r = np.empty(rows)
+    n = X.shape[0]
+    for j in range(n):
+        for c3 in range(3):
+            r[3 * j + c3] = X[j, c3] - data[j, c3]
+    nk, nt = xk.shape[0], xt.shape[0]
+    # both laws' hinge columns in one pass (each column is computed on its own)
+    C = np.ascontiguousarray(_lm_jacobian(s, P, T, B, R, X, _hinge_means(s, xk), _hinge_means(s, xt))[:, :nk + nt])
+    Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
+    gk = np.empty(nk)
+    gt = np.empty(nt)
+    for q in range(nk + nt):
+        num = 0.0
+        den = 0.0
+        for i in range(rows):
+            v = Cp[i, q]
+            num += v * r[i]
+            den += v * v
+        g = num * num / (den + 1e-300)
+        if q < nk:
+            gk[q] = g
+        else:
+            gt[q - nk] = g
+    return gk, gt

@@ -13,7 +13,7 @@ import numpy as np
 from tendrilkit.pwc.costs import _check_signal
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _insert_knot, _Joiner, _merge_knots
 from tendrilkit.pwc.rebuild import _law_sse
-from tendrilkit.pwc.refine import _best_insertions, _hinge_positions, _law_state, _refine_laws
+from tendrilkit.pwc.refine import _best_insertions, _hinge_positions, _refine_laws, _refine_starts
 from tendrilkit.pwc.search import penalty_path
 
 __all__: list[str] = []
@@ -85,17 +85,30 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             memo.setdefault(laws_key("start", lk2, lt2), end)  # the same bits as _law_state of them
         return memo[key]
 
+    def refined_best(starts, iterations, rtol):
+        """``(lk, lt, sse)``: the first of ``starts`` of least SSE (their evaluations), refined.
+
+        One compiled call (:func:`_refine_starts`) unless every start's evaluation is known: the
+        same laws as the starts evaluated one by one and the best refined from its evaluation.
+        """
+        keys = [laws_key("start", lk, lt) for lk, lt in starts]
+        if all(k in memo for k in keys):
+            i = min(range(len(starts)), key=lambda j: memo[keys[j]][0])
+            return refined(*starts[i], iterations, rtol, state=memo[keys[i]])
+        ckey = ("best",) + tuple(keys) + (iterations, rtol)
+        if ckey not in memo:
+            i, (kk, vk, kt, vt), sse, end = _refine_starts(
+                prep.s, prep.data, starts, free_knots=prep.free_knots, min_gap=prep.min_gap_mm,
+                iterations=iterations, rtol=rtol)
+            lk2, lt2 = PiecewiseLinearLaw(kk, vk, "kappa"), PiecewiseLinearLaw(kt, vt, "tau")
+            memo[ckey] = memo[laws_key("refine", *starts[i]) + (iterations, rtol)] = (lk2, lt2, sse)
+            memo.setdefault(laws_key("start", lk2, lt2), end)  # the same bits as _law_state of them
+        return memo[ckey]
+
     def insertions_at(lk, lt):
         key = laws_key("insert", lk, lt)
         if key not in memo:
             memo[key] = _best_insertions(prep, lk, lt, memo.get(laws_key("start", lk, lt)))
-        return memo[key]
-
-    def start_state(lk, lt):
-        """The evaluation of a start (its SSE first), where its refinement begins."""
-        key = laws_key("start", lk, lt)
-        if key not in memo:
-            memo[key] = _law_state(prep, lk, lt)
         return memo[key]
 
     s, fr = prep.s, prep.fr
@@ -163,8 +176,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             starts = [(k_cur, path_tau(b)), (k_cur, PiecewiseLinearLaw(t_new, t_cur(t_new), "tau")),
                       (k_cur, PiecewiseLinearLaw(u, t_cur(u), "tau"))]
         # compared by the SSE of the refinement's own evaluation, from which the best is refined
-        start_k, start_t = min(starts, key=lambda x: start_state(x[0], x[1])[0])
-        return scored(*refined(start_k, start_t, *quick, state=start_state(start_k, start_t)))
+        return scored(*refined_best(starts, *quick))
 
     def better(x, y):
         return _preferred(x, y, target_r2, criterion)
