@@ -98,6 +98,11 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         The tip continuation where the tone ahead of the tip agrees and no
         object lies ahead (:func:`tendrilkit.verify_tip.open_tip_px`): the
         tendril going on over the open board, px; it counts in one view.
+    ``lone_tip_px_v<i>``
+        The tip continuation where every other view is blind to it: it runs
+        along their line of sight through the tip, or their tip lies outside
+        their ROI (:func:`tendrilkit.verify_sight.lone_tip_px`); it counts in
+        one view.
     ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s``
         Against the previous reconstructed frame that passed the image checks
         (:func:`tendrilkit.verify_temporal.temporal_checks`): relative change of length (%), mean
@@ -376,6 +381,12 @@ class Thresholds:
         (:mod:`tendrilkit.verify_calibration`, which gives the measurements:
         right calibrations at most 0.095 px, the one that left random seed
         9201's curves 11 % too large 2.04 px). In the message only.
+    max_lone_tip_px : float
+        The tendril's skeleton going on beyond the projected tip in one view
+        where every other view is blind to it (``lone_tip_px_v<i>``,
+        :mod:`tendrilkit.verify_sight`, which gives the measurements), px, in
+        ONE view or more (3 px: the skeleton's end spur, as
+        ``max_open_tip_px``).
     max_unseen_detour_mm : float
         Largest excess of the curve's 3D length over the straight chord
         across a stretch where no pair of views fixes its depth (neither
