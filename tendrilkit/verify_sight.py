@@ -42,7 +42,10 @@ frames, so later curves can change): the frames ``ok`` with the max or an
 end over 2 mm went 9 -> 8 and 13 -> 7 (one new: seed 9251 frame 5, max
 2.15 mm, reconstructed afresh after its predecessors were flagged), the
 frames right on all three criteria flagged 15 -> 15 of 100 and 38 -> 38 of
-161, silent 0 -> 0.
+161, silent 0 -> 0. Validation seeds 1200-1239 (``bench_generalize``): no
+frame changed status (five frames already doubtful read over 3 px); 0
+silent, 5 ``ok`` with the max or an end over 2 mm, 20 of 81 right frames
+flagged, as before.
 
 Seen and left: a coil seen end-on hides the rest of the tendril behind the
 curve's own projection in a view (seed 1056 frame 3, 12.6 mm short: 59.5 px
