@@ -463,6 +463,7 @@ class Verification(_Strict):
     max_off_colour_run_px: PositiveFloat = 100.0
     max_open_tip_px: NonNegFloat = 3.0
     max_unseen_detour_mm: PositiveFloat = 3.0
+    max_lone_tip_px: NonNegFloat = 3.0
 
 
 class Analysis(_Strict):

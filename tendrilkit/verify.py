@@ -98,6 +98,11 @@ Figures (columns of ``frames.csv``; ``<i>`` the 1-based view)
         The tip continuation where the tone ahead of the tip agrees and no
         object lies ahead (:func:`tendrilkit.verify_tip.open_tip_px`): the
         tendril going on over the open board, px; it counts in one view.
+    ``lone_tip_px_v<i>``
+        The tip continuation where every other view is blind to it: it runs
+        along their line of sight through the tip, or their tip lies outside
+        their ROI (:func:`tendrilkit.verify_sight.lone_tip_px`); it counts in
+        one view.
     ``length_change_pct``, ``shape_change_mm``, ``dt_prev_s``
         Against the previous reconstructed frame that passed the image checks
         (:func:`tendrilkit.verify_temporal.temporal_checks`): relative change of length (%), mean
@@ -139,9 +144,10 @@ from tendrilkit.verify_coverage import coverage_frac, tendril_radius_px
 from tendrilkit.verify_depth import fixed_points, line_seen, unseen_detour_message, unseen_detour_mm
 from tendrilkit.verify_object import tip_object_message, tip_object_px
 from tendrilkit.verify_self import self_contact_message, self_distance_mm
+from tendrilkit.verify_sight import lone_tip_message, lone_tip_px
 from tendrilkit.verify_tip import (TIP_PX, crossing_samples, failing_views, local_inside_px, on_wide, open_tip_message,
-                                   open_tip_px, rim_lines, skeleton_to_curve_px, tip_continuation, tip_wide_fraction,
-                                   wide_run_px)
+                                   open_tip_px, rim_lines, skeleton_to_curve_px, tip_continuation_path,
+                                   tip_wide_fraction, wide_run_px)
 from tendrilkit.verify_tone import off_colour_message, off_colour_run_px, tip_tone_frac, tip_tone_message
 from tendrilkit.verify_widen import MAX_DISTAL_WIDENING, distal_widening, distal_widening_message
 
@@ -375,6 +381,12 @@ class Thresholds:
         (:mod:`tendrilkit.verify_calibration`, which gives the measurements:
         right calibrations at most 0.095 px, the one that left random seed
         9201's curves 11 % too large 2.04 px). In the message only.
+    max_lone_tip_px : float
+        The tendril's skeleton going on beyond the projected tip in one view
+        where every other view is blind to it (``lone_tip_px_v<i>``,
+        :mod:`tendrilkit.verify_sight`, which gives the measurements), px, in
+        ONE view or more (3 px: the skeleton's end spur, as
+        ``max_open_tip_px``).
     max_unseen_detour_mm : float
         Largest excess of the curve's 3D length over the straight chord
         across a stretch where no pair of views fixes its depth (neither
@@ -416,6 +428,7 @@ class Thresholds:
     max_off_colour_run_px: float = 100.0
     max_open_tip_px: float = 3.0
     max_unseen_detour_mm: float = 3.0
+    max_lone_tip_px: float = 3.0
 
     @classmethod
     def from_params(cls, section) -> "Thresholds":
@@ -446,7 +459,9 @@ def view_columns(n_views: int) -> list[str]:
     # the longest stretch on wide pixels read as a crossing, left out of wide_run_px (issue 13, verify_tip)
     cols += [f"wide_crossing_px_v{v}" for v in range(1, n_views + 1)]
     # the curve's detour where fewer than two views see the tendril's line (issue 13, verify_depth)
-    return cols + ["unseen_detour_mm"]
+    cols += ["unseen_detour_mm"]
+    # the tip continuation the other views cannot see (issue 13, verify_sight)
+    return cols + [f"lone_tip_px_v{v}" for v in range(1, n_views + 1)]
 
 
 def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
@@ -464,7 +479,7 @@ def _densify(xy: np.ndarray, step_px: float = 1.0) -> np.ndarray:
 def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEvidence | None], *,
                  tolerance_px: float = 2.0, coverage_tolerance_px: float = 4.0, tip_object_reach_px: float = 30.0,
                  junction_turn_deg: float = 60.0, junction_line_px: float = 15.0, images: list | None = None,
-                 channel: str = "blue") -> dict:
+                 channel: str = "blue", min_tip_border_px: float = 5.0) -> dict:
     """Image figures of one reconstructed curve in every view.
 
     Parameters
@@ -503,6 +518,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     checked = 0
     widths: list[float] = []
     seen_line = np.zeros((len(cameras), len(X)), bool)  # per view, the points it sees on the tendril's line
+    tip_paths: list = [None] * len(cameras)  # per view, the skeleton going on beyond the tip (verify_sight)
     for v, (cam, ev) in enumerate(zip(cameras, evidence)):
         if ev is None:
             continue
@@ -547,8 +563,8 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                 sk_dist = skeleton_to_curve_px(ev.skeleton_xy, dense, coverage_tolerance_px)
                 if len(on):
                     out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
-                out[f"tip_continuation_px_v{v + 1}"] = tip_continuation(ev, dense, coverage_tolerance_px,
-                                                                        sk_dist=sk_dist)
+                length_px, tip_paths[v] = tip_continuation_path(ev, dense, coverage_tolerance_px, sk_dist=sk_dist)
+                out[f"tip_continuation_px_v{v + 1}"] = length_px
             out[f"base_on_tendril_frac_v{v + 1}"] = base_on_tendril(ev, dense[keep], d[keep], tolerance_px,
                                                                      inside=inside_px, near=at_base)
             out[f"tip_wide_frac_v{v + 1}"] = tip_wide_fraction(wide, seen & (d <= tolerance_px))
@@ -580,6 +596,14 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                 out[f"tip_tone_frac_v{v + 1}"] = tip_tone_frac(crop, ev, dense, on_mask, radius_px, channel=channel)
                 out[f"off_colour_run_px_v{v + 1}"] = off_colour_run_px(crop, ev, dense, seen, on_mask)
     out["views_checked"] = checked
+    # the tip continuation of one view where the others cannot see beyond the tip (their tip outside their ROI,
+    # or the continuation along their line of sight): one view suffices (verify_sight)
+    blind = [evidence[v] is None or out[f"tip_border_px_v{v + 1}"] is None
+             or out[f"tip_border_px_v{v + 1}"] <= min_tip_border_px for v in range(len(cameras))]
+    lone = lone_tip_px(tip_paths, [out[f"tip_continuation_px_v{v + 1}"] for v in range(len(cameras))], cameras,
+                       X[-1], blind) if len(X) else [None] * len(cameras)
+    for v, x in enumerate(lone):
+        out[f"lone_tip_px_v{v + 1}"] = x
     out["line_width_mm"] = float(np.median(widths)) if widths else None
     out["self_distance_mm"] = self_distance_mm(X)
     out["unseen_detour_mm"] = unseen_detour_mm(X, fixed_points(X, [c.center_world for c in cameras], seen_line))
@@ -713,7 +737,7 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     q.update(verify_curve(points_mm, cameras, evidence, tolerance_px=th.tolerance_px,
                           coverage_tolerance_px=th.coverage_tolerance_px, tip_object_reach_px=th.min_tip_object_px,
                           junction_turn_deg=th.min_junction_turn_deg, junction_line_px=th.min_junction_line_px,
-                          images=images, channel=channel))
+                          images=images, channel=channel, min_tip_border_px=th.min_tip_border_px))
     V = len(cameras)
     for v in range(1, V + 1):
         q[f"open_tip_px_v{v}"] = open_tip_px(q.get(f"tip_continuation_px_v{v}"), q.get(f"tip_tone_frac_v{v}"),
@@ -726,4 +750,5 @@ def verify_frame(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
     c = off_colour_message(q, V, th.max_off_colour_run_px)
     o = open_tip_message(q, V, th.max_open_tip_px)
     u = unseen_detour_message(q.get("unseen_detour_mm"), th.max_unseen_detour_mm)
-    return msgs + [x for x in (m, j, d, t, c, o, u) if x]
+    s = lone_tip_message(q, V, th.max_lone_tip_px)
+    return msgs + [x for x in (m, j, d, t, c, o, u, s) if x]

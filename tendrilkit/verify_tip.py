@@ -29,7 +29,7 @@ import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
 
-__all__ = ["TIP_PX", "tip_continuation", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction", "wide_run_px",
+__all__ = ["TIP_PX", "tip_continuation", "tip_continuation_path", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction", "wide_run_px",
            "crossing_samples", "rim_lines", "local_inside_px", "open_tip_px", "open_tip_message", "failing_views"]
 
 #: The curve's tip, in :func:`tip_wide_fraction`: its last this many pixels of projection (px).
@@ -82,9 +82,21 @@ def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *,
         when the caller has it (the same query serves
         :func:`tendrilkit.verify_beyond.beyond_tip_px`).
     """
+    return tip_continuation_path(ev, dense_xy, cov_tol, sk_dist=sk_dist)[0]
+
+
+def tip_continuation_path(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *,
+                          sk_dist: np.ndarray | None = None) -> tuple[float, np.ndarray]:
+    """:func:`tip_continuation`'s length (px) and its path: the skeleton pixels from the tip to the farthest.
+
+    The path is (m, 2) float, full-image px, from the unexplained skeleton
+    pixel near the tip where it starts to the one farthest along it (m = 0
+    when nothing goes on); of equally far ones the first found.
+    """
     sk = ev.skeleton_xy
+    none = (0.0, np.zeros((0, 2)))
     if sk is None or len(sk) == 0 or len(dense_xy) == 0:
-        return 0.0
+        return none
     dist = skeleton_to_curve_px(sk, dense_xy, cov_tol) if sk_dist is None else sk_dist
     free = ~np.isfinite(dist)
     # not restricted to a line of the tendril's width: where the tendril goes on merged with clutter (along a
@@ -92,9 +104,10 @@ def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *,
     tip = dense_xy[-1]
     start = np.nonzero(free & (np.hypot(*(sk - tip).T) <= cov_tol + 3.0))[0]
     if len(start) == 0:
-        return 0.0
+        return none
     idx = {(int(x), int(y)): i for i, (x, y) in enumerate(sk) if free[i]}
     best = {int(i): 0.0 for i in start}
+    came = {int(i): -1 for i in start}
     heap = [(0.0, int(i)) for i in start]
     steps = [(dx, dy, float(np.hypot(dx, dy))) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy]
     while heap:  # Dijkstra over the unexplained skeleton pixels (a few hundred at most)
@@ -106,8 +119,13 @@ def tip_continuation(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float, *,
             j = idx.get((x + dx, y + dy))
             if j is not None and g + w < best.get(j, np.inf):
                 best[j] = g + w
+                came[j] = i
                 heapq.heappush(heap, (g + w, j))
-    return float(max(best.values()))
+    far = max(best, key=best.get)
+    path = [far]
+    while came[path[-1]] >= 0:
+        path.append(came[path[-1]])
+    return float(best[far]), np.asarray(sk[path[::-1]], float)
 
 
 def skeleton_to_curve_px(sk_xy: np.ndarray, dense_xy: np.ndarray, cov_tol: float) -> np.ndarray:

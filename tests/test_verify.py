@@ -807,13 +807,14 @@ def test_every_checks_figure_is_a_frames_column(scene):
     cols = view_columns(2)
     for stem in ("tip_object_px", "turn_branch_px", "distal_widening_ratio"):
         assert [f"{stem}_v1", f"{stem}_v2"] == [c for c in cols if c.startswith(stem)]
-    assert cols[-15:-9] == ["tip_object_px_v1", "tip_object_px_v2", "turn_branch_px_v1", "turn_branch_px_v2",
-                            "distal_widening_ratio_v1", "distal_widening_ratio_v2"]  # added at the table's end
-    assert cols[-9:-5] == ["tip_tone_frac_v1", "tip_tone_frac_v2", "off_colour_run_px_v1",
-                           "off_colour_run_px_v2"]  # and the tone and colour figures after them
-    assert cols[-5:-3] == ["open_tip_px_v1", "open_tip_px_v2"]  # then the open tip's
-    assert cols[-3:-1] == ["wide_crossing_px_v1", "wide_crossing_px_v2"]  # then the merged check's crossings
-    assert cols[-1] == "unseen_detour_mm"  # last the unseen detour's (verify_depth)
+    assert cols[-17:-11] == ["tip_object_px_v1", "tip_object_px_v2", "turn_branch_px_v1", "turn_branch_px_v2",
+                             "distal_widening_ratio_v1", "distal_widening_ratio_v2"]  # added at the table's end
+    assert cols[-11:-7] == ["tip_tone_frac_v1", "tip_tone_frac_v2", "off_colour_run_px_v1",
+                            "off_colour_run_px_v2"]  # and the tone and colour figures after them
+    assert cols[-7:-5] == ["open_tip_px_v1", "open_tip_px_v2"]  # then the open tip's
+    assert cols[-5:-3] == ["wide_crossing_px_v1", "wide_crossing_px_v2"]  # then the merged check's crossings
+    assert cols[-3] == "unseen_detour_mm"  # then the unseen detour's (verify_depth)
+    assert cols[-2:] == ["lone_tip_px_v1", "lone_tip_px_v2"]  # last the lone tip's (verify_sight)
     q = verify_curve(_tendril_mm(), cams, ev)
     assert set(cols) <= set(q)
     assert q["distal_widening_ratio_v1"] is not None and q["distal_widening_ratio_v1"] <= Thresholds().max_distal_widening
