@@ -28,8 +28,8 @@ off the tip's tangent), median 105 mm missing; a coil over itself (``claimed``) 
 (1056: one view sees the coil end-on, its projection within 0.6 px of another pass over all the missing part, the
 other two cross it at the stop); covered in two views, seen in one 8 / 0 (1073: a leaf over 10 mm in two views);
 the rest 13 / 11 (1068: the width rule, then one view's board; 1044 frame 1: the extension's former 60 mm budget).
-5 / 3 of them follow an ``ok`` frame (tracking follows ``ok`` frames only), whose curve reached 2-7 mm further in 6
-(the tip trimmed back: 1047, 1065, 1077, 9281, 9293) and was right where tracking was lost and the frame acquired
+5 / 3 of them follow an ``ok`` frame (tracking follows ``ok`` frames only), whose curve reached 2-7 mm further in 5
+(the tip trimmed back: 1047, 1065, 1077, 9281, 9293; 1056 frame 4's was itself 13 mm short) and was right where tracking was lost and the frame acquired
 stopped 64 / 99 mm short (1068, 9282); none stopped at the length cap: a short acquisition is flagged, and the next
 frame is acquired afresh, uncapped.
 Tried on single frames and not kept: steps one view sees while the others cannot (covered, outside, dark off their
