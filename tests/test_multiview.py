@@ -286,7 +286,7 @@ def test_tracked_tip_does_not_run_on_onto_a_line_leaving_the_roi():
 @pytest.mark.slow
 def test_s3_phantom_every_frame_reaches_the_tip(tmp_path):
     """The notebooks' 10-frame S3 phantom: between processed frames the tip moves 70-80 mm along a
-    self-crossing curve. A tracked frame (4) must extend its tip beyond the fixed 60 mm, up to the length
+    self-crossing curve. A tracked frame (4) must extend its tip beyond 60 mm (the former fixed budget), up to the length
     prior; an acquired frame (6) must keep the forward pass at the crossing, where a pass coming back
     over the same place scores better (a beam cell keeps the best and the best heading against it).
     Before both, frames 4 and 6 stopped 4.5 and 44 mm short (flagged, not ok)."""
