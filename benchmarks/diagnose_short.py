@@ -18,6 +18,26 @@ and what stops the curve 0.5-3 mm beyond its tip (``at_tip``): ``2 views on`` (t
 stopped the extension), ``claimed`` (two views on only with explained pixels: a coil over itself), else the
 states of the views there. ``first2_mm``: how far beyond the tip two views see the tendril again on new
 pixels (NaN: never). Diagnosis only.
+
+Census (2026-12-01, main 4b08771, ``rerun_multiview.py --no-fit --keep-curves``; dev 1040-1079: 60 frames stop
+short, 9240-9299: 65), by the first step's rule and ``at_tip``: the width rule stopped the tip (``wide``, left to
+that rule's work) 21 / 19 frames; one view or more showing the board (pale tendrils) 9 / 29: on 9240-9299 one view's
+board while two see the tendril on (9243, 9250, 9252, 9270, 9286: ``BOARD_VETO_VIEWS`` 2 would pass them) and two or
+three views' board over a pale stretch of 6-19 mm that curves (9277, 9294: the tendril comes out again 41-80 degrees
+off the tip's tangent), median 105 mm missing; a coil over itself (``claimed``) 9 / 6, median 52 / 16 mm missing
+(1056: one view sees the coil end-on, its projection within 0.6 px of another pass over all the missing part, the
+other two cross it at the stop); covered in two views, seen in one 8 / 0 (1073: a leaf over 10 mm in two views);
+the rest 13 / 11 (1068: the width rule, then one view's board; 1044 frame 1: the extension's former 60 mm budget).
+5 / 3 of them follow an ``ok`` frame (tracking follows ``ok`` frames only), whose curve reached 2-7 mm further in 5
+(the tip trimmed back: 1047, 1065, 1077, 9281, 9293; 1056 frame 4's was itself 13 mm short) and was right where tracking was lost and the frame acquired
+stopped 64 / 99 mm short (1068, 9282); none stopped at the length cap: a short acquisition is flagged, and the next
+frame is acquired afresh, uncapped.
+Tried on single frames and not kept: steps one view sees while the others cannot (covered, outside, dark off their
+skeleton): the tip drifts in depth (1073 frame 0: 4.7 mm off after 6 mm allowed, 19.8 mm after 12) or runs past the
+tip (9244 frame 2: 8 mm); a gap where two views show the board crossed to a place all three see on (straight chords
+do not reach a curving pale stretch); a tracked curve below its prior length refined and extended again (9281 frame
+3: tip 7.3 -> 10.2 mm off, max 1.4 -> 5.1 mm). On dev 1040-1079: ``mv_acquire.CROSSING_MM`` 4 -> 8 mm, all three
+42.1 -> 42.1 % (1 frame better, 2 worse: max 2.7 -> 23.8 and 10.6 -> 18.2 mm).
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ Objective (:func:`refine_curve`)
 
 Coverage (:func:`adjust_tip`)
     The tip is moved outward, 0.5 mm at a time, while two views or more see
-    the extension on their skeletons, and back while the tip is not on the
+    the extension on their skeletons (up to ``EXTEND_MM``: the evidence ends it, not a budget), and back while the tip is not on the
     skeleton of at least two views: the curve explains the tendril's pixels
     from the base outward and can neither shrink nor run on. A place one
     view shows as the open board stops it (``BOARD_VETO_VIEWS``: with 2, two
@@ -122,6 +122,13 @@ MAX_COVER_GAP_MM = 40.0
 #: acquisition's beam stopped at the gap, the rest of the tendril is the extension's to follow (dev seed 9248: a
 #: leaf over 17 mm of a 191 mm tendril 82 mm from the base; with 60 mm the curve stopped 30 mm short).
 BRIDGE_EXTEND_MM = 200.0
+#: The tip's extension before any gap goes on up to this far (mm; :func:`adjust_tip`'s ``max_extend_mm``), as far as
+#: past a gap: the extension stops where two views stop seeing new skeleton pixels, not at a budget. With 60 (until
+#: 2026-12-01) an acquired curve whose beam stopped early (a kink, a crossing) was cut 60 mm past the beam's tip while
+#: two views still saw the tendril on (dev seed 1044 frame 1: 24 mm short). Measured 2026-12-01
+#: (``rerun_multiview.py --no-fit``, against main 4b08771): dev 1040-1079 all three 41.7 -> 42.1 % (1044 frame 1
+#: gained, no frame lost or otherwise changed), dev 9240-9299 44.7 -> 44.7 % (no frame changed).
+EXTEND_MM = 200.0
 #: The final choice of the acquisition (``_choose_acquired``): the beam score (pixels per step) a degree of a local
 #: kink costs (30 degrees as much as 15 steps on the skeletons). How many of its best finished hypotheses are weighed,
 #: each refined, is :func:`reconstruct_multiview`'s ``choice_candidates`` (``reconstruction.choice_candidates``):
@@ -590,7 +597,7 @@ def _support(evidence, P):
 
 
 def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: float = 0.5,
-               max_extend_mm: float = 60.0, prior_mm: float = 0.0, max_length_mm: float = np.inf) -> np.ndarray:
+               max_extend_mm: float = EXTEND_MM, prior_mm: float = 0.0, max_length_mm: float = np.inf) -> np.ndarray:
     """Move the tip to where the views' evidence ends (extend, then trim), base kept.
 
     Each step goes the way of the 30-degree cone that costs least: the mean
@@ -605,7 +612,7 @@ def adjust_tip(X_mm: np.ndarray, evidence: list[SkeletonEvidence], *, step_mm: f
     evidence : list of SkeletonEvidence
     step_mm : float
     max_extend_mm : float
-        Longest extension, mm (past a gap crossed by ``bridge_gap`` the
+        Longest extension, mm (``EXTEND_MM``; past a gap crossed by ``bridge_gap`` the
         extension may go on up to ``BRIDGE_EXTEND_MM`` further); when
         ``max_length_mm`` is finite, at least up to it (a tracked curve's tip can lag the tendril's by tens of mm after
         a large change between processed frames: the curve refitted from the

@@ -286,7 +286,7 @@ def test_tracked_tip_does_not_run_on_onto_a_line_leaving_the_roi():
 @pytest.mark.slow
 def test_s3_phantom_every_frame_reaches_the_tip(tmp_path):
     """The notebooks' 10-frame S3 phantom: between processed frames the tip moves 70-80 mm along a
-    self-crossing curve. A tracked frame (4) must extend its tip beyond the fixed 60 mm, up to the length
+    self-crossing curve. A tracked frame (4) must extend its tip beyond 60 mm (the former fixed budget), up to the length
     prior; an acquired frame (6) must keep the forward pass at the crossing, where a pass coming back
     over the same place scores better (a beam cell keeps the best and the best heading against it).
     Before both, frames 4 and 6 stopped 4.5 and 44 mm short (flagged, not ok)."""
@@ -793,3 +793,21 @@ def test_tipoff_census_measures_the_departure_along_the_truth():
     j = int(np.flatnonzero(d <= 2.0)[-1])
     s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(C, axis=0), axis=1))]
     assert 30.0 <= along[j] <= 32.0 and 8.0 <= s[-1] - s[j] <= 10.0
+
+
+def test_tip_extension_goes_on_past_60_mm_while_two_views_see_it():
+    """A curve stopped 20 mm from the base on a 140 mm tendril (the acquisition's beam stopped early): the tip's
+    extension follows the two views' skeletons to the tip (``EXTEND_MM``), not 60 mm only (the former budget)."""
+    from tendrilkit.multiview import adjust_tip
+
+    s = np.linspace(0.0, 1.0, 3000)
+    X = np.c_[-5 + 130 * s, 12 * np.sin(2.5 * s), 20 + 8 * s]
+    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(X, axis=0), axis=1))]
+    images, cams, exp = render_tube_views(X, width_px=9)
+    evs = _evidence(images, cams, exp)
+    start = resample_polyline(X[arc <= 20.0], 21)
+    whole = adjust_tip(start, evs)
+    assert np.linalg.norm(whole[-1] - X[-1]) <= 2.0, (whole[-1], X[-1])
+    cut = adjust_tip(start, evs, max_extend_mm=60.0)
+    length = float(np.linalg.norm(np.diff(cut, axis=0), axis=1).sum())
+    assert length <= 20.0 + 60.0 + 1.0 < arc[-1] - 40.0, (length, arc[-1])
