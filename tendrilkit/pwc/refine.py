@@ -12,6 +12,7 @@ import numpy as np
 from numba import njit
 
 from tendrilkit.frenet import _integrate
+from tendrilkit.geometry import _rigid_fit_core
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _pwl_step_means
 
 __all__: list[str] = []
@@ -153,134 +154,11 @@ def _law_columns(s, knots, values, free_knots):
 
 
 @njit(cache=True)
-def _rigid_fit_quat(P, Q):
-    """:func:`tendrilkit.geometry.rigid_fit` by Horn's unit quaternion, without an SVD.
-
-    The same least-squares rotation and translation (over proper rotations,
-    as Kabsch's with the determinant's correction): the rotation is the unit
-    quaternion of the largest eigenvalue of Horn's symmetric 4x4 matrix of the
-    cross-covariance, found by cyclic Jacobi rotations in scalars (a few
-    hundred operations; LAPACK's SVD of the 3x3 matrix costs more in its call
-    than in its arithmetic). Equal to the SVD's to round-off where the rotation
-    is determined (tested); where it is not (points on a line), either is a
-    minimiser. ``P, Q``: (n, 3) finite float arrays, n >= 1.
-    """
-    n = P.shape[0]
-    mp0 = mp1 = mp2 = mq0 = mq1 = mq2 = 0.0
-    for i in range(n):
-        mp0 += P[i, 0]
-        mp1 += P[i, 1]
-        mp2 += P[i, 2]
-        mq0 += Q[i, 0]
-        mq1 += Q[i, 1]
-        mq2 += Q[i, 2]
-    mp0 /= n
-    mp1 /= n
-    mp2 /= n
-    mq0 /= n
-    mq1 /= n
-    mq2 /= n
-    sxx = sxy = sxz = syx = syy = syz = szx = szy = szz = 0.0
-    for i in range(n):
-        px = P[i, 0] - mp0
-        py = P[i, 1] - mp1
-        pz = P[i, 2] - mp2
-        qx = Q[i, 0] - mq0
-        qy = Q[i, 1] - mq1
-        qz = Q[i, 2] - mq2
-        sxx += px * qx
-        sxy += px * qy
-        sxz += px * qz
-        syx += py * qx
-        syy += py * qy
-        syz += py * qz
-        szx += pz * qx
-        szy += pz * qy
-        szz += pz * qz
-    N = np.empty((4, 4))
-    N[0, 0] = sxx + syy + szz
-    N[0, 1] = N[1, 0] = syz - szy
-    N[0, 2] = N[2, 0] = szx - sxz
-    N[0, 3] = N[3, 0] = sxy - syx
-    N[1, 1] = sxx - syy - szz
-    N[1, 2] = N[2, 1] = sxy + syx
-    N[1, 3] = N[3, 1] = szx + sxz
-    N[2, 2] = -sxx + syy - szz
-    N[2, 3] = N[3, 2] = syz + szy
-    N[3, 3] = -sxx - syy + szz
-    V = np.eye(4)
-    scale = 0.0
-    for a in range(4):
-        for b in range(4):
-            scale += N[a, b] * N[a, b]
-    for _ in range(30):
-        off = 0.0
-        for a in range(3):
-            for b in range(a + 1, 4):
-                off += N[a, b] * N[a, b]
-        if off <= 1e-32 * scale:
-            break
-        for a in range(3):
-            for b in range(a + 1, 4):
-                nab = N[a, b]
-                if nab == 0.0:
-                    continue
-                # the rotation zeroing N[a, b] (the symmetric Schur form)
-                th = (N[b, b] - N[a, a]) / (2.0 * nab)
-                t = (1.0 if th >= 0 else -1.0) / (abs(th) + np.sqrt(th * th + 1.0))
-                c = 1.0 / np.sqrt(t * t + 1.0)
-                sn = t * c
-                for k in range(4):
-                    nka = N[k, a]
-                    nkb = N[k, b]
-                    N[k, a] = c * nka - sn * nkb
-                    N[k, b] = sn * nka + c * nkb
-                for k in range(4):
-                    nak = N[a, k]
-                    nbk = N[b, k]
-                    N[a, k] = c * nak - sn * nbk
-                    N[b, k] = sn * nak + c * nbk
-                for k in range(4):
-                    vka = V[k, a]
-                    vkb = V[k, b]
-                    V[k, a] = c * vka - sn * vkb
-                    V[k, b] = sn * vka + c * vkb
-    best = 0
-    for a in range(1, 4):
-        if N[a, a] > N[best, best]:
-            best = a
-    w = V[0, best]
-    x = V[1, best]
-    y = V[2, best]
-    z = V[3, best]
-    nrm = np.sqrt(w * w + x * x + y * y + z * z)
-    w /= nrm
-    x /= nrm
-    y /= nrm
-    z /= nrm
-    R = np.empty((3, 3))
-    R[0, 0] = w * w + x * x - y * y - z * z
-    R[0, 1] = 2.0 * (x * y - w * z)
-    R[0, 2] = 2.0 * (x * z + w * y)
-    R[1, 0] = 2.0 * (x * y + w * z)
-    R[1, 1] = w * w - x * x + y * y - z * z
-    R[1, 2] = 2.0 * (y * z - w * x)
-    R[2, 0] = 2.0 * (x * z - w * y)
-    R[2, 1] = 2.0 * (y * z + w * x)
-    R[2, 2] = w * w - x * x - y * y + z * z
-    t = np.empty(3)
-    t[0] = mq0 - (R[0, 0] * mp0 + R[0, 1] * mp1 + R[0, 2] * mp2)
-    t[1] = mq1 - (R[1, 0] * mp0 + R[1, 1] * mp1 + R[1, 2] * mp2)
-    t[2] = mq2 - (R[2, 0] * mp0 + R[2, 1] * mp1 + R[2, 2] * mp2)
-    return R, t
-
-
-@njit(cache=True)
 def _lm_evaluate(s, kk, vk, kt, vt, data):
     P, T, _, B = _integrate(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt), np.eye(3), np.zeros(3), False)
     if not np.all(np.isfinite(P)):
         return np.inf, P, T, B, np.eye(3), P.copy()
-    R, t = _rigid_fit_quat(P, data)
+    R, t = _rigid_fit_core(P, data)
     X = P @ R.T
     f = 0.0
     for j in range(X.shape[0]):
