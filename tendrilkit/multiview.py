@@ -28,8 +28,9 @@ Objective (:func:`refine_curve`)
 
 Coverage (:func:`adjust_tip`)
     The tip is moved outward, 0.5 mm at a time, while two views or more see
-    the extension on their skeletons (up to ``EXTEND_MM``: the evidence ends it, not a budget), and back while the tip is not on the
-    skeleton of at least two views: the curve explains the tendril's pixels
+    the extension on their skeletons (up to ``EXTEND_MM``: the evidence ends
+    it, not a budget), and back while the tip is not on the skeleton of at
+    least two views: the curve explains the tendril's pixels
     from the base outward and can neither shrink nor run on. A place one
     view shows as the open board stops it (``BOARD_VETO_VIEWS``: with 2, two
     views must; a last stretch over one view's board shorter than

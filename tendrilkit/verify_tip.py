@@ -29,8 +29,9 @@ import numpy as np
 
 from tendrilkit.evidence import ViewEvidence
 
-__all__ = ["TIP_PX", "tip_continuation", "tip_continuation_path", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction", "wide_run_px",
-           "crossing_samples", "rim_lines", "local_inside_px", "open_tip_px", "open_tip_message", "failing_views"]
+__all__ = ["TIP_PX", "tip_continuation", "tip_continuation_path", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction",
+           "wide_run_px", "crossing_samples", "rim_lines", "local_inside_px", "open_tip_px", "open_tip_message",
+           "failing_views"]
 
 #: The curve's tip, in :func:`tip_wide_fraction`: its last this many pixels of projection (px).
 TIP_PX = 20
