@@ -397,7 +397,7 @@ def _stage_times(curves) -> dict:
     stages = [(F, "_prepare", "signals: smoothing, Frenet frames, cost tables"),
               (S, "penalty_path", "search: both penalty paths"),
               (L._Joiner, "join", "continuity: joins and knot refit"),
-              (S, "_law_state", "selection: evaluation of the starts"),
+              (S, "_refine_starts", "selection: starts evaluated, the best refined"),
               (S, "_refine_laws", "refinement: Levenberg-Marquardt"),
               (S, "_best_insertions", "selection: knot score test"),
               (F, "_finish", "rebuild, registration, scores")]
