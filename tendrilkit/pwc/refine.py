@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from tendrilkit.frenet import _integrate
 from tendrilkit.geometry import _rigid_fit_core
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _pwl_step_means
 
@@ -154,8 +153,66 @@ def _law_columns(s, knots, values, free_knots):
 
 
 @njit(cache=True)
+def _frame_chain(s, k_step, t_step):
+    """Positions, tangents and binormals of the steps' laws from the identity frame at the origin.
+
+    :func:`tendrilkit.frenet._integrate`'s curve (trapezoidal positions; the same to rounding,
+    about 1e-13 mm) by another route: a step's rotation about the Darboux vector is, in the frame's
+    own axes, a rotation about :math:`(\\tau, 0, \\kappa)` that does not depend on the frame, so it is
+    computed apart from the chain of frames, and each frame is the previous one times those nine
+    numbers (no renormalisation: the frame drifts from orthonormal by about 1e-15 over 200 steps).
+    The chain of dependent square roots and divisions of ``_integrate`` is gone: half its time.
+    """
+    n = s.shape[0]
+    P = np.empty((n, 3))
+    T = np.empty((n, 3))
+    B = np.empty((n, 3))
+    t0, t1, t2 = 1.0, 0.0, 0.0
+    n0, n1, n2 = 0.0, 1.0, 0.0
+    b0, b1, b2 = 0.0, 0.0, 1.0
+    p0, p1, p2 = 0.0, 0.0, 0.0
+    T[0, 0], T[0, 1], T[0, 2] = t0, t1, t2
+    B[0, 0], B[0, 1], B[0, 2] = b0, b1, b2
+    P[0, 0], P[0, 1], P[0, 2] = p0, p1, p2
+    for i in range(n - 1):
+        h = s[i + 1] - s[i]
+        k = k_step[i]
+        t = t_step[i]
+        rate = np.sqrt(k * k + t * t)
+        th = rate * h
+        if th < 1e-12:
+            a00, a01, a02, a10, a11, a12, a20, a21, a22 = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
+        else:  # Rodrigues about the unit axis (ax, 0, az) in the frame's axes
+            ax = t / rate
+            az = k / rate
+            ct = np.cos(th)
+            st = np.sin(th)
+            u = 1.0 - ct
+            a00, a01, a02 = ct + ax * ax * u, az * st, ax * az * u
+            a10, a11, a12 = -az * st, ct, ax * st
+            a20, a21, a22 = ax * az * u, -ax * st, ct + az * az * u
+        u0 = a00 * t0 + a01 * n0 + a02 * b0
+        u1 = a00 * t1 + a01 * n1 + a02 * b1
+        u2 = a00 * t2 + a01 * n2 + a02 * b2
+        m0 = a10 * t0 + a11 * n0 + a12 * b0
+        m1 = a10 * t1 + a11 * n1 + a12 * b1
+        m2 = a10 * t2 + a11 * n2 + a12 * b2
+        c0 = a20 * t0 + a21 * n0 + a22 * b0
+        c1 = a20 * t1 + a21 * n1 + a22 * b1
+        c2 = a20 * t2 + a21 * n2 + a22 * b2
+        p0 += 0.5 * h * (t0 + u0)
+        p1 += 0.5 * h * (t1 + u1)
+        p2 += 0.5 * h * (t2 + u2)
+        t0, t1, t2, n0, n1, n2, b0, b1, b2 = u0, u1, u2, m0, m1, m2, c0, c1, c2
+        T[i + 1, 0], T[i + 1, 1], T[i + 1, 2] = t0, t1, t2
+        B[i + 1, 0], B[i + 1, 1], B[i + 1, 2] = b0, b1, b2
+        P[i + 1, 0], P[i + 1, 1], P[i + 1, 2] = p0, p1, p2
+    return P, T, B
+
+
+@njit(cache=True)
 def _lm_evaluate(s, kk, vk, kt, vt, data):
-    P, T, _, B = _integrate(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt), np.eye(3), np.zeros(3), False)
+    P, T, B = _frame_chain(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt))
     if not np.all(np.isfinite(P)):
         return np.inf, P, T, B, np.eye(3), P.copy()
     R, t = _rigid_fit_core(P, data)
