@@ -107,8 +107,174 @@ def _lm_jacobian(s, P, T, B, R, X, Mk, Mt):
 
 
 @njit(cache=True)
+def _lm_normal(s, P, T, B, R, X, data, Mk, Mt):
+    """The normal equations ``J^T J`` and ``J^T r`` of :func:`_lm_jacobian`'s Jacobian, without it.
+
+    ``r``: the registered points minus ``data``. The laws' columns are made in the integration's
+    frame, unrotated (``R`` is orthogonal: their products are the same, and a residual is rotated
+    once instead of every column); the registration's six columns are known in closed form (a
+    rotation ``e_k x c`` of the centred points ``c``, a translation ``e_k``), so their products with
+    the laws' columns are one product with seven columns in that frame, rotated back, and among
+    themselves sums over the points. Returns ``(H, g)``, ``(p + 6, p + 6)`` and ``(p + 6,)``, in
+    :func:`_lm_jacobian`'s order (the same to rounding).
+    """
+    n = P.shape[0]
+    nk = Mk.shape[1]
+    nt = Mt.shape[1]
+    p = nk + nt
+    D = np.empty((3 * n, p))
+    for q in range(p):  # the first point does not move
+        D[0, q] = 0.0
+        D[1, q] = 0.0
+        D[2, q] = 0.0
+    A0 = np.zeros(p)
+    A1 = np.zeros(p)
+    A2 = np.zeros(p)
+    C0 = np.zeros(p)
+    C1 = np.zeros(p)
+    C2 = np.zeros(p)
+    for j in range(1, n):
+        i = j - 1
+        h = s[j] - s[i]
+        bx = 0.5 * (B[i, 0] + B[j, 0])
+        by = 0.5 * (B[i, 1] + B[j, 1])
+        bz = 0.5 * (B[i, 2] + B[j, 2])
+        tx = 0.5 * (T[i, 0] + T[j, 0])
+        ty = 0.5 * (T[i, 1] + T[j, 1])
+        tz = 0.5 * (T[i, 2] + T[j, 2])
+        mx = 0.5 * (P[i, 0] + P[j, 0])
+        my = 0.5 * (P[i, 1] + P[j, 1])
+        mz = 0.5 * (P[i, 2] + P[j, 2])
+        px = P[j, 0]
+        py = P[j, 1]
+        pz = P[j, 2]
+        r0 = 3 * j
+        for q in range(nk):
+            c = h * Mk[i, q]
+            ax = c * bx
+            ay = c * by
+            az = c * bz
+            A0[q] += ax
+            A1[q] += ay
+            A2[q] += az
+            C0[q] += ay * mz - az * my
+            C1[q] += az * mx - ax * mz
+            C2[q] += ax * my - ay * mx
+        for q in range(nt):
+            c = h * Mt[i, q]
+            ax = c * tx
+            ay = c * ty
+            az = c * tz
+            A0[nk + q] += ax
+            A1[nk + q] += ay
+            A2[nk + q] += az
+            C0[nk + q] += ay * mz - az * my
+            C1[nk + q] += az * mx - ax * mz
+            C2[nk + q] += ax * my - ay * mx
+        for q in range(p):
+            D[r0, q] = A1[q] * pz - A2[q] * py - C0[q]
+            D[r0 + 1, q] = A2[q] * px - A0[q] * pz - C1[q]
+            D[r0 + 2, q] = A0[q] * py - A1[q] * px - C2[q]
+    # seven columns in the integration's frame: translations e_l, rotations e_l x y (y: the
+    # centred points there), the residuals rotated back R^T r
+    W = np.zeros((3 * n, 7))
+    pm = np.zeros(3)
+    xm = np.zeros(3)
+    for j in range(n):
+        for c3 in range(3):
+            pm[c3] += P[j, c3]
+            xm[c3] += X[j, c3]
+    pm /= n
+    xm /= n
+    rs = np.zeros(3)  # sum of the residuals
+    cr = np.zeros(3)  # sum of c x r
+    cs = np.zeros(3)  # sum of c
+    cc = np.zeros((3, 3))  # sum of c c^T
+    for j in range(n):
+        y0 = P[j, 0] - pm[0]
+        y1 = P[j, 1] - pm[1]
+        y2 = P[j, 2] - pm[2]
+        r0 = 3 * j
+        W[r0, 0] = 1.0
+        W[r0 + 1, 1] = 1.0
+        W[r0 + 2, 2] = 1.0
+        # e_0 x y = (0, -y2, y1), e_1 x y = (y2, 0, -y0), e_2 x y = (-y1, y0, 0)
+        W[r0 + 1, 3] = -y2
+        W[r0 + 2, 3] = y1
+        W[r0, 4] = y2
+        W[r0 + 2, 4] = -y0
+        W[r0, 5] = -y1
+        W[r0 + 1, 5] = y0
+        e0 = X[j, 0] - data[j, 0]
+        e1 = X[j, 1] - data[j, 1]
+        e2 = X[j, 2] - data[j, 2]
+        W[r0, 6] = R[0, 0] * e0 + R[1, 0] * e1 + R[2, 0] * e2
+        W[r0 + 1, 6] = R[0, 1] * e0 + R[1, 1] * e1 + R[2, 1] * e2
+        W[r0 + 2, 6] = R[0, 2] * e0 + R[1, 2] * e1 + R[2, 2] * e2
+        c0 = X[j, 0] - xm[0]
+        c1 = X[j, 1] - xm[1]
+        c2 = X[j, 2] - xm[2]
+        rs[0] += e0
+        rs[1] += e1
+        rs[2] += e2
+        cr[0] += c1 * e2 - c2 * e1
+        cr[1] += c2 * e0 - c0 * e2
+        cr[2] += c0 * e1 - c1 * e0
+        cs[0] += c0
+        cs[1] += c1
+        cs[2] += c2
+        cc[0, 0] += c0 * c0
+        cc[0, 1] += c0 * c1
+        cc[0, 2] += c0 * c2
+        cc[1, 1] += c1 * c1
+        cc[1, 2] += c1 * c2
+        cc[2, 2] += c2 * c2
+    cc[1, 0] = cc[0, 1]
+    cc[2, 0] = cc[0, 2]
+    cc[2, 1] = cc[1, 2]
+    DT = D.T
+    K = DT @ W
+    H = np.empty((p + 6, p + 6))
+    H[:p, :p] = DT @ D
+    g = np.empty(p + 6)
+    for q in range(p):
+        g[q] = K[q, 6]
+        for k in range(3):
+            hr = R[k, 0] * K[q, 3] + R[k, 1] * K[q, 4] + R[k, 2] * K[q, 5]
+            ht = R[k, 0] * K[q, 0] + R[k, 1] * K[q, 1] + R[k, 2] * K[q, 2]
+            H[p + k, q] = hr
+            H[q, p + k] = hr
+            H[p + 3 + k, q] = ht
+            H[q, p + 3 + k] = ht
+    c2sum = cc[0, 0] + cc[1, 1] + cc[2, 2]
+    for k in range(3):
+        for l3 in range(3):
+            H[p + k, p + l3] = (c2sum if k == l3 else 0.0) - cc[k, l3]
+            H[p + 3 + k, p + 3 + l3] = n if k == l3 else 0.0
+    # translation k against rotation l: e_k . (e_l x sum c)
+    H[p + 3, p + 0] = 0.0
+    H[p + 3, p + 1] = cs[2]
+    H[p + 3, p + 2] = -cs[1]
+    H[p + 4, p + 0] = -cs[2]
+    H[p + 4, p + 1] = 0.0
+    H[p + 4, p + 2] = cs[0]
+    H[p + 5, p + 0] = cs[1]
+    H[p + 5, p + 1] = -cs[0]
+    H[p + 5, p + 2] = 0.0
+    for k in range(3):
+        for l3 in range(3):
+            H[p + l3, p + 3 + k] = H[p + 3 + k, p + l3]
+        g[p + k] = cr[k]
+        g[p + 3 + k] = rs[k]
+    return H, g
+
+
+@njit(cache=True)
 def _law_columns(s, knots, values, free_knots):
-    """(n-1, p) derivatives of the step means: per value, then per inner knot position."""
+    """(n-1, p) derivatives of the step means: per value, then per inner knot position.
+
+    A column is 0 on the steps outside its hat's support (its two segments), which are not visited.
+    """
     m = knots.shape[0]
     n = s.shape[0]
     p = m + (m - 2 if free_knots else 0)
@@ -121,7 +287,11 @@ def _law_columns(s, knots, values, free_knots):
         hi = knots[j + 1] if j < m - 1 else knots[m - 1]
         i0 = 0 if j == 0 else 0.5 * (knots[j] - knots[j - 1]) * (0.0 + 1.0)
         after = i0 + (0.5 * (knots[j + 1] - knots[j]) * (1.0 + 0.0) if j < m - 1 else 0.0)
-        for i in range(n):
+        # the points from the last at or before lo to the first at or after hi: the integral is
+        # constant on either side of them, so the steps there have mean 0
+        a = max(np.searchsorted(s, lo, side="right") - 1, 0) if j > 0 else 0
+        b = min(np.searchsorted(s, hi, side="left"), n - 1) if j < m - 1 else n - 1
+        for i in range(a, b + 1):
             x = s[i]
             if x <= lo and j > 0:
                 I[i] = 0.0
@@ -130,20 +300,23 @@ def _law_columns(s, knots, values, free_knots):
             else:
                 x = min(max(x, knots[0]), knots[m - 1])
                 if j > 0 and x <= knots[j]:
-                    a = j - 1  # the rising half: values 0 -> 1
-                    d = knots[j] - knots[a]
-                    v = 0.0 + (1.0 - 0.0) * (x - knots[a]) / d if d > 0 else 0.0
-                    I[i] = 0.0 + 0.5 * (x - knots[a]) * (0.0 + v)
+                    a1 = j - 1  # the rising half: values 0 -> 1
+                    d = knots[j] - knots[a1]
+                    v = 0.0 + (1.0 - 0.0) * (x - knots[a1]) / d if d > 0 else 0.0
+                    I[i] = 0.0 + 0.5 * (x - knots[a1]) * (0.0 + v)
                 else:
                     d = knots[j + 1] - knots[j] if j < m - 1 else 0.0
                     v = 1.0 + (0.0 - 1.0) * (x - knots[j]) / d if d > 0 else 1.0
                     I[i] = i0 + 0.5 * (x - knots[j]) * (1.0 + v)
-        for i in range(n - 1):
+        for i in range(a, b):
             G[i, j] = (I[i + 1] - I[i]) / (s[i + 1] - s[i])
     if free_knots:
         for k in range(1, m - 1):
             t0, t1, t2 = knots[k - 1], knots[k], knots[k + 1]
-            for i in range(n - 1):
+            # the steps whose midpoint can lie in (t0, t2)
+            a = max(np.searchsorted(s, t0, side="left") - 1, 0)
+            b = min(np.searchsorted(s, t2, side="right"), n - 1)
+            for i in range(a, b):
                 x = 0.5 * (s[i] + s[i + 1])
                 if t0 < x <= t1:
                     G[i, m + k - 1] = -(values[k] - values[k - 1]) * (x - t0) / (t1 - t0) ** 2
@@ -308,19 +481,12 @@ def _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, 
     gap_t = max(min(min_gap, 0.5 * _min_gap_of(kt)), 1e-6 * L)
     ck = _unpack_nb(p, kk, kt, free_knots)  # the start's values: its evaluation is f, P, T, B, R, X
     mu = 1e-4
-    n = s.shape[0]
     if not np.isfinite(f):
         return ck[0], ck[1], ck[2], ck[3], f, P, T, B, R, X
-    r = np.empty(3 * n)
     for _ in range(iterations):
         Gk = _law_columns(s, ck[0], ck[1], free_knots)
         Gt = _law_columns(s, ck[2], ck[3], free_knots)
-        J = _lm_jacobian(s, P, T, B, R, X, Gk, Gt)
-        for j in range(n):
-            for c in range(3):
-                r[3 * j + c] = X[j, c] - data[j, c]
-        g = J.T @ r
-        H = J.T @ J
+        H, g = _lm_normal(s, P, T, B, R, X, data, Gk, Gt)
         m = H.shape[0]
         tr = 0.0
         for i in range(m):
