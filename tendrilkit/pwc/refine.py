@@ -107,26 +107,19 @@ def _lm_jacobian(s, P, T, B, R, X, Mk, Mt):
 
 
 @njit(cache=True)
-def _lm_normal(s, P, T, B, R, X, data, Mk, Mt):
-    """The normal equations ``J^T J`` and ``J^T r`` of :func:`_lm_jacobian`'s Jacobian, without it.
+def _frame_columns(s, P, T, B, Mk, Mt, ak, at):
+    """(3n, p) columns of :func:`_lm_jacobian` in the integration's frame (not rotated by ``R``).
 
-    ``r``: the registered points minus ``data``. The laws' columns are made in the integration's
-    frame, unrotated (``R`` is orthogonal: their products are the same, and a residual is rotated
-    once instead of every column); the registration's six columns are known in closed form (a
-    rotation ``e_k x c`` of the centred points ``c``, a translation ``e_k``), so their products with
-    the laws' columns are one product with seven columns in that frame, rotated back, and among
-    themselves sums over the points. Returns ``(H, g)``, ``(p + 6, p + 6)`` and ``(p + 6,)``, in
-    :func:`_lm_jacobian`'s order (the same to rounding).
+    ``ak[j]``, ``at[j]``: how many leading columns of ``Mk``, ``Mt`` can be nonzero on the steps
+    before point ``j`` (the rest are 0 there and are not visited: the score test's hinges, sorted,
+    start one after another); all of them for the laws' columns. The same arithmetic per entry as
+    :func:`_lm_jacobian` without its rotation.
     """
     n = P.shape[0]
     nk = Mk.shape[1]
     nt = Mt.shape[1]
     p = nk + nt
-    D = np.empty((3 * n, p))
-    for q in range(p):  # the first point does not move
-        D[0, q] = 0.0
-        D[1, q] = 0.0
-        D[2, q] = 0.0
+    D = np.zeros((3 * n, p))  # the first point does not move
     A0 = np.zeros(p)
     A1 = np.zeros(p)
     A2 = np.zeros(p)
@@ -149,7 +142,9 @@ def _lm_normal(s, P, T, B, R, X, data, Mk, Mt):
         py = P[j, 1]
         pz = P[j, 2]
         r0 = 3 * j
-        for q in range(nk):
+        ek = ak[j]
+        et = at[j]
+        for q in range(ek):
             c = h * Mk[i, q]
             ax = c * bx
             ay = c * by
@@ -160,7 +155,7 @@ def _lm_normal(s, P, T, B, R, X, data, Mk, Mt):
             C0[q] += ay * mz - az * my
             C1[q] += az * mx - ax * mz
             C2[q] += ax * my - ay * mx
-        for q in range(nt):
+        for q in range(et):
             c = h * Mt[i, q]
             ax = c * tx
             ay = c * ty
@@ -171,46 +166,100 @@ def _lm_normal(s, P, T, B, R, X, data, Mk, Mt):
             C0[nk + q] += ay * mz - az * my
             C1[nk + q] += az * mx - ax * mz
             C2[nk + q] += ax * my - ay * mx
-        for q in range(p):
+        for q in range(ek):
             D[r0, q] = A1[q] * pz - A2[q] * py - C0[q]
             D[r0 + 1, q] = A2[q] * px - A0[q] * pz - C1[q]
             D[r0 + 2, q] = A0[q] * py - A1[q] * px - C2[q]
+        for q in range(nk, nk + et):
+            D[r0, q] = A1[q] * pz - A2[q] * py - C0[q]
+            D[r0 + 1, q] = A2[q] * px - A0[q] * pz - C1[q]
+            D[r0 + 2, q] = A0[q] * py - A1[q] * px - C2[q]
+    return D
+
+
+@njit(cache=True)
+def _rigid_columns(P, out, o):
+    """The registration's six columns in the integration's frame into ``out[:, o:o + 6]``.
+
+    Translations ``e_l``, then rotations ``e_l x y`` about the centroid (``y``: the centred points):
+    :func:`_lm_jacobian`'s six columns rotated back by ``R``, for freedoms rotated alike (the same
+    span, the same products once rotated back). Other entries of those columns are left as they are.
+    """
+    n = P.shape[0]
+    pm0 = pm1 = pm2 = 0.0
+    for j in range(n):
+        pm0 += P[j, 0]
+        pm1 += P[j, 1]
+        pm2 += P[j, 2]
+    pm0 /= n
+    pm1 /= n
+    pm2 /= n
+    for j in range(n):
+        y0 = P[j, 0] - pm0
+        y1 = P[j, 1] - pm1
+        y2 = P[j, 2] - pm2
+        r0 = 3 * j
+        out[r0, o] = 1.0
+        out[r0 + 1, o + 1] = 1.0
+        out[r0 + 2, o + 2] = 1.0
+        # e_0 x y = (0, -y2, y1), e_1 x y = (y2, 0, -y0), e_2 x y = (-y1, y0, 0)
+        out[r0 + 1, o + 3] = -y2
+        out[r0 + 2, o + 3] = y1
+        out[r0, o + 4] = y2
+        out[r0 + 2, o + 4] = -y0
+        out[r0, o + 5] = -y1
+        out[r0 + 1, o + 5] = y0
+
+
+@njit(cache=True)
+def _back_rotated_residuals(R, X, data, out):
+    """``out[3j:3j + 3] = R^T (X_j - data_j)``: the residuals in the integration's frame."""
+    for j in range(X.shape[0]):
+        e0 = X[j, 0] - data[j, 0]
+        e1 = X[j, 1] - data[j, 1]
+        e2 = X[j, 2] - data[j, 2]
+        out[3 * j] = R[0, 0] * e0 + R[1, 0] * e1 + R[2, 0] * e2
+        out[3 * j + 1] = R[0, 1] * e0 + R[1, 1] * e1 + R[2, 1] * e2
+        out[3 * j + 2] = R[0, 2] * e0 + R[1, 2] * e1 + R[2, 2] * e2
+
+
+@njit(cache=True)
+def _lm_normal(s, P, T, B, R, X, data, Mk, Mt):
+    """The normal equations ``J^T J`` and ``J^T r`` of :func:`_lm_jacobian`'s Jacobian, without it.
+
+    ``r``: the registered points minus ``data``. The laws' columns are made in the integration's
+    frame, unrotated (``R`` is orthogonal: their products are the same, and a residual is rotated
+    once instead of every column); the registration's six columns are known in closed form (a
+    rotation ``e_k x c`` of the centred points ``c``, a translation ``e_k``), so their products with
+    the laws' columns are one product with seven columns in that frame, rotated back, and among
+    themselves sums over the points. Returns ``(H, g)``, ``(p + 6, p + 6)`` and ``(p + 6,)``, in
+    :func:`_lm_jacobian`'s order (the same to rounding).
+    """
+    n = P.shape[0]
+    nk = Mk.shape[1]
+    nt = Mt.shape[1]
+    p = nk + nt
+    D = _frame_columns(s, P, T, B, Mk, Mt, np.full(n, nk), np.full(n, nt))
     # seven columns in the integration's frame: translations e_l, rotations e_l x y (y: the
     # centred points there), the residuals rotated back R^T r
     W = np.zeros((3 * n, 7))
-    pm = np.zeros(3)
+    _rigid_columns(P, W, 0)
+    u = np.empty(3 * n)
+    _back_rotated_residuals(R, X, data, u)
+    W[:, 6] = u
     xm = np.zeros(3)
     for j in range(n):
         for c3 in range(3):
-            pm[c3] += P[j, c3]
             xm[c3] += X[j, c3]
-    pm /= n
     xm /= n
     rs = np.zeros(3)  # sum of the residuals
     cr = np.zeros(3)  # sum of c x r
     cs = np.zeros(3)  # sum of c
     cc = np.zeros((3, 3))  # sum of c c^T
     for j in range(n):
-        y0 = P[j, 0] - pm[0]
-        y1 = P[j, 1] - pm[1]
-        y2 = P[j, 2] - pm[2]
-        r0 = 3 * j
-        W[r0, 0] = 1.0
-        W[r0 + 1, 1] = 1.0
-        W[r0 + 2, 2] = 1.0
-        # e_0 x y = (0, -y2, y1), e_1 x y = (y2, 0, -y0), e_2 x y = (-y1, y0, 0)
-        W[r0 + 1, 3] = -y2
-        W[r0 + 2, 3] = y1
-        W[r0, 4] = y2
-        W[r0 + 2, 4] = -y0
-        W[r0, 5] = -y1
-        W[r0 + 1, 5] = y0
         e0 = X[j, 0] - data[j, 0]
         e1 = X[j, 1] - data[j, 1]
         e2 = X[j, 2] - data[j, 2]
-        W[r0, 6] = R[0, 0] * e0 + R[1, 0] * e1 + R[2, 0] * e2
-        W[r0 + 1, 6] = R[0, 1] * e0 + R[1, 1] * e1 + R[2, 1] * e2
-        W[r0 + 2, 6] = R[0, 2] * e0 + R[1, 2] * e1 + R[2, 2] * e2
         c0 = X[j, 0] - xm[0]
         c1 = X[j, 1] - xm[1]
         c2 = X[j, 2] - xm[2]
@@ -710,40 +759,51 @@ def _score_gains(s, data, P, T, B, R, X, kk, vk, kt, vt, free_knots, xk, xt):
 
     :func:`_best_insertions`'s arithmetic in one compiled call: the Jacobian of the current laws
     column-scaled, each hinge's column projected off it through the (ridged) normal equations,
-    gain :math:`(c_\\perp^T r)^2 / |c_\\perp|^2`. Returns the two laws' gains, (len(xk),) and (len(xt),).
+    gain :math:`(c_\\perp^T r)^2 / |c_\\perp|^2`. All in the integration's frame (:func:`_frame_columns`;
+    the registration's freedoms rotated alike, the same span): gains the same to rounding. ``xk``,
+    ``xt`` increasing. Returns the two laws' gains, (len(xk),) and (len(xt),).
     """
-    J = _lm_jacobian(s, P, T, B, R, X, _law_columns(s, kk, vk, free_knots), _law_columns(s, kt, vt, free_knots))
-    rows, p = J.shape
-    Js = np.empty((rows, p))
+    n = P.shape[0]
+    Gk = _law_columns(s, kk, vk, free_knots)
+    Gt = _law_columns(s, kt, vt, free_knots)
+    D = _frame_columns(s, P, T, B, Gk, Gt, np.full(n, Gk.shape[1]), np.full(n, Gt.shape[1]))
+    rows, pl = D.shape
+    p = pl + 6
+    J = np.zeros((rows, p))
+    J[:, :pl] = D
+    _rigid_columns(P, J, pl)
+    sc = np.zeros(p)
+    for i in range(rows):
+        for q in range(p):
+            sc[q] += J[i, q] * J[i, q]
     for q in range(p):
-        a = 0.0
-        for i in range(rows):
-            a += J[i, q] * J[i, q]
-        sc = np.sqrt(a) + 1e-300
-        for i in range(rows):
-            Js[i, q] = J[i, q] / sc
-    H = Js.T @ Js
+        sc[q] = 1.0 / (np.sqrt(sc[q]) + 1e-300)
+    for i in range(rows):
+        for q in range(p):
+            J[i, q] *= sc[q]
+    JT = J.T
+    H = JT @ J
     for q in range(p):
         H[q, q] += 1e-10
-    r = np.empty(rows)
-    n = X.shape[0]
-    for j in range(n):
-        for c3 in range(3):
-            r[3 * j + c3] = X[j, c3] - data[j, c3]
+    u = np.empty(rows)
+    _back_rotated_residuals(R, X, data, u)
     nk, nt = xk.shape[0], xt.shape[0]
-    # both laws' hinge columns in one pass (each column is computed on its own)
-    C = np.ascontiguousarray(_lm_jacobian(s, P, T, B, R, X, _hinge_means(s, xk), _hinge_means(s, xt))[:, :nk + nt])
-    Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
+    # both laws' hinge columns in one pass; a hinge moves the points after it only
+    C = _frame_columns(s, P, T, B, _hinge_means(s, xk), _hinge_means(s, xt), np.searchsorted(xk, s),
+                       np.searchsorted(xt, s))
+    Cp = C - J @ np.linalg.solve(H, JT @ C)
+    num = np.zeros(nk + nt)
+    den = np.zeros(nk + nt)
+    for i in range(rows):
+        ui = u[i]
+        for q in range(nk + nt):
+            v = Cp[i, q]
+            num[q] += v * ui
+            den[q] += v * v
     gk = np.empty(nk)
     gt = np.empty(nt)
     for q in range(nk + nt):
-        num = 0.0
-        den = 0.0
-        for i in range(rows):
-            v = Cp[i, q]
-            num += v * r[i]
-            den += v * v
-        g = num * num / (den + 1e-300)
+        g = num[q] * num[q] / (den[q] + 1e-300)
         if q < nk:
             gk[q] = g
         else:
