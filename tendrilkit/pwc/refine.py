@@ -634,13 +634,16 @@ def _refine_starts(s, data, starts, *, free_knots, min_gap, iterations, rtol, st
         (lk, lt), = starts
         kk, vk, kt, vt = c(lk.knots_mm), c(lk.values), c(lt.knots_mm), c(lt.values)
         ek, et = np.array([0, kk.size]), np.array([0, kt.size])
-    else:
-        kk = np.concatenate([c(a.knots_mm) for a, _ in starts])
-        vk = np.concatenate([c(a.values) for a, _ in starts])
-        kt = np.concatenate([c(b.knots_mm) for _, b in starts])
-        vt = np.concatenate([c(b.values) for _, b in starts])
-        ek = np.cumsum([0] + [a.knots_mm.size for a, _ in starts])
-        et = np.cumsum([0] + [b.knots_mm.size for _, b in starts])
+    else:  # the laws' arrays end to end (np.concatenate makes float arrays of float ones, contiguous)
+        kk = np.concatenate([a.knots_mm for a, _ in starts], dtype=float)
+        vk = np.concatenate([a.values for a, _ in starts], dtype=float)
+        kt = np.concatenate([b.knots_mm for _, b in starts], dtype=float)
+        vt = np.concatenate([b.values for _, b in starts], dtype=float)
+        ek = np.zeros(len(starts) + 1, dtype=np.int64)
+        et = np.zeros(len(starts) + 1, dtype=np.int64)
+        for i, (a, b) in enumerate(starts):
+            ek[i + 1] = ek[i] + a.knots_mm.size
+            et[i + 1] = et[i] + b.knots_mm.size
     have = state is not None and len(starts) == 1
     best, kk2, vk2, kt2, vt2, sse, P, T, B, R, X = _refine_best(
         s, data, kk, ek, vk, kt, et, vt, bool(free_knots), float(min_gap), int(iterations), float(rtol), have,
