@@ -19,12 +19,12 @@
    accepted"): keeping mu after a rejection saves 16-20 % of their evaluations (3-4 % of a fit) but
    changes the fits (not kept); the two trials evaluated together gain nothing (the first is taken
    half the time). The retry with more lookahead runs on 25 of the 60 frames: 29 % of all their CPU;
-   2026-12-02: the evaluation's frames chained by each step's rotation in the frame's own axes
-   (refine._frame_chain, 16 -> 7 us), the normal equations without the rotated Jacobian
-   (refine._lm_normal), the score test in the integration's frame (310 -> 200 us) and a join's refit
-   compiled: Levenberg-Marquardt and the score test 11.2 -> 7.5 ms per fit (the same calls replayed),
-   an iteration's normal equations about 35 us and an evaluation 13 us now, so the LM is half
-   Jacobians; the rest of a fit (signals, paths, joins, Python) is about 6 ms by itself;
+   2026-12-02 (load 3-3.5): the evaluation's frames chained by each step's rotation in the frame's
+   own axes (refine._frame_chain, 16 -> 7 us), the normal equations without the rotated Jacobian
+   (refine._lm_normal) and solved by Cholesky (6.9 -> 1.9 us), the score test in the integration's
+   frame (310 -> 200 us), a join's refit compiled: Levenberg-Marquardt and the score test 9.4 -> 6.2
+   ms per fit (the 40 fits' calls replayed), now an iteration's normal equations about 35 us and an
+   evaluation 13 us; the rest of a fit (signals, paths, joins, Python) is about 5 ms by itself;
 2. the paper's grid search on the same frames;
 3. ``python -m tendrilkit fit`` on a 100-frame curves.csv, process start included
    (issue 17 target: <= 2 s; on the 100 reconstructed frames of the S3 + S4 site outputs (S3's 60,
