@@ -248,8 +248,10 @@ def _auto_smoothing(points_mm, reference_mm=20.0, reference_noise_mm=0.15, of_re
     sigma = noise_sigma_mm(points_mm)
     Ls = reference_mm * (max(sigma, 1e-6) / reference_noise_mm) ** 0.4
     Ls = float(np.clip(Ls, 4 * h, L / 3))
+    # the points frenet_frames would resample (those of points_mm are data: not resampled again)
+    pts = resample_curve(data) if of_resampled else data
     for _ in range(2):
-        fr = frenet_frames(data if of_resampled else points_mm, smoothing_length_mm=Ls)
+        fr = _frames_of(pts, Ls, None)
         w = np.median(np.hypot(fr.kappa, fr.tau * fr.tau_defined))
         cap = 0.6 * 2 * np.pi / w if w > 0 else np.inf
         if Ls <= cap:
@@ -293,7 +295,11 @@ def frenet_frames(
     """
     if smoothing_length_mm is None:
         smoothing_length_mm = auto_smoothing_length_mm(points_mm)
-    data = resample_curve(points_mm, n)
+    return _frames_of(resample_curve(points_mm, n), smoothing_length_mm, kappa_floor)
+
+
+def _frames_of(data: np.ndarray, smoothing_length_mm: float, kappa_floor: float | None) -> FrenetFrames:
+    """:func:`frenet_frames` of points already resampled (``data``, :func:`resample_curve`'s)."""
     m = data.shape[0]
     h = arc_length(data)[-1] / (m - 1)
     lam = whittaker_lambda(smoothing_length_mm, h)

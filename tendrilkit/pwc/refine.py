@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from tendrilkit.frenet import _integrate
 from tendrilkit.geometry import _rigid_fit_core
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _pwl_step_means
 
@@ -108,8 +107,223 @@ def _lm_jacobian(s, P, T, B, R, X, Mk, Mt):
 
 
 @njit(cache=True)
+def _frame_columns(s, P, T, B, Mk, Mt, ak, at):
+    """(3n, p) columns of :func:`_lm_jacobian` in the integration's frame (not rotated by ``R``).
+
+    ``ak[j]``, ``at[j]``: how many leading columns of ``Mk``, ``Mt`` can be nonzero on the steps
+    before point ``j`` (the rest are 0 there and are not visited: the score test's hinges, sorted,
+    start one after another); all of them for the laws' columns. The same arithmetic per entry as
+    :func:`_lm_jacobian` without its rotation.
+    """
+    n = P.shape[0]
+    nk = Mk.shape[1]
+    nt = Mt.shape[1]
+    p = nk + nt
+    D = np.zeros((3 * n, p))  # the first point does not move
+    A0 = np.zeros(p)
+    A1 = np.zeros(p)
+    A2 = np.zeros(p)
+    C0 = np.zeros(p)
+    C1 = np.zeros(p)
+    C2 = np.zeros(p)
+    for j in range(1, n):
+        i = j - 1
+        h = s[j] - s[i]
+        bx = 0.5 * (B[i, 0] + B[j, 0])
+        by = 0.5 * (B[i, 1] + B[j, 1])
+        bz = 0.5 * (B[i, 2] + B[j, 2])
+        tx = 0.5 * (T[i, 0] + T[j, 0])
+        ty = 0.5 * (T[i, 1] + T[j, 1])
+        tz = 0.5 * (T[i, 2] + T[j, 2])
+        mx = 0.5 * (P[i, 0] + P[j, 0])
+        my = 0.5 * (P[i, 1] + P[j, 1])
+        mz = 0.5 * (P[i, 2] + P[j, 2])
+        px = P[j, 0]
+        py = P[j, 1]
+        pz = P[j, 2]
+        r0 = 3 * j
+        ek = ak[j]
+        et = at[j]
+        for q in range(ek):
+            c = h * Mk[i, q]
+            ax = c * bx
+            ay = c * by
+            az = c * bz
+            A0[q] += ax
+            A1[q] += ay
+            A2[q] += az
+            C0[q] += ay * mz - az * my
+            C1[q] += az * mx - ax * mz
+            C2[q] += ax * my - ay * mx
+        for q in range(et):
+            c = h * Mt[i, q]
+            ax = c * tx
+            ay = c * ty
+            az = c * tz
+            A0[nk + q] += ax
+            A1[nk + q] += ay
+            A2[nk + q] += az
+            C0[nk + q] += ay * mz - az * my
+            C1[nk + q] += az * mx - ax * mz
+            C2[nk + q] += ax * my - ay * mx
+        for q in range(ek):
+            D[r0, q] = A1[q] * pz - A2[q] * py - C0[q]
+            D[r0 + 1, q] = A2[q] * px - A0[q] * pz - C1[q]
+            D[r0 + 2, q] = A0[q] * py - A1[q] * px - C2[q]
+        for q in range(nk, nk + et):
+            D[r0, q] = A1[q] * pz - A2[q] * py - C0[q]
+            D[r0 + 1, q] = A2[q] * px - A0[q] * pz - C1[q]
+            D[r0 + 2, q] = A0[q] * py - A1[q] * px - C2[q]
+    return D
+
+
+@njit(cache=True)
+def _rigid_columns(P, out, o):
+    """The registration's six columns in the integration's frame into ``out[:, o:o + 6]``.
+
+    Translations ``e_l``, then rotations ``e_l x y`` about the centroid (``y``: the centred points):
+    :func:`_lm_jacobian`'s six columns rotated back by ``R``, for freedoms rotated alike (the same
+    span, the same products once rotated back). Other entries of those columns are left as they are.
+    """
+    n = P.shape[0]
+    pm0 = pm1 = pm2 = 0.0
+    for j in range(n):
+        pm0 += P[j, 0]
+        pm1 += P[j, 1]
+        pm2 += P[j, 2]
+    pm0 /= n
+    pm1 /= n
+    pm2 /= n
+    for j in range(n):
+        y0 = P[j, 0] - pm0
+        y1 = P[j, 1] - pm1
+        y2 = P[j, 2] - pm2
+        r0 = 3 * j
+        out[r0, o] = 1.0
+        out[r0 + 1, o + 1] = 1.0
+        out[r0 + 2, o + 2] = 1.0
+        # e_0 x y = (0, -y2, y1), e_1 x y = (y2, 0, -y0), e_2 x y = (-y1, y0, 0)
+        out[r0 + 1, o + 3] = -y2
+        out[r0 + 2, o + 3] = y1
+        out[r0, o + 4] = y2
+        out[r0 + 2, o + 4] = -y0
+        out[r0, o + 5] = -y1
+        out[r0 + 1, o + 5] = y0
+
+
+@njit(cache=True)
+def _back_rotated_residuals(R, X, data, out):
+    """``out[3j:3j + 3] = R^T (X_j - data_j)``: the residuals in the integration's frame."""
+    for j in range(X.shape[0]):
+        e0 = X[j, 0] - data[j, 0]
+        e1 = X[j, 1] - data[j, 1]
+        e2 = X[j, 2] - data[j, 2]
+        out[3 * j] = R[0, 0] * e0 + R[1, 0] * e1 + R[2, 0] * e2
+        out[3 * j + 1] = R[0, 1] * e0 + R[1, 1] * e1 + R[2, 1] * e2
+        out[3 * j + 2] = R[0, 2] * e0 + R[1, 2] * e1 + R[2, 2] * e2
+
+
+@njit(cache=True)
+def _lm_normal(s, P, T, B, R, X, data, Mk, Mt):
+    """The normal equations ``J^T J`` and ``J^T r`` of :func:`_lm_jacobian`'s Jacobian, without it.
+
+    ``r``: the registered points minus ``data``. The laws' columns are made in the integration's
+    frame, unrotated (``R`` is orthogonal: their products are the same, and a residual is rotated
+    once instead of every column); the registration's six columns are known in closed form (a
+    rotation ``e_k x c`` of the centred points ``c``, a translation ``e_k``), so their products with
+    the laws' columns are one product with seven columns in that frame, rotated back, and among
+    themselves sums over the points. Returns ``(H, g)``, ``(p + 6, p + 6)`` and ``(p + 6,)``, in
+    :func:`_lm_jacobian`'s order (the same to rounding).
+    """
+    n = P.shape[0]
+    nk = Mk.shape[1]
+    nt = Mt.shape[1]
+    p = nk + nt
+    D = _frame_columns(s, P, T, B, Mk, Mt, np.full(n, nk), np.full(n, nt))
+    # seven columns in the integration's frame: translations e_l, rotations e_l x y (y: the
+    # centred points there), the residuals rotated back R^T r
+    W = np.zeros((3 * n, 7))
+    _rigid_columns(P, W, 0)
+    u = np.empty(3 * n)
+    _back_rotated_residuals(R, X, data, u)
+    W[:, 6] = u
+    xm = np.zeros(3)
+    for j in range(n):
+        for c3 in range(3):
+            xm[c3] += X[j, c3]
+    xm /= n
+    rs = np.zeros(3)  # sum of the residuals
+    cr = np.zeros(3)  # sum of c x r
+    cs = np.zeros(3)  # sum of c
+    cc = np.zeros((3, 3))  # sum of c c^T
+    for j in range(n):
+        e0 = X[j, 0] - data[j, 0]
+        e1 = X[j, 1] - data[j, 1]
+        e2 = X[j, 2] - data[j, 2]
+        c0 = X[j, 0] - xm[0]
+        c1 = X[j, 1] - xm[1]
+        c2 = X[j, 2] - xm[2]
+        rs[0] += e0
+        rs[1] += e1
+        rs[2] += e2
+        cr[0] += c1 * e2 - c2 * e1
+        cr[1] += c2 * e0 - c0 * e2
+        cr[2] += c0 * e1 - c1 * e0
+        cs[0] += c0
+        cs[1] += c1
+        cs[2] += c2
+        cc[0, 0] += c0 * c0
+        cc[0, 1] += c0 * c1
+        cc[0, 2] += c0 * c2
+        cc[1, 1] += c1 * c1
+        cc[1, 2] += c1 * c2
+        cc[2, 2] += c2 * c2
+    cc[1, 0] = cc[0, 1]
+    cc[2, 0] = cc[0, 2]
+    cc[2, 1] = cc[1, 2]
+    DT = D.T
+    K = DT @ W
+    H = np.empty((p + 6, p + 6))
+    H[:p, :p] = DT @ D
+    g = np.empty(p + 6)
+    for q in range(p):
+        g[q] = K[q, 6]
+        for k in range(3):
+            hr = R[k, 0] * K[q, 3] + R[k, 1] * K[q, 4] + R[k, 2] * K[q, 5]
+            ht = R[k, 0] * K[q, 0] + R[k, 1] * K[q, 1] + R[k, 2] * K[q, 2]
+            H[p + k, q] = hr
+            H[q, p + k] = hr
+            H[p + 3 + k, q] = ht
+            H[q, p + 3 + k] = ht
+    c2sum = cc[0, 0] + cc[1, 1] + cc[2, 2]
+    for k in range(3):
+        for l3 in range(3):
+            H[p + k, p + l3] = (c2sum if k == l3 else 0.0) - cc[k, l3]
+            H[p + 3 + k, p + 3 + l3] = n if k == l3 else 0.0
+    # translation k against rotation l: e_k . (e_l x sum c)
+    H[p + 3, p + 0] = 0.0
+    H[p + 3, p + 1] = cs[2]
+    H[p + 3, p + 2] = -cs[1]
+    H[p + 4, p + 0] = -cs[2]
+    H[p + 4, p + 1] = 0.0
+    H[p + 4, p + 2] = cs[0]
+    H[p + 5, p + 0] = cs[1]
+    H[p + 5, p + 1] = -cs[0]
+    H[p + 5, p + 2] = 0.0
+    for k in range(3):
+        for l3 in range(3):
+            H[p + l3, p + 3 + k] = H[p + 3 + k, p + l3]
+        g[p + k] = cr[k]
+        g[p + 3 + k] = rs[k]
+    return H, g
+
+
+@njit(cache=True)
 def _law_columns(s, knots, values, free_knots):
-    """(n-1, p) derivatives of the step means: per value, then per inner knot position."""
+    """(n-1, p) derivatives of the step means: per value, then per inner knot position.
+
+    A column is 0 on the steps outside its hat's support (its two segments), which are not visited.
+    """
     m = knots.shape[0]
     n = s.shape[0]
     p = m + (m - 2 if free_knots else 0)
@@ -122,7 +336,11 @@ def _law_columns(s, knots, values, free_knots):
         hi = knots[j + 1] if j < m - 1 else knots[m - 1]
         i0 = 0 if j == 0 else 0.5 * (knots[j] - knots[j - 1]) * (0.0 + 1.0)
         after = i0 + (0.5 * (knots[j + 1] - knots[j]) * (1.0 + 0.0) if j < m - 1 else 0.0)
-        for i in range(n):
+        # the points from the last at or before lo to the first at or after hi: the integral is
+        # constant on either side of them, so the steps there have mean 0
+        a = max(np.searchsorted(s, lo, side="right") - 1, 0) if j > 0 else 0
+        b = min(np.searchsorted(s, hi, side="left"), n - 1) if j < m - 1 else n - 1
+        for i in range(a, b + 1):
             x = s[i]
             if x <= lo and j > 0:
                 I[i] = 0.0
@@ -131,20 +349,23 @@ def _law_columns(s, knots, values, free_knots):
             else:
                 x = min(max(x, knots[0]), knots[m - 1])
                 if j > 0 and x <= knots[j]:
-                    a = j - 1  # the rising half: values 0 -> 1
-                    d = knots[j] - knots[a]
-                    v = 0.0 + (1.0 - 0.0) * (x - knots[a]) / d if d > 0 else 0.0
-                    I[i] = 0.0 + 0.5 * (x - knots[a]) * (0.0 + v)
+                    a1 = j - 1  # the rising half: values 0 -> 1
+                    d = knots[j] - knots[a1]
+                    v = 0.0 + (1.0 - 0.0) * (x - knots[a1]) / d if d > 0 else 0.0
+                    I[i] = 0.0 + 0.5 * (x - knots[a1]) * (0.0 + v)
                 else:
                     d = knots[j + 1] - knots[j] if j < m - 1 else 0.0
                     v = 1.0 + (0.0 - 1.0) * (x - knots[j]) / d if d > 0 else 1.0
                     I[i] = i0 + 0.5 * (x - knots[j]) * (1.0 + v)
-        for i in range(n - 1):
+        for i in range(a, b):
             G[i, j] = (I[i + 1] - I[i]) / (s[i + 1] - s[i])
     if free_knots:
         for k in range(1, m - 1):
             t0, t1, t2 = knots[k - 1], knots[k], knots[k + 1]
-            for i in range(n - 1):
+            # the steps whose midpoint can lie in (t0, t2)
+            a = max(np.searchsorted(s, t0, side="left") - 1, 0)
+            b = min(np.searchsorted(s, t2, side="right"), n - 1)
+            for i in range(a, b):
                 x = 0.5 * (s[i] + s[i + 1])
                 if t0 < x <= t1:
                     G[i, m + k - 1] = -(values[k] - values[k - 1]) * (x - t0) / (t1 - t0) ** 2
@@ -154,8 +375,66 @@ def _law_columns(s, knots, values, free_knots):
 
 
 @njit(cache=True)
+def _frame_chain(s, k_step, t_step):
+    """Positions, tangents and binormals of the steps' laws from the identity frame at the origin.
+
+    :func:`tendrilkit.frenet._integrate`'s curve (trapezoidal positions; the same to rounding,
+    about 1e-13 mm) by another route: a step's rotation about the Darboux vector is, in the frame's
+    own axes, a rotation about :math:`(\\tau, 0, \\kappa)` that does not depend on the frame, so it is
+    computed apart from the chain of frames, and each frame is the previous one times those nine
+    numbers (no renormalisation: the frame drifts from orthonormal by about 1e-15 over 200 steps).
+    The chain of dependent square roots and divisions of ``_integrate`` is gone: half its time.
+    """
+    n = s.shape[0]
+    P = np.empty((n, 3))
+    T = np.empty((n, 3))
+    B = np.empty((n, 3))
+    t0, t1, t2 = 1.0, 0.0, 0.0
+    n0, n1, n2 = 0.0, 1.0, 0.0
+    b0, b1, b2 = 0.0, 0.0, 1.0
+    p0, p1, p2 = 0.0, 0.0, 0.0
+    T[0, 0], T[0, 1], T[0, 2] = t0, t1, t2
+    B[0, 0], B[0, 1], B[0, 2] = b0, b1, b2
+    P[0, 0], P[0, 1], P[0, 2] = p0, p1, p2
+    for i in range(n - 1):
+        h = s[i + 1] - s[i]
+        k = k_step[i]
+        t = t_step[i]
+        rate = np.sqrt(k * k + t * t)
+        th = rate * h
+        if th < 1e-12:
+            a00, a01, a02, a10, a11, a12, a20, a21, a22 = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
+        else:  # Rodrigues about the unit axis (ax, 0, az) in the frame's axes
+            ax = t / rate
+            az = k / rate
+            ct = np.cos(th)
+            st = np.sin(th)
+            u = 1.0 - ct
+            a00, a01, a02 = ct + ax * ax * u, az * st, ax * az * u
+            a10, a11, a12 = -az * st, ct, ax * st
+            a20, a21, a22 = ax * az * u, -ax * st, ct + az * az * u
+        u0 = a00 * t0 + a01 * n0 + a02 * b0
+        u1 = a00 * t1 + a01 * n1 + a02 * b1
+        u2 = a00 * t2 + a01 * n2 + a02 * b2
+        m0 = a10 * t0 + a11 * n0 + a12 * b0
+        m1 = a10 * t1 + a11 * n1 + a12 * b1
+        m2 = a10 * t2 + a11 * n2 + a12 * b2
+        c0 = a20 * t0 + a21 * n0 + a22 * b0
+        c1 = a20 * t1 + a21 * n1 + a22 * b1
+        c2 = a20 * t2 + a21 * n2 + a22 * b2
+        p0 += 0.5 * h * (t0 + u0)
+        p1 += 0.5 * h * (t1 + u1)
+        p2 += 0.5 * h * (t2 + u2)
+        t0, t1, t2, n0, n1, n2, b0, b1, b2 = u0, u1, u2, m0, m1, m2, c0, c1, c2
+        T[i + 1, 0], T[i + 1, 1], T[i + 1, 2] = t0, t1, t2
+        B[i + 1, 0], B[i + 1, 1], B[i + 1, 2] = b0, b1, b2
+        P[i + 1, 0], P[i + 1, 1], P[i + 1, 2] = p0, p1, p2
+    return P, T, B
+
+
+@njit(cache=True)
 def _lm_evaluate(s, kk, vk, kt, vt, data):
-    P, T, _, B = _integrate(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt), np.eye(3), np.zeros(3), False)
+    P, T, B = _frame_chain(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt))
     if not np.all(np.isfinite(P)):
         return np.inf, P, T, B, np.eye(3), P.copy()
     R, t = _rigid_fit_core(P, data)
@@ -226,6 +505,41 @@ def _gap_fraction(knots, inner_step, gap):
 
 
 @njit(cache=True)
+def _spd_solve(A, b, L, x):
+    """``x`` solving ``A x = b`` for a symmetric positive definite ``A`` by Cholesky (``L`` a work array
+    of A's shape); False, and ``x`` untouched, where a pivot is not positive (the caller solves otherwise).
+
+    The damped normal equations are positive definite; at their size (10-30) this is a fraction of
+    LAPACK's general solve, its copies and its pivoting.
+    """
+    m = A.shape[0]
+    for j in range(m):
+        d = A[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        d = np.sqrt(d)
+        L[j, j] = d
+        for i in range(j + 1, m):
+            v = A[i, j]
+            for k in range(j):
+                v -= L[i, k] * L[j, k]
+            L[i, j] = v / d
+    for i in range(m):  # L y = b
+        v = b[i]
+        for k in range(i):
+            v -= L[i, k] * x[k]
+        x[i] = v / L[i, i]
+    for i in range(m - 1, -1, -1):  # L^T x = y
+        v = x[i]
+        for k in range(i + 1, m):
+            v -= L[k, i] * x[k]
+        x[i] = v / L[i, i]
+    return True
+
+
+@njit(cache=True)
 def _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, P, T, B, R, X):
     """Levenberg-Marquardt from the evaluation ``f, P, T, B, R, X`` of the start (:func:`_lm_evaluate`'s).
 
@@ -251,19 +565,12 @@ def _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, 
     gap_t = max(min(min_gap, 0.5 * _min_gap_of(kt)), 1e-6 * L)
     ck = _unpack_nb(p, kk, kt, free_knots)  # the start's values: its evaluation is f, P, T, B, R, X
     mu = 1e-4
-    n = s.shape[0]
     if not np.isfinite(f):
         return ck[0], ck[1], ck[2], ck[3], f, P, T, B, R, X
-    r = np.empty(3 * n)
     for _ in range(iterations):
         Gk = _law_columns(s, ck[0], ck[1], free_knots)
         Gt = _law_columns(s, ck[2], ck[3], free_knots)
-        J = _lm_jacobian(s, P, T, B, R, X, Gk, Gt)
-        for j in range(n):
-            for c in range(3):
-                r[3 * j + c] = X[j, c] - data[j, c]
-        g = J.T @ r
-        H = J.T @ J
+        H, g = _lm_normal(s, P, T, B, R, X, data, Gk, Gt)
         m = H.shape[0]
         tr = 0.0
         for i in range(m):
@@ -277,13 +584,19 @@ def _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, 
             break
         _value_caps(ck[0], L, cap[:mk])
         _value_caps(ck[2], L, cap[mk + ik:mk + ik + mt])
+        mg = -g
+        Lw = np.empty((m, m))
+        full = np.empty(m)
         for _ in range(12):
             if mu > 1e12:
                 break
             A = H.copy()
             for i in range(m):
                 A[i, i] += mu * (H[i, i] + 1e-12 * tr + 1e-300)
-            step = np.linalg.solve(A, -g)[:npar]
+            if _spd_solve(A, mg, Lw, full):
+                step = full[:npar].copy()
+            else:
+                step = np.linalg.solve(A, mg)[:npar]
             ok = True
             for i in range(npar):
                 v = step[i]
@@ -362,13 +675,16 @@ def _refine_starts(s, data, starts, *, free_knots, min_gap, iterations, rtol, st
         (lk, lt), = starts
         kk, vk, kt, vt = c(lk.knots_mm), c(lk.values), c(lt.knots_mm), c(lt.values)
         ek, et = np.array([0, kk.size]), np.array([0, kt.size])
-    else:
-        kk = np.concatenate([c(a.knots_mm) for a, _ in starts])
-        vk = np.concatenate([c(a.values) for a, _ in starts])
-        kt = np.concatenate([c(b.knots_mm) for _, b in starts])
-        vt = np.concatenate([c(b.values) for _, b in starts])
-        ek = np.cumsum([0] + [a.knots_mm.size for a, _ in starts])
-        et = np.cumsum([0] + [b.knots_mm.size for _, b in starts])
+    else:  # the laws' arrays end to end (np.concatenate makes float arrays of float ones, contiguous)
+        kk = np.concatenate([a.knots_mm for a, _ in starts], dtype=float)
+        vk = np.concatenate([a.values for a, _ in starts], dtype=float)
+        kt = np.concatenate([b.knots_mm for _, b in starts], dtype=float)
+        vt = np.concatenate([b.values for _, b in starts], dtype=float)
+        ek = np.zeros(len(starts) + 1, dtype=np.int64)
+        et = np.zeros(len(starts) + 1, dtype=np.int64)
+        for i, (a, b) in enumerate(starts):
+            ek[i + 1] = ek[i] + a.knots_mm.size
+            et[i + 1] = et[i] + b.knots_mm.size
     have = state is not None and len(starts) == 1
     best, kk2, vk2, kt2, vt2, sse, P, T, B, R, X = _refine_best(
         s, data, kk, ek, vk, kt, et, vt, bool(free_knots), float(min_gap), int(iterations), float(rtol), have,
@@ -487,40 +803,51 @@ def _score_gains(s, data, P, T, B, R, X, kk, vk, kt, vt, free_knots, xk, xt):
 
     :func:`_best_insertions`'s arithmetic in one compiled call: the Jacobian of the current laws
     column-scaled, each hinge's column projected off it through the (ridged) normal equations,
-    gain :math:`(c_\\perp^T r)^2 / |c_\\perp|^2`. Returns the two laws' gains, (len(xk),) and (len(xt),).
+    gain :math:`(c_\\perp^T r)^2 / |c_\\perp|^2`. All in the integration's frame (:func:`_frame_columns`;
+    the registration's freedoms rotated alike, the same span): gains the same to rounding. ``xk``,
+    ``xt`` increasing. Returns the two laws' gains, (len(xk),) and (len(xt),).
     """
-    J = _lm_jacobian(s, P, T, B, R, X, _law_columns(s, kk, vk, free_knots), _law_columns(s, kt, vt, free_knots))
-    rows, p = J.shape
-    Js = np.empty((rows, p))
+    n = P.shape[0]
+    Gk = _law_columns(s, kk, vk, free_knots)
+    Gt = _law_columns(s, kt, vt, free_knots)
+    D = _frame_columns(s, P, T, B, Gk, Gt, np.full(n, Gk.shape[1]), np.full(n, Gt.shape[1]))
+    rows, pl = D.shape
+    p = pl + 6
+    J = np.zeros((rows, p))
+    J[:, :pl] = D
+    _rigid_columns(P, J, pl)
+    sc = np.zeros(p)
+    for i in range(rows):
+        for q in range(p):
+            sc[q] += J[i, q] * J[i, q]
     for q in range(p):
-        a = 0.0
-        for i in range(rows):
-            a += J[i, q] * J[i, q]
-        sc = np.sqrt(a) + 1e-300
-        for i in range(rows):
-            Js[i, q] = J[i, q] / sc
-    H = Js.T @ Js
+        sc[q] = 1.0 / (np.sqrt(sc[q]) + 1e-300)
+    for i in range(rows):
+        for q in range(p):
+            J[i, q] *= sc[q]
+    JT = J.T
+    H = JT @ J
     for q in range(p):
         H[q, q] += 1e-10
-    r = np.empty(rows)
-    n = X.shape[0]
-    for j in range(n):
-        for c3 in range(3):
-            r[3 * j + c3] = X[j, c3] - data[j, c3]
+    u = np.empty(rows)
+    _back_rotated_residuals(R, X, data, u)
     nk, nt = xk.shape[0], xt.shape[0]
-    # both laws' hinge columns in one pass (each column is computed on its own)
-    C = np.ascontiguousarray(_lm_jacobian(s, P, T, B, R, X, _hinge_means(s, xk), _hinge_means(s, xt))[:, :nk + nt])
-    Cp = C - Js @ np.linalg.solve(H, Js.T @ C)
+    # both laws' hinge columns in one pass; a hinge moves the points after it only
+    C = _frame_columns(s, P, T, B, _hinge_means(s, xk), _hinge_means(s, xt), np.searchsorted(xk, s),
+                       np.searchsorted(xt, s))
+    Cp = C - J @ np.linalg.solve(H, JT @ C)
+    num = np.zeros(nk + nt)
+    den = np.zeros(nk + nt)
+    for i in range(rows):
+        ui = u[i]
+        for q in range(nk + nt):
+            v = Cp[i, q]
+            num[q] += v * ui
+            den[q] += v * v
     gk = np.empty(nk)
     gt = np.empty(nt)
     for q in range(nk + nt):
-        num = 0.0
-        den = 0.0
-        for i in range(rows):
-            v = Cp[i, q]
-            num += v * r[i]
-            den += v * v
-        g = num * num / (den + 1e-300)
+        g = num[q] * num[q] / (den[q] + 1e-300)
         if q < nk:
             gk[q] = g
         else:
