@@ -547,9 +547,11 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             if np.isfinite(radius_px):  # px to mm at the curve's median depth in this view
                 widths.append(2.0 * radius_px * float(np.median(cam.world_to_cam(X)[:, 2])) / float(cam.K[0, 0]))
             at_base = near_base(ev)  # the components at the base mark: the coverage's and the base check's
+            crop = _roi_crop(images[v], ev) if images is not None and images[v] is not None else None
             out[f"coverage_frac_v{v + 1}"] = coverage_frac(ev, dense[seen], d[seen], tolerance_px,
                                                            coverage_tolerance_px, inside_px, radius_px,
-                                                           near=at_base)
+                                                           near=at_base,
+                                                           tone=None if crop is None else (crop, channel))
             local_px = local_inside_px(ev, dense, inside_px)  # the merged check's and the crossing's
             wide = on_wide(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO, local_px=local_px)
             on_mask = seen & (d <= tolerance_px)
@@ -591,8 +593,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
                 in_view = ~ev.in_keep_out(xf) & cam.in_image(xf) & roi_contains(ev, xf)
                 seen_line[v, fin] = line_seen(in_view, sample_distance(ev, xf) <= tolerance_px,
                                               on_wide(ev, xf, inside_px, radius_px, wide_ratio=WIDE_RATIO))
-            if images is not None and images[v] is not None:  # the image's tone and colour (the frame's pixels)
-                crop = _roi_crop(images[v], ev)
+            if crop is not None:  # the image's tone and colour (the frame's pixels)
                 out[f"tip_tone_frac_v{v + 1}"] = tip_tone_frac(crop, ev, dense, on_mask, radius_px, channel=channel)
                 out[f"off_colour_run_px_v{v + 1}"] = off_colour_run_px(crop, ev, dense, seen, on_mask)
     out["views_checked"] = checked

@@ -27,8 +27,43 @@ BORDER_PX = 2
 #: at a crossing), not a part of the tendril the curve missed.
 MIN_BRANCH_PX = 8
 
+#: A branch of unexplained thin skeleton darker than the board by less than this fraction of the tendril's own
+#: darkness (the explained skeleton's) is a shadow on the board (of the tendril, the stem, a leaf) that the
+#: segmentation joined to the tendril's pixels, not a part of the tendril; 0: off (no image: off too).
+SHADOW_TONE_FRAC = 0.5
+
 #: Whether a segment running out of the ROI (left out) may be the other arm of a line crossing the curve.
 CROSSING_BORDER_ARMS = True
+
+
+def _paler_than_the_tendril(tone: tuple, fg: np.ndarray, sr: np.ndarray, sc: np.ndarray, near: np.ndarray,
+                            at: np.ndarray, b: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """(k,) bool: whether branch ``ids[j]`` (skeleton pixels ``at[b == ids[j]]``) is paler than the tendril.
+
+    ``tone`` is ``(crop_bgr, channel)``. Darkness is relative to the board near the pixels (the grey's 75th
+    percentile of the pixels that are not dark around the middle one, :func:`tendrilkit.verify_tone._board_grey`):
+    the tendril's is the median over the skeleton pixels the curve explains; a branch is paler when its median is
+    below :data:`SHADOW_TONE_FRAC` of it.
+    """
+    from tendrilkit.verify_tone import _board_grey, _grey_at
+
+    crop, channel = tone
+
+    def darkness(rows, cols):
+        rc = np.c_[rows, cols]
+        board = _board_grey(crop, fg, rc[len(rc) // 2], channel)
+        if not (np.isfinite(board) and board > 0):
+            return float("nan")
+        return float(np.median((board - _grey_at(crop, rc, channel)) / board))
+
+    own = darkness(sr[near], sc[near])
+    out = np.zeros(len(ids), bool)
+    if not own > 0:
+        return out
+    for j, k in enumerate(ids):
+        m = at[b == k]
+        out[j] = darkness(sr[m], sc[m]) < SHADOW_TONE_FRAC * own
+    return out
 
 
 def tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, cov_tol: float) -> float:
@@ -51,7 +86,8 @@ def tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, c
 
 
 def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float,
-                  inside: np.ndarray, radius_px: float, *, near: np.ndarray | None = None) -> float:
+                  inside: np.ndarray, radius_px: float, *, near: np.ndarray | None = None,
+                  tone: tuple | None = None, parts: dict | None = None) -> float:
     """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
 
     Counted are the skeleton pixels of the components the curve runs along,
@@ -151,6 +187,8 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
     n_near = int(near.sum())
     free = ~near & thin
     if not free.any():
+        if parts is not None:
+            parts["explained_xy"], parts["missed_xy"] = sk[near], sk[:0]
         return 1.0 if n_near else 0.0
     import cv2
 
@@ -200,5 +238,11 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
                 ids = np.unique(branch[lone & free])
                 tendril[ids[ids < nb]] = False
                 tendril[0] = False
+    if tone is not None and SHADOW_TONE_FRAC > 0 and tendril.any() and n_near:
+        ids = np.nonzero(tendril)[0]
+        tendril[ids[_paler_than_the_tendril(tone, ev.foreground, sr, sc, near, np.nonzero(free)[0], b, ids)]] = False
     n_free = int(size[tendril].sum())
+    if parts is not None:  # what the figure counted (diagnosis: benchmarks/diagnose_coverage.py)
+        parts["explained_xy"] = sk[near]
+        parts["missed_xy"] = sk[np.nonzero(free)[0][tendril[b]]]
     return float(n_near / max(n_near + n_free, 1))

@@ -469,6 +469,37 @@ def test_curve_crossing_a_leaf_with_a_stalk_is_not_merged_clutter():
     assert q["wide_crossing_px_v1"] == 0 and _merged_message(q)
 
 
+def _shadow(grey=150, shift_px=(0, 14)):
+    """A grey line (``grey`` on the 240 board; the tendril is 30) beside the tendril from its first third on, joined
+    to it there: the tendril's shadow on the board, segmented with it (validation seeds 1300, 1302)."""
+    def draw(img, cam):
+        T = _tendril_mm()
+        xy = np.vstack([cam.project(T[55:56]), cam.project(T[60:]) + np.array(shift_px)])
+        cv2.polylines(img, [np.round(xy * 16).astype(np.int32)], False, (grey, grey, grey), 4, cv2.LINE_AA, 4)
+    return draw
+
+
+def test_shadow_joined_to_the_tendril_is_not_unexplained_tendril(monkeypatch):
+    """Unexplained skeleton darker than the board by less than half the tendril's darkness (a shadow) is left out
+    of the coverage (SHADOW_TONE_FRAC, read from the frames); a line as dark as the tendril's is not, and a curve
+    stopping halfway is still caught beside the shadow."""
+    import tendrilkit.verify_coverage as VC
+
+    cams, ev, images = _scene(_shadow(150), with_images=True)
+    q = verify_curve(_tendril_mm(), cams, ev, images=images)
+    assert q["coverage_frac_v1"] >= 0.95 and q["coverage_frac_v2"] >= 0.95
+    assert not image_check_messages(q, 2, Thresholds())
+    short = verify_curve(_tendril_mm(frac=0.5), cams, ev, images=images)
+    assert short["coverage_frac_v1"] < 0.75 and short["coverage_frac_v2"] < 0.75
+    # the figure needs the frames: without them, and with the rule off, the shadow counts
+    assert verify_curve(_tendril_mm(), cams, ev)["coverage_frac_v1"] < 0.75
+    monkeypatch.setattr(VC, "SHADOW_TONE_FRAC", 0.0)
+    assert verify_curve(_tendril_mm(), cams, ev, images=images)["coverage_frac_v1"] < 0.75
+    monkeypatch.setattr(VC, "SHADOW_TONE_FRAC", 0.5)
+    cams, ev, images = _scene(_shadow(90), with_images=True)  # darker than half the tendril's darkness
+    assert verify_curve(_tendril_mm(), cams, ev, images=images)["coverage_frac_v1"] < 0.75
+
+
 def test_leaf_on_a_merged_band_does_not_waive_the_band():
     """A small leaf (25 px radius) on a 92 px band of a shoot merged with the tendril: only the leaf's deep middle
     is left out; the band's pieces on both sides count as one run, over the limit."""
