@@ -279,9 +279,10 @@ def test_fit_over_workers_ends_them_on_sigterm(tmp_path):
 
     csv = tmp_path / "curves.csv"
     P = random_pwc_curve(0).points_mm
-    pd.DataFrame({"frame": np.repeat(np.arange(100), len(P)), "time_s": 0.0, "point": np.tile(np.arange(len(P)), 100),
-                  "x_mm": np.tile(P[:, 0], 100), "y_mm": np.tile(P[:, 1], 100),
-                  "z_mm": np.tile(P[:, 2], 100)}).to_csv(csv, index=False)
+    n = 1000  # seconds of fitting on two workers (100 frames could end before the workers were seen: 10 ms a fit)
+    pd.DataFrame({"frame": np.repeat(np.arange(n), len(P)), "time_s": 0.0, "point": np.tile(np.arange(len(P)), n),
+                  "x_mm": np.tile(P[:, 0], n), "y_mm": np.tile(P[:, 1], n),
+                  "z_mm": np.tile(P[:, 2], n)}).to_csv(csv, index=False)
     out = tmp_path / "out-sigterm-test"
 
     def ours() -> list[int]:  # the command and its forked workers carry its arguments
