@@ -20,9 +20,9 @@
    changes the fits (not kept); the two trials evaluated together gain nothing (the first is taken
    half the time). The retry with more lookahead runs on 25 of the 60 frames: 29 % of all their CPU;
    2026-12-02 (load 3-3.5): the evaluation's frames chained by each step's rotation in the frame's
-   own axes (refine._frame_chain, 16 -> 7 us), the normal equations without the rotated Jacobian
-   (refine._lm_normal) and solved by Cholesky (6.9 -> 1.9 us), the score test in the integration's
-   frame (310 -> 200 us), a join's refit compiled: Levenberg-Marquardt and the score test 9.4 -> 6.2
+   own axes (frenet._integrate, the project's one integration, 16 -> 7 us), the normal equations
+   without the rotated Jacobian (refine._lm_normal) and solved by Cholesky (6.9 -> 1.9 us), the
+   score test in the integration's frame (310 -> 200 us), a join's refit compiled: Levenberg-Marquardt and the score test 9.4 -> 6.2
    ms per fit (the 40 fits' calls replayed), now an iteration's normal equations about 35 us and an
    evaluation 13 us; the rest of a fit (signals, paths, joins, Python) is about 5 ms by itself;
 2. the paper's grid search on the same frames;

@@ -2,7 +2,7 @@
 
 numba keys each cached function on its own source file only (its time and
 size): a compiled function that calls a compiled function of another module
-(``pwc.refine._lm_evaluate`` calls ``pwc.laws._pwl_step_means`` and
+(``pwc.refine._lm_evaluate`` calls ``frenet._integrate`` and
 ``geometry.rigid_fit``) keeps running the old code after that module changed,
 until its own file changes (a merge, a checkout or an edit of the callee alone
 leaves the caller's cache as it was). :func:`drop_stale_caches`, run when

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from tendrilkit.frenet import _integrate
 from tendrilkit.geometry import _rigid_fit_core
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _pwl_step_means
 
@@ -19,71 +20,26 @@ __all__: list[str] = []
 
 @njit(cache=True)
 def _lm_jacobian(s, P, T, B, R, X, Mk, Mt):
-    # Mk, Mt: (n-1, p) derivatives of the step means per parameter
     """(3n, p + 6) Jacobian of the registered points (values, then rotation, translation).
 
-    One pass over the points, every parameter's two running sums updated per
-    step (rows of the Jacobian written contiguously). The sums are kept per
-    component in separate arrays and the curvature and torsion parameters in
-    separate loops, so that the loops over parameters vectorise; each entry
-    is computed with the same operations in the same order as per parameter.
+    ``Mk, Mt``: (n-1, p) derivatives of the step means per parameter. The laws' columns are
+    :func:`_frame_columns` rotated by ``R``; a small rotation ``w`` after ``R`` moves a point by
+    ``w x (X - mean X)``, a translation by itself. The refinement itself does not form it
+    (:func:`_lm_normal` builds its normal equations); it is the reference its tests check.
     """
     n = P.shape[0]
     nk = Mk.shape[1]
     nt = Mt.shape[1]
     p = nk + nt
+    D = _frame_columns(s, P, T, B, Mk, Mt, np.full(n, nk), np.full(n, nt))
     J = np.zeros((3 * n, p + 6))
-    A0 = np.zeros(p)
-    A1 = np.zeros(p)
-    A2 = np.zeros(p)
-    C0 = np.zeros(p)
-    C1 = np.zeros(p)
-    C2 = np.zeros(p)
-    for j in range(1, n):
-        i = j - 1
-        h = s[j] - s[i]
-        bx = 0.5 * (B[i, 0] + B[j, 0])
-        by = 0.5 * (B[i, 1] + B[j, 1])
-        bz = 0.5 * (B[i, 2] + B[j, 2])
-        tx = 0.5 * (T[i, 0] + T[j, 0])
-        ty = 0.5 * (T[i, 1] + T[j, 1])
-        tz = 0.5 * (T[i, 2] + T[j, 2])
-        mx = 0.5 * (P[i, 0] + P[j, 0])
-        my = 0.5 * (P[i, 1] + P[j, 1])
-        mz = 0.5 * (P[i, 2] + P[j, 2])
-        px = P[j, 0]
-        py = P[j, 1]
-        pz = P[j, 2]
-        r0 = 3 * j
-        for q in range(nk):
-            c = h * Mk[i, q]
-            ax = c * bx
-            ay = c * by
-            az = c * bz
-            A0[q] += ax
-            A1[q] += ay
-            A2[q] += az
-            C0[q] += ay * mz - az * my
-            C1[q] += az * mx - ax * mz
-            C2[q] += ax * my - ay * mx
-        for q in range(nt):
-            c = h * Mt[i, q]
-            ax = c * tx
-            ay = c * ty
-            az = c * tz
-            A0[nk + q] += ax
-            A1[nk + q] += ay
-            A2[nk + q] += az
-            C0[nk + q] += ay * mz - az * my
-            C1[nk + q] += az * mx - ax * mz
-            C2[nk + q] += ax * my - ay * mx
+    for r in range(3 * n):
+        j0 = r - r % 3
         for q in range(p):
-            d0 = A1[q] * pz - A2[q] * py - C0[q]
-            d1 = A2[q] * px - A0[q] * pz - C1[q]
-            d2 = A0[q] * py - A1[q] * px - C2[q]
-            J[r0, q] = R[0, 0] * d0 + R[0, 1] * d1 + R[0, 2] * d2
-            J[r0 + 1, q] = R[1, 0] * d0 + R[1, 1] * d1 + R[1, 2] * d2
-            J[r0 + 2, q] = R[2, 0] * d0 + R[2, 1] * d1 + R[2, 2] * d2
+            d0 = D[j0, q]
+            d1 = D[j0 + 1, q]
+            d2 = D[j0 + 2, q]
+            J[r, q] = R[r % 3, 0] * d0 + R[r % 3, 1] * d1 + R[r % 3, 2] * d2
     m = np.zeros(3)
     for j in range(n):
         for c3 in range(3):
@@ -112,8 +68,10 @@ def _frame_columns(s, P, T, B, Mk, Mt, ak, at):
 
     ``ak[j]``, ``at[j]``: how many leading columns of ``Mk``, ``Mt`` can be nonzero on the steps
     before point ``j`` (the rest are 0 there and are not visited: the score test's hinges, sorted,
-    start one after another); all of them for the laws' columns. The same arithmetic per entry as
-    :func:`_lm_jacobian` without its rotation.
+    start one after another); all of them for the laws' columns. One pass over the points, every
+    parameter's two running sums updated per step; the sums are kept per component in separate
+    arrays and the curvature and torsion parameters in separate loops, so that the loops over
+    parameters vectorise.
     """
     n = P.shape[0]
     nk = Mk.shape[1]
@@ -375,66 +333,8 @@ def _law_columns(s, knots, values, free_knots):
 
 
 @njit(cache=True)
-def _frame_chain(s, k_step, t_step):
-    """Positions, tangents and binormals of the steps' laws from the identity frame at the origin.
-
-    :func:`tendrilkit.frenet._integrate`'s curve (trapezoidal positions; the same to rounding,
-    about 1e-13 mm) by another route: a step's rotation about the Darboux vector is, in the frame's
-    own axes, a rotation about :math:`(\\tau, 0, \\kappa)` that does not depend on the frame, so it is
-    computed apart from the chain of frames, and each frame is the previous one times those nine
-    numbers (no renormalisation: the frame drifts from orthonormal by about 1e-15 over 200 steps).
-    The chain of dependent square roots and divisions of ``_integrate`` is gone: half its time.
-    """
-    n = s.shape[0]
-    P = np.empty((n, 3))
-    T = np.empty((n, 3))
-    B = np.empty((n, 3))
-    t0, t1, t2 = 1.0, 0.0, 0.0
-    n0, n1, n2 = 0.0, 1.0, 0.0
-    b0, b1, b2 = 0.0, 0.0, 1.0
-    p0, p1, p2 = 0.0, 0.0, 0.0
-    T[0, 0], T[0, 1], T[0, 2] = t0, t1, t2
-    B[0, 0], B[0, 1], B[0, 2] = b0, b1, b2
-    P[0, 0], P[0, 1], P[0, 2] = p0, p1, p2
-    for i in range(n - 1):
-        h = s[i + 1] - s[i]
-        k = k_step[i]
-        t = t_step[i]
-        rate = np.sqrt(k * k + t * t)
-        th = rate * h
-        if th < 1e-12:
-            a00, a01, a02, a10, a11, a12, a20, a21, a22 = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
-        else:  # Rodrigues about the unit axis (ax, 0, az) in the frame's axes
-            ax = t / rate
-            az = k / rate
-            ct = np.cos(th)
-            st = np.sin(th)
-            u = 1.0 - ct
-            a00, a01, a02 = ct + ax * ax * u, az * st, ax * az * u
-            a10, a11, a12 = -az * st, ct, ax * st
-            a20, a21, a22 = ax * az * u, -ax * st, ct + az * az * u
-        u0 = a00 * t0 + a01 * n0 + a02 * b0
-        u1 = a00 * t1 + a01 * n1 + a02 * b1
-        u2 = a00 * t2 + a01 * n2 + a02 * b2
-        m0 = a10 * t0 + a11 * n0 + a12 * b0
-        m1 = a10 * t1 + a11 * n1 + a12 * b1
-        m2 = a10 * t2 + a11 * n2 + a12 * b2
-        c0 = a20 * t0 + a21 * n0 + a22 * b0
-        c1 = a20 * t1 + a21 * n1 + a22 * b1
-        c2 = a20 * t2 + a21 * n2 + a22 * b2
-        p0 += 0.5 * h * (t0 + u0)
-        p1 += 0.5 * h * (t1 + u1)
-        p2 += 0.5 * h * (t2 + u2)
-        t0, t1, t2, n0, n1, n2, b0, b1, b2 = u0, u1, u2, m0, m1, m2, c0, c1, c2
-        T[i + 1, 0], T[i + 1, 1], T[i + 1, 2] = t0, t1, t2
-        B[i + 1, 0], B[i + 1, 1], B[i + 1, 2] = b0, b1, b2
-        P[i + 1, 0], P[i + 1, 1], P[i + 1, 2] = p0, p1, p2
-    return P, T, B
-
-
-@njit(cache=True)
 def _lm_evaluate(s, kk, vk, kt, vt, data):
-    P, T, B = _frame_chain(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt))
+    P, T, _, B = _integrate(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt), np.eye(3), np.zeros(3), False)
     if not np.all(np.isfinite(P)):
         return np.inf, P, T, B, np.eye(3), P.copy()
     R, t = _rigid_fit_core(P, data)
