@@ -53,19 +53,6 @@ class PiecewiseLinearLaw:
         return [(float(k[i]), float(k[i + 1]), float(v[i]), float(v[i + 1])) for i in range(k.size - 1)]
 
 
-def _hat_matrix(s: np.ndarray, knots: np.ndarray) -> np.ndarray:
-    """(n, K+1) matrix A with law(s) = A @ values (linear interpolation)."""
-    n, m = s.size, knots.size
-    A = np.zeros((n, m))
-    j = np.clip(np.searchsorted(knots, s, side="right") - 1, 0, m - 2)
-    t = (s - knots[j]) / (knots[j + 1] - knots[j])
-    t = np.clip(t, 0.0, 1.0)
-    rows = np.arange(n)
-    A[rows, j] = 1.0 - t
-    A[rows, j + 1] += t
-    return A
-
-
 class _Lines:
     """Weighted least-squares line of any interval ``[a, c)`` in O(1) (prefix sums, centred s)."""
 
@@ -190,8 +177,9 @@ def _refit_values(s, y, w, knots, sq=None):
 
 @njit(cache=True)
 def _refit_core(s, y, knots, sq, ridge):
-    """:func:`_refit_values` compiled: the rows of :func:`_hat_matrix` weighted by ``sq`` (the square-root
-    weights), a whisper of ridge (``ridge``) on the second differences (it keeps knots with no weight defined),
+    """:func:`_refit_values` compiled: the rows of the linear interpolation at the knots (the law at ``s``
+    is those rows times the values) weighted by ``sq`` (the square-root weights), a whisper of ridge
+    (``ridge``) on the second differences (it keeps knots with no weight defined),
     and LAPACK's least squares as ``numpy.linalg.lstsq`` calls it (the same cut-off): the same values
     as those steps in numpy, without their calls' overhead (a join is made for every candidate law).
     """
