@@ -143,16 +143,15 @@ KINK_PX_PER_DEG = 1.0
 #: about as well (precision x coverage, :func:`_score`, lower by at most :data:`REEXTEND_SCORE_DROP`). The first
 #: extension runs on the unrefined curve, whose tip drifts mm off the tendril across gaps until the views stop
 #: agreeing (dev seed 1068 frame 0: three gaps crossed 3-5 mm off, stopped 70 mm short; the refined tip 0.5 mm from
-#: the tendril, every view seeing it go on). Tracked fits (``REEXTEND_TRACKED``) start from the previous frame's
-#: curve and its length: extended again, validation seed 1313 frame 1 became ``ok`` with its last 25 mm 2.7 mm off
-#: in depth, carried by tracking to the next frame. Measured 2026-12-02 (rerun_multiview, 240 frames each): dev
-#: 1040-1079 all three criteria 42.1 -> 42.1 %, ends 46.2 -> 47.1 %, ``ok`` with the max or an end over 2 mm 8 -> 9
-#: (1068 frame 0: mean 0.30, max 2.06 mm, tip 0.09 mm, 70 mm short before); validation 1280-1319 45.4 -> 46.2 %,
-#: ends 50.4 -> 51.2 %, 7 -> 7 (see the README for the held-out figures).
+#: the tendril, every view seeing it go on). Tracked fits are not extended again: they start from the previous
+#: frame's curve and its length; extended again, validation seed 1313 frame 1 became ``ok`` with its last 25 mm
+#: 2.7 mm off in depth, carried by tracking to the next frame. Measured 2026-12-02 (rerun_multiview, 240 frames
+#: each): dev 1040-1079 all three criteria 42.1 -> 42.1 %, ends 46.2 -> 47.1 %, ``ok`` with the max or an end
+#: over 2 mm 8 -> 9 (1068 frame 0: mean 0.30, max 2.06 mm, tip 0.09 mm, 70 mm short before); validation 1280-1319
+#: 45.4 -> 46.2 %, ends 50.4 -> 51.2 %, 7 -> 7 (see the README for the held-out figures).
 REEXTEND_ROUNDS = 3
 REEXTEND_MIN_MM = 2.0
 REEXTEND_SCORE_DROP = 0.02
-REEXTEND_TRACKED = False
 
 #: The tip's extension (:func:`adjust_tip`; not :func:`_trim`, where any view showing the board contradicts a node)
 #: stops at a place this many views or more show as the open board: 1, any view (the default). With 2, where two
@@ -893,10 +892,10 @@ def _choose_acquired(grown: list, evidence: list[SkeletonEvidence], B: np.ndarra
     # from there along the tendril, across the crossing)
     grown = [(_cut_wide_tail(G, evidence), sc) for G, sc in grown]
     if len(grown) == 1:
-        return _fit(grown[0][0], evidence, B, segment_mm)
+        return _fit(grown[0][0], evidence, B, segment_mm, reextend=True)
     refined = [refine_curve(_resample(G, segment_mm), evidence, base_mm=B, segment_mm=segment_mm) for G, _ in grown]
     k = min(range(len(grown)), key=lambda k: grown[k][1] + KINK_PX_PER_DEG * local_kink_deg(refined[k]))
-    return _fit(refined[k], evidence, B, segment_mm, refined=True)
+    return _fit(refined[k], evidence, B, segment_mm, refined=True, reextend=True)
 
 
 def _score(prec: np.ndarray, cov: np.ndarray) -> float:
@@ -906,7 +905,12 @@ def _score(prec: np.ndarray, cov: np.ndarray) -> float:
     return float(s.mean()) if s.size else 0.0
 
 
-def _fit(X0, evidence, B, segment_mm, prior_mm=0.0, max_length_mm=np.inf, refined=False):
+def _fit(X0, evidence, B, segment_mm, prior_mm=0.0, max_length_mm=np.inf, refined=False, reextend=False):
+    """``X0`` refined on every view, its tip moved to where the views' evidence ends, refined again.
+
+    ``refined``: ``X0`` is refined already. ``reextend`` (an acquisition's fit): then extended again from the
+    refined curve (:data:`REEXTEND_ROUNDS`).
+    """
     X = X0 if refined else refine_curve(_resample(X0, segment_mm), evidence, base_mm=B, segment_mm=segment_mm)
     X = adjust_tip(X, evidence, prior_mm=prior_mm, max_length_mm=max_length_mm)
     X = _resample(X, segment_mm)
@@ -914,7 +918,8 @@ def _fit(X0, evidence, B, segment_mm, prior_mm=0.0, max_length_mm=np.inf, refine
     # only the bending and length terms move the nodes, and slowly (the site S3 phantom's frame 26: 2.2 mm off
     # after 10, 0.3 mm after 60)
     X = refine_curve(X, evidence, base_mm=B, segment_mm=_segment(X), cap_px=(8.0, 6.0), iterations=30, huber_px=3.0)
-    for _ in range(REEXTEND_ROUNDS if prior_mm <= 0.0 or REEXTEND_TRACKED else 0):
+    score = None  # the views' precision x coverage of X, once needed
+    for _ in range(REEXTEND_ROUNDS if reextend else 0):
         # the extension ran on the unrefined curve, whose tip drifts off the tendril (mm, along the directions the
         # views hardly constrain) until the views stop agreeing; from the refined tip, back on the tendril, the
         # views may still see it going on: extend again from there, and refine; kept while the views explain the
@@ -925,9 +930,12 @@ def _fit(X0, evidence, B, segment_mm, prior_mm=0.0, max_length_mm=np.inf, refine
         Y = _resample(Y, segment_mm)
         Y = refine_curve(Y, evidence, base_mm=B, segment_mm=_segment(Y), cap_px=(8.0, 6.0), iterations=30,
                          huber_px=3.0)
-        if _score(*curve_support(Y, evidence)) < _score(*curve_support(X, evidence)) - REEXTEND_SCORE_DROP:
+        score_y = _score(*curve_support(Y, evidence))
+        if score is None:
+            score = _score(*curve_support(X, evidence))
+        if score_y < score - REEXTEND_SCORE_DROP:
             break
-        X = Y
+        X, score = Y, score_y
     return X
 
 
