@@ -188,26 +188,32 @@ def test_grid_calibration_loop_cut_across_is_not_ok(tmp_path):
 
 
 @pytest.mark.slow
-def test_leaf_hiding_the_tendril_in_two_views_dev_scene_4(tmp_path):
-    """Dev scene 4 (random, seed 4), frame 0: a leaf lies over the tendril in views 1 and 2 for ~10 mm, and a
-    second tendril crosses it in every view just before. The covered views leave that part to view 3; the
-    curve goes on to the true tip instead of turning onto the second tendril (before: mean 10.8 mm, tip 55 mm).
-    Measured: mean 0.20 mm, max 1.55 mm, base 0.30 mm, tip 0.08 mm."""
+def _random_scene_frame_0(tmp_path, seed: int):
+    """Random dev scene ``seed`` (6 frames, as bench_generalize writes it), multi-view, calibrated: frame 0's
+    ``(images, cameras, experiment, true curve)``."""
     from tendrilkit.extrinsics import calibrate_experiment
     from tendrilkit.io import open_views
     from tendrilkit.params import load_experiment
     from tendrilkit.phantom import read_ground_truth, write_scene_experiment
 
-    path = write_scene_experiment(tmp_path / "scene", seed=4, scene="random", n_frames=6)
+    path = write_scene_experiment(tmp_path / "scene", seed=seed, scene="random", n_frames=6)
     exp = _experiment(load_experiment(path))
     cams = calibrate_experiment(exp).cameras
     sources = open_views(list(exp.videos))
     images = [src.read(0) for src in sources]
     for src in sources:
         src.close()
+    return images, cams, exp, read_ground_truth(tmp_path / "scene").curves[0]
+
+
+def test_leaf_hiding_the_tendril_in_two_views_dev_scene_4(tmp_path):
+    """Dev scene 4 (random, seed 4), frame 0: a leaf lies over the tendril in views 1 and 2 for ~10 mm, and a
+    second tendril crosses it in every view just before. The covered views leave that part to view 3; the
+    curve goes on to the true tip instead of turning onto the second tendril (before: mean 10.8 mm, tip 55 mm).
+    Measured: mean 0.20 mm, max 1.55 mm, base 0.30 mm, tip 0.08 mm."""
+    images, cams, exp, X = _random_scene_frame_0(tmp_path, 4)
     res = reconstruct_frame(images, cams, exp, frame=0, fit=False)
     assert res.status != "failed", res.message
-    X = read_ground_truth(tmp_path / "scene").curves[0]
     e = _errors(res.points_mm, X)
     back, _ = cKDTree(resample_polyline(res.points_mm, 4000)).query(X)  # the truth covered by the curve
     assert e["mean"] <= 0.5 and max(e["max"], back.max()) <= 2.0 and e["base"] <= 2.0 and e["tip"] <= 2.0, e
@@ -820,19 +826,8 @@ def test_tip_extended_again_from_the_refined_curve_dev_scene_1068(tmp_path, monk
     from there (``REEXTEND_ROUNDS``) the curve reaches the tip. Measured: mean 0.30 mm, max 2.06 mm (near the base,
     which lies 1.24 mm off), tip 0.09 mm; without the second extension the tip is 70 mm short."""
     import tendrilkit.multiview as M
-    from tendrilkit.extrinsics import calibrate_experiment
-    from tendrilkit.io import open_views
-    from tendrilkit.params import load_experiment
-    from tendrilkit.phantom import read_ground_truth, write_scene_experiment
 
-    path = write_scene_experiment(tmp_path / "scene", seed=1068, scene="random", n_frames=6)
-    exp = _experiment(load_experiment(path))
-    cams = calibrate_experiment(exp).cameras
-    sources = open_views(list(exp.videos))
-    images = [src.read(0) for src in sources]
-    for src in sources:
-        src.close()
-    X = read_ground_truth(tmp_path / "scene").curves[0]
+    images, cams, exp, X = _random_scene_frame_0(tmp_path, 1068)
     res = reconstruct_frame(images, cams, exp, frame=0, fit=False)
     e = _errors(res.points_mm, X)
     assert e["tip"] <= 2.0 and e["mean"] <= 0.5 and e["max"] <= 2.5, e
