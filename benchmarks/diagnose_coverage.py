@@ -24,6 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 def main(argv: list[str] | None = None) -> int:
     import cv2
 
+    import tendrilkit.pipeline as pipeline
     import tendrilkit.verify as V
     from tendrilkit.io import open_views
     from tendrilkit.params import load_experiment
@@ -37,32 +38,36 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("frame", type=int)
     p.add_argument("--png", type=Path, default=Path("/tmp/coverage"))
     a = p.parse_args(argv)
-    calls = []
-    original = V.coverage_frac
+    calls = []  # (frame, evidence, projected curve, parts, figure) of every coverage figure
+    original, reconstruct = V.coverage_frac, pipeline.reconstruct_frame
+    now = {"frame": None}
 
     def recording(ev, dense, *args, **kw):
         parts: dict = {}
         value = original(ev, dense, *args, parts=parts, **kw)
-        calls.append((ev, np.asarray(dense, float), parts, value))
+        calls.append((now["frame"], ev, np.asarray(dense, float), parts, value))
         return value
 
-    V.coverage_frac = recording
+    def tagged(*args, frame, **kw):
+        now["frame"] = frame
+        return reconstruct(*args, frame=frame, **kw)
+
+    V.coverage_frac, pipeline.reconstruct_frame = recording, tagged
     folder = a.out / a.scene
     try:
-        rows, _, _ = rerun_scene(folder, a.out / "evidence-cache", fit=False)
+        rerun_scene(folder, a.out / "evidence-cache", fit=False)
     finally:
-        V.coverage_frac = original
-    frames = [r["frame"] for r in rows]
-    # verify_curve is called once per view per frame, in order; other callers (tracking) may call it too: keep
-    # the last calls of each frame (the frame's verification), three views
-    per_frame = len(calls) // max(len(frames), 1)
+        V.coverage_frac, pipeline.reconstruct_frame = original, reconstruct
     exp = load_experiment(folder / "scene" / "experiment.yaml")
     sources = open_views(list(exp.videos))
     images = [src.read(a.frame) for src in sources]
     for src in sources:
         src.close()
-    k = frames.index(a.frame)
-    mine = calls[k * per_frame:(k + 1) * per_frame][-len(images):]
+    # the frame's last verification: one figure per view that has a skeleton
+    mine = [c[1:] for c in calls if c[0] == a.frame][-len(images):]
+    if not mine:
+        print(f"{a.scene} frame {a.frame}: no coverage figure (not processed, or failed)")
+        return 1
     a.png.mkdir(parents=True, exist_ok=True)
     for v, (ev, dense, parts, value) in enumerate(mine):
         x0, y0 = (int(t) for t in ev.roi_offset_xy)
@@ -76,16 +81,7 @@ def main(argv: list[str] | None = None) -> int:
             img[c[:, 1], c[:, 0]] = colour
         path = a.png / f"{a.scene}-{a.frame}-v{v + 1}.png"
         cv2.imwrite(str(path), img)
-        tone = ""
-        if ev.probability is not None:
-            def med(xy):
-                if xy is None or len(xy) == 0:
-                    return float("nan")
-                c = np.rint(xy - [x0, y0]).astype(int)
-                return float(np.median(ev.probability[c[:, 1], c[:, 0]]))
-            tone = (f", probability median explained {med(parts.get('explained_xy')):.2f}, "
-                    f"missed {med(parts.get('missed_xy')):.2f}")
-        print(f"view {v + 1}: coverage {value:.3f}, missed {len(parts.get('missed_xy', []))} px{tone} -> {path}")
+        print(f"view {v + 1}: coverage {value:.3f}, missed {len(parts.get('missed_xy', []))} px -> {path}")
     return 0
 
 
