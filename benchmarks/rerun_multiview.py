@@ -90,21 +90,29 @@ def parse_sets(items: list[str]) -> dict:
     return out
 
 
-def segmentation_options(experiment: Path, sets: dict):
-    """The segmentation options of ``experiment`` with ``sets`` (``--set`` items) today."""
+#: The ``reconstruction`` keys the evidence depends on (:func:`tendrilkit.pipeline.multiview_evidence`)
+EVIDENCE_KEYS = ("front_line_contrast",)
+
+
+def segmentation_options(experiment: Path, sets: dict) -> dict:
+    """The options the evidence of ``experiment`` is made with, ``sets`` (``--set`` items) applied, today: the
+    segmentation's and :data:`EVIDENCE_KEYS` (``reconstruction.KEY``)."""
     from tendrilkit.params import load_experiment, with_overrides
 
-    return with_overrides(load_experiment(experiment), sets).segmentation
+    exp = with_overrides(load_experiment(experiment), sets)
+    return {**exp.segmentation.model_dump(mode="json"),
+            **{f"reconstruction.{k}": getattr(exp.reconstruction, k) for k in EVIDENCE_KEYS}}
 
 
 def cache_problem(cache: Path, resolved, *, write: bool = False) -> str | None:
-    """Why the evidence in ``cache`` was not made with the segmentation options ``resolved``, or None.
+    """Why the evidence in ``cache`` was not made with the options ``resolved`` (:func:`segmentation_options`), or None.
 
     The folder's name holds the ``--set`` items only: the resolved segmentation options are recorded in it
     (``segmentation.json``, written when ``write`` and missing from a folder without evidence), so that evidence made
-    under other defaults (segmentation's changed 2026-12-01: local_exclude_dark, line_width_px) is never reused.
+    under other defaults (segmentation's changed 2026-12-01: local_exclude_dark, line_width_px; the front lines
+    came 2026-12-02) is never reused.
     """
-    stamp, want = cache / "segmentation.json", json.dumps(resolved.model_dump(mode="json"), sort_keys=True)
+    stamp, want = cache / "segmentation.json", json.dumps(resolved, sort_keys=True)
     if stamp.is_file():
         return None if stamp.read_text() == want else (
             f"{cache} holds evidence of other segmentation options ({stamp.read_text()}): delete it")
@@ -118,9 +126,10 @@ def cache_problem(cache: Path, resolved, *, write: bool = False) -> str | None:
 
 def cache_folder(sets: dict) -> str:
     """The evidence cache's folder name for ``--set`` items ({section: {key: value}}): the evidence depends on the
-    segmentation's options only, other items share the default ``evidence-cache``."""
-    seg = sorted(f"{k}={v}" for k, v in sets.get("segmentation", {}).items())
-    return "evidence-cache" + "".join(f"-segmentation.{k}" for k in seg)
+    segmentation's options and :data:`EVIDENCE_KEYS` only, other items share the default ``evidence-cache``."""
+    seg = sorted(f"segmentation.{k}={v}" for k, v in sets.get("segmentation", {}).items())
+    seg += sorted(f"reconstruction.{k}={v}" for k, v in sets.get("reconstruction", {}).items() if k in EVIDENCE_KEYS)
+    return "evidence-cache" + "".join(f"-{k}" for k in seg)
 
 
 def rerun_scene(folder: Path, cache: Path, *, fit: bool, sets: dict | None = None) -> list[dict]:

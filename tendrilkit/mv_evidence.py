@@ -17,6 +17,10 @@ pixels, about 3 times faster than the k-d tree's queries on 37-150 points. The
 ring search starts past a cell's empty rings (:func:`_empty_rings`), and
 :func:`project_distance` projects world points and reads their distances in
 one compiled call (the acquisition's :func:`tendrilkit.mv_acquire.point_costs`).
+
+Lines in front of wide objects (:func:`with_front_lines`, ``reconstruction.front_line_contrast``): where the
+tendril lies in front of a leaf or the stem, it is one dark blob with the object and the view shows the place
+covered; a line lighter than the object in some colour channel joins the skeleton.
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ from tendrilkit.camera import Camera, _project_brown
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
 
-__all__ = ["SkeletonEvidence", "skeleton_evidence", "skeleton_distance", "project_distance", "mark_near", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
+__all__ = ["SkeletonEvidence", "skeleton_evidence", "with_front_lines", "front_line_mask", "skeleton_distance", "project_distance", "mark_near", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
 
 #: A place ``COVER_DEPTH_PX`` or more inside a dark region (pixels from the board) and farther than
 #: ``COVER_PX`` from the skeleton is covered in that view (a leaf or the stem in front of or behind the
@@ -508,3 +512,152 @@ def _mark_near(p, xy, off, start, items, cell, radius, marked):
                     dy = qy - xy[j, 1]
                     if dx * dx + dy * dy <= r2:
                         marked[j] = True
+
+
+
+#: :func:`front_line_mask`: lines up to about this wide (px, the top-hat's disk; a tendril's width and its blur)
+#: are found, inside regions at least this wide (the opening of the foreground by the same disk: a leaf, the stem)
+FRONT_DISK_PX = 11
+#: ... on the lightness map smoothed by this Gaussian (px): the leaf's mottling and the sensor noise are single
+#: pixels or blobs, a line runs on
+FRONT_SIGMA_PX = 1.0
+#: :func:`with_front_lines`: a front line's skeleton piece (8-connected pixels not on the view's skeleton already)
+#: shorter than this (px) is left out: the mottling of a leaf leaves short pieces, and where the tendril crosses
+#: itself its lighter core is found in the merged blob beside the skeleton's junction; a tendril crossing a leaf
+#: runs across it
+FRONT_MIN_PX = 15
+
+
+def front_line_mask(crop_bgr: np.ndarray, foreground: np.ndarray, *, contrast: float, sigma_px: float = FRONT_SIGMA_PX,
+                    disk_px: int = FRONT_DISK_PX) -> np.ndarray:
+    """Pixels of thin lines inside wide dark regions, lighter than the region around them in a colour channel.
+
+    A tendril in front of a leaf or the stem is as dark as the object in the
+    channel the segmentation reads (the blue one), so it is one blob with it:
+    the view shows the place covered (:data:`COVER_DEPTH_PX`). In the other
+    channels it is often lighter than the object (a yellower, redder or paler
+    green), a band of about its width. Here, per channel, the white top-hat
+    by a disk of ``disk_px`` (what is lighter than its surroundings and
+    narrower than the disk) divided by the board's level in that channel
+    (:func:`tendrilkit.segmentation.lines.board_level`); the largest over the
+    channels, smoothed by a Gaussian of ``sigma_px``, over ``contrast``, inside
+    the wide regions (the foreground's opening by the disk), opened by a
+    3 x 3 disk.
+
+    Parameters
+    ----------
+    crop_bgr : (h, w, 3) uint8 array
+        The ROI crop of the view's image.
+    foreground : (h, w) bool or uint8 array
+        Its dark pixels (:attr:`tendrilkit.evidence.ViewEvidence.foreground`).
+    contrast : float
+        Least lightness over the surroundings, a fraction of the board's level.
+    sigma_px, disk_px : float, int
+
+    Returns
+    -------
+    (h, w) bool array
+
+    Example
+    -------
+    >>> img = np.full((60, 80, 3), 220, np.uint8)
+    >>> img[10:50, 10:70] = (48, 128, 62)                    # a leaf
+    >>> img[28:33, :] = (50, 150, 110)                       # a tendril across it, lighter in green and red
+    >>> fg = img[:, :, 0] < 120
+    >>> m = front_line_mask(img, fg, contrast=0.09)
+    >>> bool(m[30, 40]), bool(m[20, 40]), bool(m[30, 5])
+    (True, False, False)
+    """
+    from tendrilkit.segmentation.lines import board_level
+
+    fg = (np.asarray(foreground) > 0).astype(np.uint8)
+    out = np.zeros(fg.shape, bool)
+    if crop_bgr.ndim != 3 or crop_bgr.shape[:2] != fg.shape:
+        raise ValueError(f"crop_bgr must be a (h, w, 3) image of the foreground's shape {fg.shape}, "
+                         f"got {crop_bgr.shape}")
+    disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(disk_px) | 1,) * 2)
+    wide = cv2.morphologyEx(fg, cv2.MORPH_OPEN, disk)
+    x, y, w, h = cv2.boundingRect(wide)
+    if w == 0:
+        return out
+    H, W = fg.shape
+    m = int(disk_px)
+    r0, r1, c0, c1 = max(y - m, 0), min(y + h + m, H), max(x - m, 0), min(x + w + m, W)
+    rel = np.zeros((r1 - r0, c1 - c0), np.float32)
+    for ch in cv2.split(np.ascontiguousarray(crop_bgr)):
+        top = cv2.morphologyEx(ch[r0:r1, c0:c1], cv2.MORPH_TOPHAT, disk).astype(np.float32)
+        np.maximum(rel, top / board_level(ch)[r0:r1, c0:c1].astype(np.float32), out=rel)
+    if sigma_px > 0:
+        rel = cv2.GaussianBlur(rel, (0, 0), float(sigma_px))
+    cand = ((rel > float(contrast)) & (wide[r0:r1, c0:c1] > 0)).astype(np.uint8)
+    cand = cv2.morphologyEx(cand, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3)))
+    out[r0:r1, c0:c1] = cand > 0
+    return out
+
+
+def with_front_lines(sev: SkeletonEvidence, image_bgr: np.ndarray, *, contrast: float) -> SkeletonEvidence:
+    """The evidence with the skeletons of lines in front of wide dark objects added (a tendril over a leaf).
+
+    Where the tendril lies in front of a leaf or the stem the segmentation
+    makes one blob of them, and the view shows the place covered: neither
+    confirmed nor contradicted, the curve's steps there rest on the views that
+    see the tendril elsewhere, and its tip, over a leaf in every view, stops
+    where the leaf begins. :func:`front_line_mask`'s lines are thinned; their
+    pieces of at least :data:`FRONT_MIN_PX` pixels off the skeleton join it (a
+    place on them is seen, on the skeleton), their depth (``inside_px``, what
+    the width rules read, :func:`tendrilkit.multiview.skeleton_widths`) their
+    own half-width instead of the object's. The foreground, hence the view's
+    board and the checks (which read :class:`tendrilkit.evidence.ViewEvidence`),
+    are unchanged. A leaf's midrib is such a line too (at the board, where
+    the other views' projections of a curve above it fall elsewhere).
+
+    Parameters
+    ----------
+    sev : SkeletonEvidence
+    image_bgr : (H, W, 3) uint8 array
+        The view's full image.
+    contrast : float
+        :func:`front_line_mask`'s (``reconstruction.front_line_contrast``); 0: ``sev`` itself.
+
+    Returns
+    -------
+    SkeletonEvidence
+        A new one, or ``sev`` where no line is found.
+    """
+    from tendrilkit.skeleton.thinning import thin
+
+    img = np.asarray(image_bgr)
+    if contrast <= 0 or img.ndim != 3:
+        return sev
+    off = np.asarray(sev.offset_xy, int)
+    h, w = sev.foreground.shape
+    m = front_line_mask(img[off[1]:off[1] + h, off[0]:off[0] + w], sev.foreground, contrast=contrast)
+    m &= sev.seen
+    x, y, bw, bh = cv2.boundingRect(m.view(np.uint8))
+    if bw == 0:
+        return sev
+    # on the lines' box (grown by a pixel: the distance transform's border), the same pixels as on the crop
+    y0, y1, x0, x1 = max(y - 1, 0), min(y + bh + 1, h), max(x - 1, 0), min(x + bw + 1, w)
+    mb = np.ascontiguousarray(m[y0:y1, x0:x1])
+    # the pieces the skeleton lacks (a lighter core found where the tendril crosses itself lies on its skeleton)
+    fresh = thin(mb) & ~sev.skeleton[y0:y1, x0:x1]
+    _, lab, stats, _ = cv2.connectedComponentsWithStats(fresh.view(np.uint8), connectivity=8)
+    keep = stats[:, cv2.CC_STAT_AREA] >= FRONT_MIN_PX
+    keep[0] = False
+    sk = keep[lab]
+    if not sk.any():
+        return sev
+    rb, cb = np.nonzero(sk)
+    half = cv2.distanceTransform(mb.view(np.uint8), cv2.DIST_L2, 3)[rb, cb]
+    rr, cc = rb + y0, cb + x0
+    inside = sev.inside_px.copy()
+    inside[rr, cc] = np.minimum(inside[rr, cc], half)
+    skel = sev.skeleton.copy()
+    skel[rr, cc] = True
+    new = np.column_stack([cc + off[0], rr + off[1]]).astype(float)
+    xy = np.vstack([sev.skeleton_xy, new])
+    tree = cKDTree(xy)
+    centre, tangent = _local_lines(xy, tree)  # all again: the k-d tree's choice among equally near pixels
+    return SkeletonEvidence(offset_xy=off, foreground=sev.foreground, skeleton=skel, skeleton_xy=xy,
+                            tree=tree, centre_xy=centre, tangent_xy=tangent, near_foreground=sev.near_foreground,
+                            seen=sev.seen, inside_px=inside, camera=sev.camera)

@@ -54,7 +54,7 @@ STAGE_SECTIONS = {
 SWITCHES = {
     "correspondence": ("method",),
     "triangulation": ("to_curves", "base_from_marks"),
-    "reconstruction": ("method", "chunk_frames"),
+    "reconstruction": ("method", "chunk_frames", "front_line_contrast"),
 }
 
 

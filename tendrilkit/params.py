@@ -309,11 +309,17 @@ class Reconstruction(_Strict):
     (multiview): node spacing of the 3D curve, mm; ``choice_candidates``
     (multiview): how many of an acquisition's best finished hypotheses its
     final choice weighs by their local kink (6; 1: the beam's own choice, the
-    default before 2026-12-01).
+    default before 2026-12-01); ``front_line_contrast`` (multiview): a thin
+    line inside a wide dark region (a leaf, the stem), lighter than the region
+    around it in some colour channel by at least this fraction of the board's
+    level there, is evidence of the tendril in front of that object
+    (:func:`tendrilkit.mv_evidence.with_front_lines`; 0.09; 0: off, the
+    default before 2026-12-02).
     """
 
     method: Literal["chain", "multiview"] = "multiview"
     chunk_frames: int = Field(30, ge=1)
+    front_line_contrast: float = Field(0.09, ge=0, lt=1)
     segment_mm: float = Field(default_factory=lambda: stage_default("multiview", "segment_mm"), gt=0.1, le=10.0)
     choice_candidates: int = Field(default_factory=lambda: stage_default("multiview", "choice_candidates"), ge=1, le=20)
 

@@ -188,9 +188,9 @@ def test_grid_calibration_loop_cut_across_is_not_ok(tmp_path):
 
 
 @pytest.mark.slow
-def _random_scene_frame_0(tmp_path, seed: int):
-    """Random dev scene ``seed`` (6 frames, as bench_generalize writes it), multi-view, calibrated: frame 0's
-    ``(images, cameras, experiment, true curve)``."""
+def _random_scene_frame(tmp_path, seed: int, frame: int = 0):
+    """Random dev scene ``seed`` (6 frames, as bench_generalize writes it), multi-view, calibrated: frame ``frame``'s
+    (0 by default) ``(images, cameras, experiment, true curve)``."""
     from tendrilkit.extrinsics import calibrate_experiment
     from tendrilkit.io import open_views
     from tendrilkit.params import load_experiment
@@ -200,10 +200,10 @@ def _random_scene_frame_0(tmp_path, seed: int):
     exp = _experiment(load_experiment(path))
     cams = calibrate_experiment(exp).cameras
     sources = open_views(list(exp.videos))
-    images = [src.read(0) for src in sources]
+    images = [src.read(frame) for src in sources]
     for src in sources:
         src.close()
-    return images, cams, exp, read_ground_truth(tmp_path / "scene").curves[0]
+    return images, cams, exp, read_ground_truth(tmp_path / "scene").curves[frame]
 
 
 def test_leaf_hiding_the_tendril_in_two_views_dev_scene_4(tmp_path):
@@ -211,7 +211,7 @@ def test_leaf_hiding_the_tendril_in_two_views_dev_scene_4(tmp_path):
     second tendril crosses it in every view just before. The covered views leave that part to view 3; the
     curve goes on to the true tip instead of turning onto the second tendril (before: mean 10.8 mm, tip 55 mm).
     Measured: mean 0.20 mm, max 1.55 mm, base 0.30 mm, tip 0.08 mm."""
-    images, cams, exp, X = _random_scene_frame_0(tmp_path, 4)
+    images, cams, exp, X = _random_scene_frame(tmp_path, 4)
     res = reconstruct_frame(images, cams, exp, frame=0, fit=False)
     assert res.status != "failed", res.message
     e = _errors(res.points_mm, X)
@@ -494,19 +494,24 @@ def test_diagnose_scripts_read_the_evidence_cached_with_the_segmentation_options
 
 
 def test_an_evidence_cache_of_other_segmentation_options_is_refused(tmp_path):
-    """``rerun_multiview.cache_problem``: a cache is stamped with its resolved segmentation options; the same options
-    pass, other options (``--set`` or a changed default) and evidence without a stamp are refused."""
+    """``rerun_multiview.cache_problem``: a cache is stamped with its resolved segmentation options (and the front
+    lines' contrast); the same options pass, other options (``--set`` or a changed default) and evidence without a
+    stamp are refused."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     from rerun_multiview import cache_problem
 
     from tendrilkit.params import Segmentation
 
-    today, other = Segmentation(), Segmentation(line_width_px=0)
+    def resolved(front=0.09, **seg):  # as rerun_multiview.segmentation_options resolves an experiment's
+        return {**Segmentation(**seg).model_dump(mode="json"), "reconstruction.front_line_contrast": front}
+
+    today = resolved()
     cache = tmp_path / "evidence-cache"
     cache.mkdir()
     assert cache_problem(cache, today, write=True) is None and (cache / "segmentation.json").is_file()
     assert cache_problem(cache, today) is None
-    assert "other segmentation options" in cache_problem(cache, other)
+    assert "other segmentation options" in cache_problem(cache, resolved(line_width_px=0))
+    assert "other segmentation options" in cache_problem(cache, resolved(front=0.0))
     old = tmp_path / "old"
     old.mkdir()
     (old / "random-1-0.pkl").write_bytes(b"")
@@ -819,18 +824,88 @@ def test_tip_extension_goes_on_past_60_mm_while_two_views_see_it():
     assert length <= 20.0 + 60.0 + 1.0 < arc[-1] - 40.0, (length, arc[-1])
 
 
-def test_tip_extended_again_from_the_refined_curve_dev_scene_1068(tmp_path, monkeypatch):
-    """Dev scene 1068 (random, seed 1068), frame 0: the acquisition's beam stops 48 mm along a 151 mm tendril; the
-    tip's extension crosses three gaps on the unrefined curve, drifting 3-5 mm off the tendril until the views stop
-    agreeing, 70 mm short. The refined curve's tip lies on the tendril, every view sees it going on: extended again
-    from there (``REEXTEND_ROUNDS``) the curve reaches the tip. Measured: mean 0.30 mm, max 2.06 mm (near the base,
-    which lies 1.24 mm off), tip 0.09 mm; without the second extension the tip is 70 mm short."""
+def test_tip_extended_again_from_the_refined_curve_dev_scene_1075(tmp_path, monkeypatch):
+    """Dev scene 1075 (random, seed 1075), frame 3, acquired: the tip's extension runs on the unrefined curve,
+    whose tip drifts off the pale tendril until the views stop agreeing, 16 mm short. The refined curve's tip lies on
+    the tendril, the views see it going on: extended again from there (``REEXTEND_ROUNDS``) the curve reaches the
+    tip. Measured (2026-12-02): mean 0.43 mm, tip 0.32 mm; without the second extension the tip is 16.5 mm short.
+    (Until 2026-12-02 this test used scene 1068's frame 0, 70 mm short without the second extension on the machine
+    it was written on; on others its beam took another path, the extension not needed, and the front lines now
+    show that tendril across the leaf.)"""
     import tendrilkit.multiview as M
 
-    images, cams, exp, X = _random_scene_frame_0(tmp_path, 1068)
-    res = reconstruct_frame(images, cams, exp, frame=0, fit=False)
+    images, cams, exp, X = _random_scene_frame(tmp_path, 1075, frame=3)
+    res = reconstruct_frame(images, cams, exp, frame=3, fit=False)
     e = _errors(res.points_mm, X)
-    assert e["tip"] <= 2.0 and e["mean"] <= 0.5 and e["max"] <= 2.5, e
+    assert e["tip"] <= 2.0 and e["mean"] <= 1.0, e
     monkeypatch.setattr(M, "REEXTEND_ROUNDS", 0)
-    short = _errors(reconstruct_frame(images, cams, exp, frame=0, fit=False).points_mm, X)
-    assert short["tip"] >= 50.0, short
+    short = _errors(reconstruct_frame(images, cams, exp, frame=3, fit=False).points_mm, X)
+    assert short["tip"] >= 10.0, short
+
+
+def test_tendril_in_front_of_a_leaf_seen_by_its_colour_dev_scene_1068(tmp_path):
+    """Dev scene 1068, frame 0: a brown tendril crosses in front of a leaf; in the blue channel the
+    segmentation reads it is as dark as the leaf, one blob with it, and the views showed that stretch covered:
+    the curve crossed it on the other views' say, 3.9 mm off at its worst. Lighter than the leaf in its red
+    channel, the tendril is a front line (``reconstruction.front_line_contrast``, 0.09) whose skeleton the curve
+    follows. Measured: max 1.25 mm (mean 0.13 mm, tip 0.11 mm); without the front lines max 3.90 mm."""
+    images, cams, exp, X = _random_scene_frame(tmp_path, 1068)
+    assert exp.reconstruction.front_line_contrast > 0  # the default
+    e = _errors(reconstruct_frame(images, cams, exp, frame=0, fit=False).points_mm, X)
+    assert e["mean"] <= 0.5 and e["max"] <= 2.0 and e["base"] <= 2.0 and e["tip"] <= 2.0, e
+    off = _errors(reconstruct_frame(images, cams, _experiment(exp, front_line_contrast=0.0), frame=0,
+                                    fit=False).points_mm, X)
+    assert off["max"] >= 3.0, off
+
+
+def _leaf_view(line: bool):
+    """A 200 x 160 px view: a mottled leaf (an ellipse), a tendril coming from the board's top, crossing in front of
+    the leaf (lighter than it in green and red) when ``line``; its ``(image, ViewEvidence, SkeletonEvidence)``."""
+    from tendrilkit.camera import Camera
+
+    rng = np.random.default_rng(5)
+    img = np.empty((160, 200, 3), np.uint8)
+    img[:] = (222, 228, 231)
+    leaf = np.zeros((160, 200), np.uint8)
+    cv2.ellipse(leaf, (100, 100), (80, 45), 0, 0, 360, 255, -1)
+    mottle = cv2.GaussianBlur(rng.normal(0, 6, (160, 200)), (0, 0), 4) * 3
+    for c, base in enumerate((48, 128, 62)):
+        ch = img[:, :, c].astype(float)
+        ch[leaf > 0] = base + mottle[leaf > 0]
+        img[:, :, c] = np.clip(ch, 0, 255).astype(np.uint8)
+    if line:
+        cv2.line(img, (60, 0), (140, 159), (45, 140, 105), 6, cv2.LINE_AA)
+    else:  # the tendril stops at the leaf's edge
+        cv2.line(img, (60, 0), (82, 44), (45, 140, 105), 6, cv2.LINE_AA)
+    img = cv2.GaussianBlur(img, (0, 0), 0.7)
+    ev = view_evidence(img, roi=[0, 0, 200, 160], keep_out=None, base_point_xy=(60.0, 0.0))
+    cam = Camera(K=np.array([[800.0, 0, 100], [0, 800, 80], [0, 0, 1]]), t_mm=np.array([0.0, 0.0, 300.0]))
+    return img, ev, skeleton_evidence(ev, cam)
+
+
+def test_front_lines_add_the_tendril_across_a_leaf_to_the_skeleton():
+    from tendrilkit.mv_evidence import with_front_lines
+
+    def on_line_in_leaf(xy):  # within 2 px of the line x = 60 + 80 y / 159, inside the leaf
+        d = np.abs(xy[:, 0] - (60 + 80 * xy[:, 1] / 159)) / np.hypot(1, 80 / 159)
+        return (d <= 2.0) & (np.hypot((xy[:, 0] - 100) / 80, (xy[:, 1] - 100) / 45) <= 1.0)
+
+    img, ev, sev = _leaf_view(True)
+    out = with_front_lines(sev, img, contrast=0.09)
+    new = out.skeleton_xy[len(sev.skeleton_xy):]
+    # the line crosses the leaf over y = 57-143 (the leaf's medial axis, not the line, is its skeleton there)
+    assert len(new) >= 40 and on_line_in_leaf(new).all() and np.ptp(new[:, 1]) >= 0.6 * 86
+    xy = new.astype(int) - out.offset_xy
+    # its own half-width (the line is 6 px wide), not the leaf's depth
+    assert np.all(out.inside_px[xy[:, 1], xy[:, 0]] <= 6.0) and np.median(sev.inside_px[xy[:, 1], xy[:, 0]]) >= 10
+    assert np.array_equal(out.foreground, sev.foreground) and np.array_equal(out.skeleton_xy[:len(sev.skeleton_xy)],
+                                                                              sev.skeleton_xy)
+    assert with_front_lines(sev, img, contrast=0.0) is sev
+
+
+def test_no_front_line_on_a_mottled_leaf_alone():
+    from tendrilkit.mv_evidence import with_front_lines
+
+    img, ev, sev = _leaf_view(False)
+    out = with_front_lines(sev, img, contrast=0.09)
+    assert len(out.skeleton_xy) == len(sev.skeleton_xy)

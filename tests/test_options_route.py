@@ -41,7 +41,8 @@ NON_DEFAULT = {
                  "overrides": [{"frame": 0, "view": 1, "junction": 0, "branch": 1}]},
     "correspondence": {"method": "epipolar", "max_distance_px": 5.5, "depth_smoothing": 7.0},
     "triangulation": {"refine": False, "to_curves": False, "base_from_marks": False},
-    "reconstruction": {"method": "chain", "chunk_frames": 3, "segment_mm": 2.0, "choice_candidates": 1},
+    "reconstruction": {"method": "chain", "chunk_frames": 3, "segment_mm": 2.0, "choice_candidates": 1,
+                       "front_line_contrast": 0.15},
     "smoothing": {"length_mm": 12.0},
     "fit": {"selection": "fixed", "criterion": "r2", "target_r2": 0.99, "penalty_kappa": 0.02, "penalty_tau": 0.03,
             "score": "l1", "max_segments": 4, "refine": False},
@@ -143,10 +144,12 @@ def test_the_multiview_pipeline_passes_its_options(monkeypatch):
     from tendrilkit.camera import Camera
 
     exp = _experiment(**{**NON_DEFAULT, "reconstruction": {"method": "multiview", "segment_mm": 2.0,
-                                                                           "choice_candidates": 1}})
+                                                                           "choice_candidates": 1,
+                                                                           "front_line_contrast": 0.15}})
     calls: dict = {}
     monkeypatch.setattr(tendrilkit.evidence, "view_evidence", _record(calls, "segmentation", object()))
     monkeypatch.setattr(tendrilkit.mv_evidence, "skeleton_evidence", _record(calls, "evidence", object()))
+    monkeypatch.setattr(tendrilkit.mv_evidence, "with_front_lines", _record(calls, "front", object()))
     monkeypatch.setattr(tendrilkit.multiview, "base_point_from_marks", _record(calls, "base", np.zeros(3)))
     monkeypatch.setattr(tendrilkit.multiview, "reconstruct_multiview", _record(calls, "multiview", stop=True))
     cams = [Camera(K=np.eye(3), t_mm=np.zeros(3)) for _ in range(2)]
@@ -154,6 +157,7 @@ def test_the_multiview_pipeline_passes_its_options(monkeypatch):
         pipeline.reconstruct_frame([np.zeros((4, 4, 3), np.uint8)] * 2, cams, exp, frame=0)
     assert calls["multiview"]["segment_mm"] == 2.0
     assert calls["multiview"]["choice_candidates"] == 1
+    assert calls["front"]["contrast"] == 0.15
     for key, value in stage_options(exp, "segmentation").items():
         assert calls["segmentation"][key] == value
 
