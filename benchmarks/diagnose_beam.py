@@ -153,11 +153,11 @@ def cached_frames(out: Path, start: int, stop: int, cache: str = "evidence-cache
     from tendrilkit.params import load_experiment
     from tendrilkit.phantom import read_ground_truth
 
-    from rerun_multiview import cache_problem, segmentation_options
+    from rerun_multiview import cache_problem, evidence_options
 
     scenes = [d for d in out.glob("*-*") if (d / "result-multiview" / "frames.csv").is_file()]
     if scenes and (out / cache).is_dir():  # evidence made under other options than today's is never read
-        problem = cache_problem(out / cache, segmentation_options(scenes[0] / "scene" / "experiment.yaml",
+        problem = cache_problem(out / cache, evidence_options(scenes[0] / "scene" / "experiment.yaml",
                                                                  cache_sets(cache)))
         if problem:
             raise SystemExit(problem)

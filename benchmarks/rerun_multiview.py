@@ -94,7 +94,7 @@ def parse_sets(items: list[str]) -> dict:
 EVIDENCE_KEYS = ("front_line_contrast",)
 
 
-def segmentation_options(experiment: Path, sets: dict) -> dict:
+def evidence_options(experiment: Path, sets: dict) -> dict:
     """The options the evidence of ``experiment`` is made with, ``sets`` (``--set`` items) applied, today: the
     segmentation's and :data:`EVIDENCE_KEYS` (``reconstruction.KEY``)."""
     from tendrilkit.params import load_experiment, with_overrides
@@ -105,7 +105,7 @@ def segmentation_options(experiment: Path, sets: dict) -> dict:
 
 
 def cache_problem(cache: Path, resolved, *, write: bool = False) -> str | None:
-    """Why the evidence in ``cache`` was not made with the options ``resolved`` (:func:`segmentation_options`), or None.
+    """Why the evidence in ``cache`` was not made with the options ``resolved`` (:func:`evidence_options`), or None.
 
     The folder's name holds the ``--set`` items only: the resolved segmentation options are recorded in it
     (``segmentation.json``, written when ``write`` and missing from a folder without evidence), so that evidence made
@@ -270,7 +270,7 @@ def main(argv: list[str] | None = None) -> int:
             p.error(f"--set: {e}")
     cache = a.out / cache_folder(sets)
     cache.mkdir(exist_ok=True)
-    problem = cache_problem(cache, segmentation_options(scenes[0] / "scene" / "experiment.yaml", sets), write=True)
+    problem = cache_problem(cache, evidence_options(scenes[0] / "scene" / "experiment.yaml", sets), write=True)
     if problem:
         p.error(problem)
     tables = []

@@ -18,7 +18,7 @@ ring search starts past a cell's empty rings (:func:`_empty_rings`), and
 :func:`project_distance` projects world points and reads their distances in
 one compiled call (the acquisition's :func:`tendrilkit.mv_acquire.point_costs`).
 
-Lines in front of wide objects (:func:`with_front_lines`, ``reconstruction.front_line_contrast``): where the
+Lines in front of wide objects (:func:`front_line_pixels`, ``reconstruction.front_line_contrast``): where the
 tendril lies in front of a leaf or the stem, it is one dark blob with the object and the view shows the place
 covered; a line lighter than the object in some colour channel joins the skeleton.
 """
@@ -37,7 +37,7 @@ from tendrilkit.camera import Camera, _project_brown
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
 
-__all__ = ["SkeletonEvidence", "skeleton_evidence", "with_front_lines", "front_line_mask", "skeleton_distance", "project_distance", "mark_near", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
+__all__ = ["SkeletonEvidence", "skeleton_evidence", "front_line_pixels", "front_line_mask", "skeleton_distance", "project_distance", "mark_near", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
 
 #: A place ``COVER_DEPTH_PX`` or more inside a dark region (pixels from the board) and farther than
 #: ``COVER_PX`` from the skeleton is covered in that view (a leaf or the stem in front of or behind the
@@ -156,8 +156,17 @@ class SkeletonEvidence:
         return _empty_rings(start, cell)
 
 
-def skeleton_evidence(ev: ViewEvidence, camera: Camera) -> SkeletonEvidence:
+def skeleton_evidence(ev: ViewEvidence, camera: Camera, *, image_bgr: np.ndarray | None = None,
+                      front_line_contrast: float = 0.0) -> SkeletonEvidence:
     """The multi-view fit's view of :func:`tendrilkit.evidence.view_evidence` (made with ``skeleton=True``).
+
+    With ``image_bgr`` (the view's full image) and ``front_line_contrast`` over 0
+    (``reconstruction.front_line_contrast``), the lines in front of wide dark objects join the skeleton
+    (:func:`front_line_pixels`: a tendril in front of a leaf or the stem, one blob with it in the
+    segmentation): a place on them is seen, on the skeleton, and their depth (``inside_px``, what the
+    width rules read, :func:`tendrilkit.multiview.skeleton_widths`) is their own half-width instead of
+    the object's. The foreground, hence the view's board and the checks (which read
+    :class:`tendrilkit.evidence.ViewEvidence`), are unchanged.
 
     Raises
     ------
@@ -184,12 +193,21 @@ def skeleton_evidence(ev: ViewEvidence, camera: Camera) -> SkeletonEvidence:
     if ev.keep_out is not None:
         kx, ky, kw, kh = (int(v) for v in ev.keep_out)
         seen[max(ky - off[1], 0):max(ky + kh - off[1], 0), max(kx - off[0], 0):max(kx + kw - off[0], 0)] = False
+    inside = ev.inside_px
+    img = None if image_bgr is None else np.asarray(image_bgr)
+    if front_line_contrast > 0 and img is not None and img.ndim == 3:
+        rr, cc, half = front_line_pixels(img[off[1]:off[1] + h, off[0]:off[0] + w], ev.foreground, skel, seen,
+                                         contrast=front_line_contrast)
+        if len(rr):
+            inside = inside.copy()
+            inside[rr, cc] = np.minimum(inside[rr, cc], half)
+            skel[rr, cc] = True
+            xy = np.vstack([xy, np.column_stack([cc + off[0], rr + off[1]]).astype(float)])
     tree = cKDTree(xy)
     centre, tangent = _local_lines(xy, tree)
     return SkeletonEvidence(offset_xy=off, foreground=ev.foreground, skeleton=skel, skeleton_xy=xy, tree=tree,
                             centre_xy=centre, tangent_xy=tangent, near_foreground=_near_foreground(ev.foreground),
-                            seen=seen, inside_px=ev.inside_px,
-                            camera=camera)
+                            seen=seen, inside_px=inside, camera=camera)
 
 
 #: The crop pixels whose 5 x 5 chamfer distance (:attr:`tendrilkit.evidence.ViewEvidence.distance_px`) to the
@@ -521,7 +539,7 @@ FRONT_DISK_PX = 11
 #: ... on the lightness map smoothed by this Gaussian (px): the leaf's mottling and the sensor noise are single
 #: pixels or blobs, a line runs on
 FRONT_SIGMA_PX = 1.0
-#: :func:`with_front_lines`: a front line's skeleton piece (8-connected pixels not on the view's skeleton already)
+#: :func:`front_line_pixels`: a front line's skeleton piece (8-connected pixels not on the view's skeleton already)
 #: shorter than this (px) is left out: the mottling of a leaf leaves short pieces, and where the tendril crosses
 #: itself its lighter core is found in the merged blob beside the skeleton's junction; a tendril crossing a leaf
 #: runs across it
@@ -568,15 +586,15 @@ def front_line_mask(crop_bgr: np.ndarray, foreground: np.ndarray, *, contrast: f
     >>> bool(m[30, 40]), bool(m[20, 40]), bool(m[30, 5])
     (True, False, False)
     """
-    from tendrilkit.segmentation.lines import board_level
+    from tendrilkit.segmentation.lines import _on_box, board_level
 
-    fg = (np.asarray(foreground) > 0).astype(np.uint8)
+    fg = np.where(np.asarray(foreground) > 0, np.uint8(255), np.uint8(0))
     out = np.zeros(fg.shape, bool)
     if crop_bgr.ndim != 3 or crop_bgr.shape[:2] != fg.shape:
         raise ValueError(f"crop_bgr must be a (h, w, 3) image of the foreground's shape {fg.shape}, "
                          f"got {crop_bgr.shape}")
     disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(disk_px) | 1,) * 2)
-    wide = cv2.morphologyEx(fg, cv2.MORPH_OPEN, disk)
+    wide = _on_box(fg, cv2.MORPH_OPEN, disk)  # the light lines' wide objects, the same way
     x, y, w, h = cv2.boundingRect(wide)
     if w == 0:
         return out
@@ -595,69 +613,55 @@ def front_line_mask(crop_bgr: np.ndarray, foreground: np.ndarray, *, contrast: f
     return out
 
 
-def with_front_lines(sev: SkeletonEvidence, image_bgr: np.ndarray, *, contrast: float) -> SkeletonEvidence:
-    """The evidence with the skeletons of lines in front of wide dark objects added (a tendril over a leaf).
+def front_line_pixels(crop_bgr: np.ndarray, foreground: np.ndarray, skeleton: np.ndarray, seen: np.ndarray, *,
+                      contrast: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The skeleton pixels of the lines in front of wide dark objects that ``skeleton`` lacks (a tendril over a leaf).
 
     Where the tendril lies in front of a leaf or the stem the segmentation
     makes one blob of them, and the view shows the place covered: neither
     confirmed nor contradicted, the curve's steps there rest on the views that
     see the tendril elsewhere, and its tip, over a leaf in every view, stops
-    where the leaf begins. :func:`front_line_mask`'s lines are thinned; their
-    pieces of at least :data:`FRONT_MIN_PX` pixels off the skeleton join it (a
-    place on them is seen, on the skeleton), their depth (``inside_px``, what
-    the width rules read, :func:`tendrilkit.multiview.skeleton_widths`) their
-    own half-width instead of the object's. The foreground, hence the view's
-    board and the checks (which read :class:`tendrilkit.evidence.ViewEvidence`),
-    are unchanged. A leaf's midrib is such a line too (at the board, where
-    the other views' projections of a curve above it fall elsewhere).
+    where the leaf begins. :func:`front_line_mask`'s lines where the view sees
+    (``seen``) are thinned; the pieces of at least :data:`FRONT_MIN_PX` pixels
+    off ``skeleton`` are returned. A leaf's midrib is such a line too (at the
+    board, where the other views' projections of a curve above it fall
+    elsewhere). :func:`skeleton_evidence` adds them.
 
     Parameters
     ----------
-    sev : SkeletonEvidence
-    image_bgr : (H, W, 3) uint8 array
-        The view's full image.
+    crop_bgr : (h, w, 3) uint8 array
+        The ROI crop of the view's image.
+    foreground, skeleton, seen : (h, w) bool arrays
+        The view's dark pixels, its thin skeleton, where it sees.
     contrast : float
-        :func:`front_line_mask`'s (``reconstruction.front_line_contrast``); 0: ``sev`` itself.
+        :func:`front_line_mask`'s (``reconstruction.front_line_contrast``).
 
     Returns
     -------
-    SkeletonEvidence
-        A new one, or ``sev`` where no line is found.
+    rows, cols : (k,) int arrays
+        The pixels, on the crop, row by row.
+    half_px : (k,) float32 array
+        Each one's distance to the line's edge (its half-width).
     """
     from tendrilkit.skeleton.thinning import thin
 
-    img = np.asarray(image_bgr)
-    if contrast <= 0 or img.ndim != 3:
-        return sev
-    off = np.asarray(sev.offset_xy, int)
-    h, w = sev.foreground.shape
-    m = front_line_mask(img[off[1]:off[1] + h, off[0]:off[0] + w], sev.foreground, contrast=contrast)
-    m &= sev.seen
+    none = (np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0, np.float32))
+    m = front_line_mask(crop_bgr, foreground, contrast=contrast)
+    m &= seen
     x, y, bw, bh = cv2.boundingRect(m.view(np.uint8))
     if bw == 0:
-        return sev
+        return none
+    h, w = m.shape
     # on the lines' box (grown by a pixel: the distance transform's border), the same pixels as on the crop
     y0, y1, x0, x1 = max(y - 1, 0), min(y + bh + 1, h), max(x - 1, 0), min(x + bw + 1, w)
     mb = np.ascontiguousarray(m[y0:y1, x0:x1])
     # the pieces the skeleton lacks (a lighter core found where the tendril crosses itself lies on its skeleton)
-    fresh = thin(mb) & ~sev.skeleton[y0:y1, x0:x1]
+    fresh = thin(mb) & ~skeleton[y0:y1, x0:x1]
     _, lab, stats, _ = cv2.connectedComponentsWithStats(fresh.view(np.uint8), connectivity=8)
     keep = stats[:, cv2.CC_STAT_AREA] >= FRONT_MIN_PX
     keep[0] = False
-    sk = keep[lab]
-    if not sk.any():
-        return sev
-    rb, cb = np.nonzero(sk)
+    rb, cb = np.nonzero(keep[lab])
+    if len(rb) == 0:
+        return none
     half = cv2.distanceTransform(mb.view(np.uint8), cv2.DIST_L2, 3)[rb, cb]
-    rr, cc = rb + y0, cb + x0
-    inside = sev.inside_px.copy()
-    inside[rr, cc] = np.minimum(inside[rr, cc], half)
-    skel = sev.skeleton.copy()
-    skel[rr, cc] = True
-    new = np.column_stack([cc + off[0], rr + off[1]]).astype(float)
-    xy = np.vstack([sev.skeleton_xy, new])
-    tree = cKDTree(xy)
-    centre, tangent = _local_lines(xy, tree)  # all again: the k-d tree's choice among equally near pixels
-    return SkeletonEvidence(offset_xy=off, foreground=sev.foreground, skeleton=skel, skeleton_xy=xy,
-                            tree=tree, centre_xy=centre, tangent_xy=tangent, near_foreground=sev.near_foreground,
-                            seen=sev.seen, inside_px=inside, camera=sev.camera)
+    return rb + y0, cb + x0, half

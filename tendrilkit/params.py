@@ -313,7 +313,7 @@ class Reconstruction(_Strict):
     line inside a wide dark region (a leaf, the stem), lighter than the region
     around it in some colour channel by at least this fraction of the board's
     level there, is evidence of the tendril in front of that object
-    (:func:`tendrilkit.mv_evidence.with_front_lines`; 0.09; 0: off, the
+    (:func:`tendrilkit.mv_evidence.front_line_pixels`; 0.09; 0: off, the
     default before 2026-12-02).
     """
 

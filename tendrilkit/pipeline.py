@@ -421,7 +421,7 @@ def multiview_evidence(images, cameras: list[Camera], exp, *, read_errors=None) 
         Why a view has no evidence (``view <i>: ...``, 1-based).
     """
     from tendrilkit.evidence import view_evidence
-    from tendrilkit.mv_evidence import skeleton_evidence, with_front_lines
+    from tendrilkit.mv_evidence import skeleton_evidence
 
     V = len(cameras)
     read_errors = list(read_errors) if read_errors is not None else [None] * V
@@ -436,10 +436,8 @@ def multiview_evidence(images, cameras: list[Camera], exp, *, read_errors=None) 
         m = exp.views[v]
         try:
             views[v] = view_evidence(images[v], roi=m.roi, keep_out=m.keep_out, base_point_xy=m.base_point, **seg_opts)
-            evidence[v] = skeleton_evidence(views[v], cameras[v])
-            if exp.reconstruction.front_line_contrast > 0:  # the tendril in front of a leaf or the stem
-                evidence[v] = with_front_lines(evidence[v], images[v],
-                                               contrast=exp.reconstruction.front_line_contrast)
+            evidence[v] = skeleton_evidence(views[v], cameras[v], image_bgr=images[v],  # the lines in front too
+                                            front_line_contrast=exp.reconstruction.front_line_contrast)
         except FrameError as e:
             notes.append(f"view {v + 1}: {type(e).__name__}: {e}")
         except ExperimentError:

@@ -187,7 +187,6 @@ def test_grid_calibration_loop_cut_across_is_not_ok(tmp_path):
     assert ok.mean_mm.max() <= 0.5 and ok.max_mm.max() <= 2.0 and ok.tip_mm.max() <= 2.0, acc
 
 
-@pytest.mark.slow
 def _random_scene_frame(tmp_path, seed: int, frame: int = 0):
     """Random dev scene ``seed`` (6 frames, as bench_generalize writes it), multi-view, calibrated: frame ``frame``'s
     (0 by default) ``(images, cameras, experiment, true curve)``."""
@@ -206,6 +205,7 @@ def _random_scene_frame(tmp_path, seed: int, frame: int = 0):
     return images, cams, exp, read_ground_truth(tmp_path / "scene").curves[frame]
 
 
+@pytest.mark.slow
 def test_leaf_hiding_the_tendril_in_two_views_dev_scene_4(tmp_path):
     """Dev scene 4 (random, seed 4), frame 0: a leaf lies over the tendril in views 1 and 2 for ~10 mm, and a
     second tendril crosses it in every view just before. The covered views leave that part to view 3; the
@@ -502,7 +502,7 @@ def test_an_evidence_cache_of_other_segmentation_options_is_refused(tmp_path):
 
     from tendrilkit.params import Segmentation
 
-    def resolved(front=0.09, **seg):  # as rerun_multiview.segmentation_options resolves an experiment's
+    def resolved(front=0.09, **seg):  # as rerun_multiview.evidence_options resolves an experiment's
         return {**Segmentation(**seg).model_dump(mode="json"), "reconstruction.front_line_contrast": front}
 
     today = resolved()
@@ -824,11 +824,13 @@ def test_tip_extension_goes_on_past_60_mm_while_two_views_see_it():
     assert length <= 20.0 + 60.0 + 1.0 < arc[-1] - 40.0, (length, arc[-1])
 
 
+@pytest.mark.slow
 def test_tip_extended_again_from_the_refined_curve_dev_scene_1075(tmp_path, monkeypatch):
     """Dev scene 1075 (random, seed 1075), frame 3, acquired: the tip's extension runs on the unrefined curve,
     whose tip drifts off the pale tendril until the views stop agreeing, 16 mm short. The refined curve's tip lies on
     the tendril, the views see it going on: extended again from there (``REEXTEND_ROUNDS``) the curve reaches the
-    tip. Measured (2026-12-02): mean 0.43 mm, tip 0.32 mm; without the second extension the tip is 16.5 mm short.
+    tip. Measured (2026-12-02): mean 0.43 mm, max 2.37 mm, tip 0.32 mm; without the second extension the tip is 16.5 mm
+    short.
     (Until 2026-12-02 this test used scene 1068's frame 0, 70 mm short without the second extension on the machine
     it was written on; on others its beam took another path, the extension not needed, and the front lines now
     show that tendril across the leaf.)"""
@@ -837,12 +839,13 @@ def test_tip_extended_again_from_the_refined_curve_dev_scene_1075(tmp_path, monk
     images, cams, exp, X = _random_scene_frame(tmp_path, 1075, frame=3)
     res = reconstruct_frame(images, cams, exp, frame=3, fit=False)
     e = _errors(res.points_mm, X)
-    assert e["tip"] <= 2.0 and e["mean"] <= 1.0, e
+    assert e["tip"] <= 2.0 and e["mean"] <= 0.5 and e["max"] <= 2.5, e
     monkeypatch.setattr(M, "REEXTEND_ROUNDS", 0)
     short = _errors(reconstruct_frame(images, cams, exp, frame=3, fit=False).points_mm, X)
     assert short["tip"] >= 10.0, short
 
 
+@pytest.mark.slow
 def test_tendril_in_front_of_a_leaf_seen_by_its_colour_dev_scene_1068(tmp_path):
     """Dev scene 1068, frame 0: a brown tendril crosses in front of a leaf; in the blue channel the
     segmentation reads it is as dark as the leaf, one blob with it, and the views showed that stretch covered:
@@ -860,7 +863,7 @@ def test_tendril_in_front_of_a_leaf_seen_by_its_colour_dev_scene_1068(tmp_path):
 
 def _leaf_view(line: bool):
     """A 200 x 160 px view: a mottled leaf (an ellipse), a tendril coming from the board's top, crossing in front of
-    the leaf (lighter than it in green and red) when ``line``; its ``(image, ViewEvidence, SkeletonEvidence)``."""
+    the leaf (lighter than it in green and red) when ``line``; its ``(image, ViewEvidence, camera)``."""
     from tendrilkit.camera import Camera
 
     rng = np.random.default_rng(5)
@@ -880,18 +883,17 @@ def _leaf_view(line: bool):
     img = cv2.GaussianBlur(img, (0, 0), 0.7)
     ev = view_evidence(img, roi=[0, 0, 200, 160], keep_out=None, base_point_xy=(60.0, 0.0))
     cam = Camera(K=np.array([[800.0, 0, 100], [0, 800, 80], [0, 0, 1]]), t_mm=np.array([0.0, 0.0, 300.0]))
-    return img, ev, skeleton_evidence(ev, cam)
+    return img, ev, cam
 
 
 def test_front_lines_add_the_tendril_across_a_leaf_to_the_skeleton():
-    from tendrilkit.mv_evidence import with_front_lines
-
     def on_line_in_leaf(xy):  # within 2 px of the line x = 60 + 80 y / 159, inside the leaf
         d = np.abs(xy[:, 0] - (60 + 80 * xy[:, 1] / 159)) / np.hypot(1, 80 / 159)
         return (d <= 2.0) & (np.hypot((xy[:, 0] - 100) / 80, (xy[:, 1] - 100) / 45) <= 1.0)
 
-    img, ev, sev = _leaf_view(True)
-    out = with_front_lines(sev, img, contrast=0.09)
+    img, ev, cam = _leaf_view(True)
+    sev = skeleton_evidence(ev, cam)
+    out = skeleton_evidence(ev, cam, image_bgr=img, front_line_contrast=0.09)
     new = out.skeleton_xy[len(sev.skeleton_xy):]
     # the line crosses the leaf over y = 57-143 (the leaf's medial axis, not the line, is its skeleton there)
     assert len(new) >= 40 and on_line_in_leaf(new).all() and np.ptp(new[:, 1]) >= 0.6 * 86
@@ -900,12 +902,12 @@ def test_front_lines_add_the_tendril_across_a_leaf_to_the_skeleton():
     assert np.all(out.inside_px[xy[:, 1], xy[:, 0]] <= 6.0) and np.median(sev.inside_px[xy[:, 1], xy[:, 0]]) >= 10
     assert np.array_equal(out.foreground, sev.foreground) and np.array_equal(out.skeleton_xy[:len(sev.skeleton_xy)],
                                                                               sev.skeleton_xy)
-    assert with_front_lines(sev, img, contrast=0.0) is sev
+    off = skeleton_evidence(ev, cam, image_bgr=img, front_line_contrast=0.0)  # 0: the evidence without them
+    assert np.array_equal(off.skeleton_xy, sev.skeleton_xy) and off.inside_px is ev.inside_px
 
 
 def test_no_front_line_on_a_mottled_leaf_alone():
-    from tendrilkit.mv_evidence import with_front_lines
-
-    img, ev, sev = _leaf_view(False)
-    out = with_front_lines(sev, img, contrast=0.09)
+    img, ev, cam = _leaf_view(False)
+    sev = skeleton_evidence(ev, cam)
+    out = skeleton_evidence(ev, cam, image_bgr=img, front_line_contrast=0.09)
     assert len(out.skeleton_xy) == len(sev.skeleton_xy)

@@ -149,7 +149,6 @@ def test_the_multiview_pipeline_passes_its_options(monkeypatch):
     calls: dict = {}
     monkeypatch.setattr(tendrilkit.evidence, "view_evidence", _record(calls, "segmentation", object()))
     monkeypatch.setattr(tendrilkit.mv_evidence, "skeleton_evidence", _record(calls, "evidence", object()))
-    monkeypatch.setattr(tendrilkit.mv_evidence, "with_front_lines", _record(calls, "front", object()))
     monkeypatch.setattr(tendrilkit.multiview, "base_point_from_marks", _record(calls, "base", np.zeros(3)))
     monkeypatch.setattr(tendrilkit.multiview, "reconstruct_multiview", _record(calls, "multiview", stop=True))
     cams = [Camera(K=np.eye(3), t_mm=np.zeros(3)) for _ in range(2)]
@@ -157,7 +156,7 @@ def test_the_multiview_pipeline_passes_its_options(monkeypatch):
         pipeline.reconstruct_frame([np.zeros((4, 4, 3), np.uint8)] * 2, cams, exp, frame=0)
     assert calls["multiview"]["segment_mm"] == 2.0
     assert calls["multiview"]["choice_candidates"] == 1
-    assert calls["front"]["contrast"] == 0.15
+    assert calls["evidence"]["front_line_contrast"] == 0.15
     for key, value in stage_options(exp, "segmentation").items():
         assert calls["segmentation"][key] == value
 
