@@ -544,6 +544,10 @@ FRONT_SIGMA_PX = 1.0
 #: itself its lighter core is found in the merged blob beside the skeleton's junction; a tendril crossing a leaf
 #: runs across it
 FRONT_MIN_PX = 15
+#: ... but a piece that starts at an end of the skeleton (within 2 px) needs only this many (px): the tip of a tendril
+#: resting on a leaf, a few pixels into it, continues the tendril's own line where its skeleton stops at the leaf's
+#: rim (a piece beside a crossing's junction does not start at an end)
+FRONT_END_MIN_PX = 5
 
 
 def front_line_mask(crop_bgr: np.ndarray, foreground: np.ndarray, *, contrast: float, sigma_px: float = FRONT_SIGMA_PX,
@@ -623,7 +627,9 @@ def front_line_pixels(crop_bgr: np.ndarray, foreground: np.ndarray, skeleton: np
     see the tendril elsewhere, and its tip, over a leaf in every view, stops
     where the leaf begins. :func:`front_line_mask`'s lines where the view sees
     (``seen``) are thinned; the pieces of at least :data:`FRONT_MIN_PX` pixels
-    off ``skeleton`` are returned. A leaf's midrib is such a line too (at the
+    off ``skeleton`` are returned, and the shorter ones of at least
+    :data:`FRONT_END_MIN_PX` that start at an end of ``skeleton`` (a tip a few
+    pixels into the leaf it rests on). A leaf's midrib is such a line too (at the
     board, where the other views' projections of a curve above it fall
     elsewhere). :func:`skeleton_evidence` adds them.
 
@@ -658,10 +664,29 @@ def front_line_pixels(crop_bgr: np.ndarray, foreground: np.ndarray, skeleton: np
     # the pieces the skeleton lacks (a lighter core found where the tendril crosses itself lies on its skeleton)
     fresh = thin(mb) & ~skeleton[y0:y1, x0:x1]
     _, lab, stats, _ = cv2.connectedComponentsWithStats(fresh.view(np.uint8), connectivity=8)
-    keep = stats[:, cv2.CC_STAT_AREA] >= FRONT_MIN_PX
+    area = stats[:, cv2.CC_STAT_AREA]
+    keep = area >= FRONT_MIN_PX
+    short = (area >= FRONT_END_MIN_PX) & ~keep
+    short[0] = False
+    if short.any():  # the short pieces that start at an end of the skeleton
+        keep[np.unique(lab[_near_skeleton_ends(skeleton, y0, y1, x0, x1) & short[lab]])] = True
     keep[0] = False
     rb, cb = np.nonzero(keep[lab])
     if len(rb) == 0:
         return none
     half = cv2.distanceTransform(mb.view(np.uint8), cv2.DIST_L2, 3)[rb, cb]
     return rb + y0, cb + x0, half
+
+
+def _near_skeleton_ends(skeleton: np.ndarray, y0: int, y1: int, x0: int, x1: int, reach_px: int = 2) -> np.ndarray:
+    """(y1 - y0, x1 - x0) bool: the pixels of the box within ``reach_px`` (chessboard) of an end of ``skeleton``
+    (a skeleton pixel with one 8-neighbour), the ends just outside the box included."""
+    h, w = skeleton.shape
+    m = reach_px + 1  # an end's neighbour count needs the pixel beyond it
+    Y0, Y1, X0, X1 = max(y0 - m, 0), min(y1 + m, h), max(x0 - m, 0), min(x1 + m, w)
+    sk = np.ascontiguousarray(skeleton[Y0:Y1, X0:X1]).view(np.uint8)
+    n = cv2.filter2D(sk, -1, np.ones((3, 3), np.float32), borderType=cv2.BORDER_CONSTANT)
+    ends = ((sk == 1) & (n == 2)).view(np.uint8)
+    k = 2 * reach_px + 1
+    near = cv2.dilate(ends, np.ones((k, k), np.uint8)).view(bool)
+    return near[y0 - Y0:y1 - Y0, x0 - X0:x1 - X0]
