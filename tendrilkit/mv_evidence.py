@@ -37,7 +37,7 @@ from tendrilkit.camera import Camera, _project_brown
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
 
-__all__ = ["SkeletonEvidence", "skeleton_evidence", "front_line_pixels", "front_line_mask", "skeleton_distance", "project_distance", "mark_near", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
+__all__ = ["SkeletonEvidence", "skeleton_evidence", "front_line_pixels", "front_line_mask", "skeleton_distance", "project_distance", "mark_near", "mark_near_rows", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
 
 #: A place ``COVER_DEPTH_PX`` or more inside a dark region (pixels from the board) and farther than
 #: ``COVER_PX`` from the skeleton is covered in that view (a leaf or the stem in front of or behind the
@@ -509,27 +509,49 @@ def mark_near(ev: SkeletonEvidence, marked: np.ndarray, points_xy: np.ndarray, r
                items, cell, float(radius_px), marked)
 
 
+def mark_near_rows(ev: SkeletonEvidence, marked: np.ndarray, rows: np.ndarray, points_xy: np.ndarray,
+                   radius_px: float) -> None:
+    """:func:`mark_near` of several curves at once: ``marked`` (c, k) bool, one row per curve, and ``rows`` (n,)
+    int, the row of each of ``points_xy`` (n, 2): each row gets the skeleton pixels near its own points (in
+    place; the same pixels as ``mark_near(ev, marked[r], points_xy[rows == r], radius_px)`` per row, in one
+    compiled call)."""
+    start, items, cell = ev._grid
+    _mark_near_rows(np.asarray(points_xy, float).reshape(-1, 2), np.asarray(rows, np.int64), ev.skeleton_xy,
+                    ev.offset_xy.astype(float), start, items, cell, float(radius_px), marked)
+
+
 @njit(cache=True)
 def _mark_near(p, xy, off, start, items, cell, radius, marked):
+    for i in range(len(p)):
+        _mark_point(p[i, 0], p[i, 1], xy, off, start, items, cell, radius, marked)
+
+
+@njit(cache=True)
+def _mark_near_rows(p, rows, xy, off, start, items, cell, radius, marked):
+    for i in range(len(p)):
+        _mark_point(p[i, 0], p[i, 1], xy, off, start, items, cell, radius, marked[rows[i]])
+
+
+@njit(cache=True)
+def _mark_point(qx, qy, xy, off, start, items, cell, radius, marked):
+    """:func:`_mark_near` of one point ``(qx, qy)`` (NaN: nothing marked)."""
+    if not (np.isfinite(qx) and np.isfinite(qy)):
+        return
     S, rows, cols = cell[0], cell[1], cell[2]
     r2 = radius ** 2.0
-    for i in range(len(p)):
-        qx, qy = p[i, 0], p[i, 1]
-        if not (np.isfinite(qx) and np.isfinite(qy)):
-            continue
-        x0 = max(int(np.floor((qx - off[0] - radius) / S)) - 1, 0)
-        x1 = min(int(np.floor((qx - off[0] + radius) / S)) + 1, cols - 1)
-        y0 = max(int(np.floor((qy - off[1] - radius) / S)) - 1, 0)
-        y1 = min(int(np.floor((qy - off[1] + radius) / S)) + 1, rows - 1)
-        for yy in range(y0, y1 + 1):
-            for xx in range(x0, x1 + 1):
-                k = yy * cols + xx
-                for m in range(start[k], start[k + 1]):
-                    j = items[m]
-                    dx = qx - xy[j, 0]
-                    dy = qy - xy[j, 1]
-                    if dx * dx + dy * dy <= r2:
-                        marked[j] = True
+    x0 = max(int(np.floor((qx - off[0] - radius) / S)) - 1, 0)
+    x1 = min(int(np.floor((qx - off[0] + radius) / S)) + 1, cols - 1)
+    y0 = max(int(np.floor((qy - off[1] - radius) / S)) - 1, 0)
+    y1 = min(int(np.floor((qy - off[1] + radius) / S)) + 1, rows - 1)
+    for yy in range(y0, y1 + 1):
+        for xx in range(x0, x1 + 1):
+            k = yy * cols + xx
+            for m in range(start[k], start[k + 1]):
+                j = items[m]
+                dx = qx - xy[j, 0]
+                dy = qy - xy[j, 1]
+                if dx * dx + dy * dy <= r2:
+                    marked[j] = True
 
 
 
