@@ -208,7 +208,7 @@ from numba import njit
 
 from tendrilkit.camera import _project_brown
 from tendrilkit.geometry import resample_polyline
-from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, mark_near_rows, project_distance, skeleton_distance
+from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, mark_near_rows, project_costs, skeleton_distance
 
 __all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap", "light_band"]
 
@@ -283,9 +283,8 @@ def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: f
     bg = np.empty((len(evidence), len(P)), bool)
     cov = np.empty((len(evidence), len(P)), bool)
     for v, ev in enumerate(evidence):
-        dv, _, sv, near[v], bg[v], cov[v] = project_distance(ev, P, outside_px=cap_px)
-        d[v] = np.minimum(dv, cap_px)
-        seen[v] = sv & ~cov[v]  # a leaf or the stem covers the place in this view: the other views decide
+        # seen and not covered: a leaf or the stem covers the place in this view, the other views decide
+        project_costs(ev, P, float(cap_px), d[v], seen[v], near[v], bg[v], cov[v])
     return (d, seen) + ((near, bg) if nearest else ()) + ((cov,) if covered else ())
 
 

@@ -788,3 +788,46 @@ def test_apart_is_the_af99752_loop():
             tried.append(here)
             want.append(i)
         assert _apart(H, 1.5, most).tolist() == want
+
+
+def _point_costs_af99752(evidence, P_mm, *, cap_px=10.0, nearest=False, covered=False):
+    """mv_acquire.point_costs as it was at af99752 (project_distance, then numpy), copied unchanged."""
+    from tendrilkit.mv_evidence import project_distance
+
+    P = np.asarray(P_mm, float).reshape(-1, 3)
+    d = np.empty((len(evidence), len(P)))
+    seen = np.empty((len(evidence), len(P)), bool)
+    near = np.empty((len(evidence), len(P)), int)
+    bg = np.empty((len(evidence), len(P)), bool)
+    cov = np.empty((len(evidence), len(P)), bool)
+    for v, ev in enumerate(evidence):
+        dv, _, sv, near[v], bg[v], cov[v] = project_distance(ev, P, outside_px=cap_px)
+        d[v] = np.minimum(dv, cap_px)
+        seen[v] = sv & ~cov[v]
+    return (d, seen) + ((near, bg) if nearest else ()) + ((cov,) if covered else ())
+
+
+@pytest.mark.parametrize("which", ["ev", "ev_blob"])
+def test_point_costs_is_the_af99752_numpy(which, request):
+    """point_costs through project_costs (the arrays it reads, written in place): the old function's arrays, bit for
+    bit, with ties (the k-d tree's path), points off the crop, NaN, behind the camera; a camera with OpenCV's
+    8 coefficients (the general path)."""
+    from dataclasses import replace
+
+    from tendrilkit.mv_acquire import point_costs
+
+    ev = request.getfixturevalue(which)
+    rng = np.random.default_rng(25)
+    plain = replace(ev, camera=Camera(K=np.eye(3)))
+    xy = np.concatenate([_points(ev, rng, 300, s) for s in (0.3, 3.0, 40.0)] + [ev.skeleton_xy[:50] + 0.5])
+    P = np.c_[xy, np.ones(len(xy))]
+    Q = np.c_[rng.uniform(-0.3, 0.3, (500, 2)), rng.uniform(0.5, 2.0, 500)]
+    Q[:3] = [np.nan, 0.0, 1.0], [0.0, 0.0, 0.0], [0.1, 0.1, -1.0]  # NaN, at the camera, behind it
+    long = replace(ev, camera=Camera(K=ev.camera.K, dist=np.r_[ev.camera.dist[:5], 1e-3, 0.0, 0.0]))
+    for evs, pts in (([plain], P[50:]), ([plain, ev], P), ([ev, long, ev], Q)):
+        for cap in (2.5, 10.0):
+            want = _point_costs_af99752(evs, pts, cap_px=cap, nearest=True, covered=True)
+            got = point_costs(evs, pts, cap_px=cap, nearest=True, covered=True)
+            for a, b, name in zip(got, want, ["d", "seen", "nearest", "background", "covered"]):
+                assert a.tobytes() == b.tobytes() and a.dtype == b.dtype, name
+            assert want[1].any() and not want[1].all()
