@@ -208,7 +208,7 @@ from numba import njit
 
 from tendrilkit.camera import _project_brown
 from tendrilkit.geometry import resample_polyline
-from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, project_distance, skeleton_distance
+from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, mark_near_rows, project_costs, skeleton_distance
 
 __all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap", "light_band"]
 
@@ -283,9 +283,8 @@ def point_costs(evidence: list[SkeletonEvidence], P_mm: np.ndarray, *, cap_px: f
     bg = np.empty((len(evidence), len(P)), bool)
     cov = np.empty((len(evidence), len(P)), bool)
     for v, ev in enumerate(evidence):
-        dv, _, sv, near[v], bg[v], cov[v] = project_distance(ev, P, outside_px=cap_px)
-        d[v] = np.minimum(dv, cap_px)
-        seen[v] = sv & ~cov[v]  # a leaf or the stem covers the place in this view: the other views decide
+        # seen and not covered: a leaf or the stem covers the place in this view, the other views decide
+        project_costs(ev, P, float(cap_px), d[v], seen[v], near[v], bg[v], cov[v])
     return (d, seen) + ((near, bg) if nearest else ()) + ((cov,) if covered else ())
 
 
@@ -452,6 +451,46 @@ def _nearest_distance(P, Q):
     return out
 
 
+def _nodes_but_last(hyps: list, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The nodes of every hypothesis but its last ``k`` (those with more than ``k + 1`` nodes; none of the others),
+    stacked (m, 3), and where each hypothesis's begin in the stack (len(hyps) + 1,)."""
+    old = [h[0][:-k] if len(h[0]) > k + 1 else h[0][:0] for h in hyps]
+    start = np.zeros(len(old) + 1, np.int64)
+    start[1:] = np.cumsum([len(o) for o in old])
+    return np.concatenate(old) if old else np.zeros((0, 3)), start
+
+
+@njit(cache=True)
+def _self_near(pts, width, old, start):
+    """(n,) bool: each candidate ``pts`` (n, 3) lies within 1.2 mm of its hypothesis's nodes ``old[start[h]:start[h +
+    1]]`` (the candidates of hypothesis ``h`` are the rows ``h * width`` to ``(h + 1) * width``; none without nodes):
+    :func:`_nearest_distance`, per hypothesis."""
+    out = np.zeros(len(pts), np.bool_)
+    for h in range(len(start) - 1):
+        if start[h + 1] > start[h]:
+            dd = _nearest_distance(pts[h * width:(h + 1) * width], old[start[h]:start[h + 1]])
+            for i in range(len(dd)):
+                out[h * width + i] = dd[i] < 1.2
+    return out
+
+
+@njit(cache=True)
+def _per_parent(idx, own, n_parents, per_parent, beam):
+    """The rows ``idx`` (best first) kept while their parent ``own[i]`` has fewer than ``per_parent`` kept, up to
+    ``beam`` rows, in order."""
+    count = np.zeros(n_parents, np.int64)
+    out = np.empty(min(len(idx), beam), np.int64)
+    k = 0
+    for i in idx:
+        if k == beam:
+            break
+        if count[own[i]] < per_parent:
+            out[k] = i
+            k += 1
+            count[own[i]] += 1
+    return out[:k]
+
+
 def _sphere(n: int) -> np.ndarray:
     i = np.arange(n) + 0.5
     phi = np.arccos(1 - 2 * i / n)
@@ -505,20 +544,51 @@ def _one_per_cell_and_way(P_mm: np.ndarray, dirs: np.ndarray, cell_mm: float) ->
     cell = np.floor(np.asarray(P_mm, float) / cell_mm).astype(np.int64)
     if len(cell) == 0:
         return np.zeros(0, int)
-    # the cells as one integer each (the same groups, the same first rows as the rows' np.unique(axis=0),
-    # several times faster on a beam's few hundred rows; what is kept does not depend on the groups' order)
-    low = cell.min(axis=0)
-    span = cell.max(axis=0) - low + 1
-    if np.all(np.isfinite(P_mm)) and float(span[0]) * float(span[1]) * float(span[2]) < 2.0 ** 62:
-        c = cell - low
-        _, first, inv = np.unique((c[:, 0] * span[1] + c[:, 1]) * span[2] + c[:, 2], return_index=True,
-                                  return_inverse=True)
-    else:
-        _, first, inv = np.unique(cell, axis=0, return_index=True, return_inverse=True)
-    inv = inv.ravel()
-    against = np.flatnonzero(np.einsum("ij,ij->i", dirs, dirs[first[inv]]) < 0.0)
-    _, second = np.unique(inv[against], return_index=True)
-    return np.sort(np.r_[first, against[second]])
+    # per row the first row of its cell (compiled: a hash of the cells, in one pass over the rows; the same groups
+    # as the rows' np.unique(axis=0)), then the rows heading against it (numpy's products, as before)
+    lead = _cell_leads(cell)
+    against = np.einsum("ij,ij->i", dirs, dirs[lead]) < 0.0
+    return _first_against(lead, against)
+
+
+@njit(cache=True)
+def _cell_leads(cell):
+    """(n,) int: per row of ``cell`` (n, 3) int, the first row with the same three integers (itself if none before)."""
+    n = len(cell)
+    size = 1
+    while size < 2 * n:
+        size *= 2
+    table = np.full(size, -1, np.int64)  # open addressing: a row per used slot
+    lead = np.empty(n, np.int64)
+    for i in range(n):
+        a, b, c = cell[i, 0], cell[i, 1], cell[i, 2]
+        k = ((a * 73856093) ^ (b * 19349663) ^ (c * 83492791)) & (size - 1)
+        while True:
+            j = table[k]
+            if j < 0:
+                table[k] = i
+                lead[i] = i
+                break
+            if cell[j, 0] == a and cell[j, 1] == b and cell[j, 2] == c:
+                lead[i] = j
+                break
+            k = (k + 1) & (size - 1)
+    return lead
+
+
+@njit(cache=True)
+def _first_against(lead, against):
+    """Increasing rows: each cell's first row (``lead[i] == i``) and its first row ``against`` it."""
+    n = len(lead)
+    taken = np.zeros(n, np.bool_)  # per first row: its cell's row against it found
+    keep = np.zeros(n, np.bool_)
+    for i in range(n):
+        if lead[i] == i:
+            keep[i] = True
+        elif against[i] and not taken[lead[i]]:
+            taken[lead[i]] = True
+            keep[i] = True
+    return np.flatnonzero(keep)
 
 
 def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm: float = 2.0, beam: int = 8,
@@ -566,9 +636,11 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     if len(seeds) == 0:
         none_ = np.vstack([B, B])  # nothing any two views agree on
         return none_ if candidates <= 1 else [(none_, 0.0)]
-    # a hypothesis: (nodes (m, 3), score, unconfirmed tail, last direction, claims, blind tail)
-    none = [np.zeros(len(ev.skeleton_xy), bool) for ev in evidence]
-    hyps = [(B[None], 0.0, 0, d, none, 0) for d in seeds]
+    # a hypothesis: (nodes (m, 3), score, unconfirmed tail, last direction, its row of claims, blind tail); claims:
+    # per view, the skeleton pixels each hypothesis explains (a row per hypothesis, a column per pixel)
+    hyps = [(B[None], 0.0, 0, d, h, 0) for h, d in enumerate(seeds)]
+    claims = [np.zeros((len(seeds), len(ev.skeleton_xy)), bool) for ev in evidence]
+    f_claim = np.linspace(0, 1, 5)[:, None]
     finished: list[tuple[np.ndarray, float, int]] = []
     look = np.array([2.0, 3.0, 4.0])
     cone = _local_cone(cone_deg, 3)
@@ -590,13 +662,9 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         vis = (n_end >= 2) & (n_mid >= 2)
         # new evidence: on a view's skeleton at a pixel this hypothesis has not explained already
         claimed = np.zeros((len(evidence), N), bool)
-        width = len(local)  # each hypothesis's candidates: one block of ``own``
         for v in range(len(evidence)):
             i = near[v, :N]
-            at = np.maximum(i, 0)
-            for h, hyp in enumerate(hyps):
-                claimed[v, h * width:(h + 1) * width] = hyp[4][v][at[h * width:(h + 1) * width]]
-            claimed[v] &= i >= 0
+            claimed[v] = claims[v][own, np.maximum(i, 0)] & (i >= 0)
         new = seen[:, :N] & (d[:, :N] <= ON_PX) & ~claimed & advance(evidence, tips_h[own], pts)
         contradicted = bg[:, :N].any(axis=0) | bg[:, N:].any(axis=0)
         confirmed = vis & (new.sum(axis=0) >= 2) & ~contradicted
@@ -607,18 +675,12 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             da, sa = point_costs(evidence, ahead.reshape(-1, 3))
             ma, na = _mean_seen(da, sa)
             cost[blind] = 0.5 * (NEUTRAL_PX + np.where(na >= 2, ma, NEUTRAL_PX).reshape(-1, len(look)).mean(axis=1))
-        self_near = np.zeros(N, bool) if _TRACE is not None else None  # the trace's only
         if not first:  # bending
             turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1)))
             cost = cost + TURN_PX * (turn / cone_deg) ** 2
-        for h, hyp in enumerate(hyps):  # self-avoidance
-            if len(hyp[0]) > 6:
-                old = hyp[0][:-5]
-                sel = slice(h * len(local), (h + 1) * len(local))
-                dd = _nearest_distance(pts[sel], old)
-                cost[sel] += np.where(dd < 1.2, 5.0, 0.0)
-                if _TRACE is not None:
-                    self_near[sel] = dd < 1.2
+        # self-avoidance: a candidate within 1.2 mm of its hypothesis's nodes but the last five
+        self_near = _self_near(pts, len(local), *_nodes_but_last(hyps, 5))
+        cost += np.where(self_near, 5.0, 0.0)
         tail = np.where(confirmed, 0, np.array([h[2] for h in hyps])[own] + 1)
         # steps no two views see (keep-out box, occlusion): at most max_unseen_steps in a row; steps the views
         # see on pixels the curve explained already (passes over each other in two views): three times more
@@ -634,36 +696,23 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         # diversity: per cell of 1.5 steps the best hypothesis and the best heading against it, at most two
         # children per parent, so that the branches of a crossing both stay in the beam
         idx = diverse = idx[_one_per_cell_and_way(pts[idx], dirs[idx], 1.5 * step_mm)]
-        kept, per_parent = [], np.zeros(len(hyps), int)
-        for i in idx:
-            if per_parent[own[i]] < 2:
-                kept.append(i)
-                per_parent[own[i]] += 1
-                if len(kept) == beam:
-                    break
-        idx = np.asarray(kept, int)
+        idx = _per_parent(idx, own, len(hyps), 2, beam)
         if _TRACE is not None:
             _TRACE("step", hyps=hyps, own=own, pts=pts, ranked=ranked, diverse=diverse, kept=idx, cost=cost, ok=ok,
                    m_end=m_end, m_mid=m_mid, vis=vis, confirmed=confirmed, contradicted=contradicted,
                    blind_tail=blind_tail, tail=tail, self_near=self_near, dirs=dirs, d=d, seen=seen, bg=bg)
         # claim what each kept hypothesis explained two steps back (all at once: one projection per view)
-        parents = [hyps[own[i]] for i in idx]
+        parents = [hyps[i] for i in own[idx].tolist()]
+        claims = [c[own[idx]] for c in claims]  # each kept candidate starts from its parent's claims
         grown = [k for k, h in enumerate(parents) if len(h[0]) >= 3]
-        claims = [h[4] for h in parents]
         if grown:
-            f = np.linspace(0, 1, 5)[:, None]
+            f = f_claim
             P = np.vstack([parents[k][0][-3] + f * (parents[k][0][-2] - parents[k][0][-3]) for k in grown])
-            new_claims = {k: [] for k in grown}
+            rows = np.repeat(np.asarray(grown, np.int64), len(f))
             for v, ev in enumerate(evidence):
-                u = ev.camera.project(P)
-                for j, k in enumerate(grown):
-                    c = parents[k][4][v].copy()
-                    mark_near(ev, c, u[5 * j:5 * j + 5], 4.0)
-                    new_claims[k].append(c)
-            for k in grown:
-                claims[k] = new_claims[k]
-        hyps = [(np.concatenate([parents[j][0], pts[i][None]]), float(score[i]), int(tail[i]), dirs[i], claims[j],
-                 int(blind_tail[i])) for j, i in enumerate(idx)]
+                mark_near_rows(ev, claims[v], rows, ev.camera.project(P), 4.0)
+        hyps = [(np.concatenate([parents[j][0], pts[i][None]]), float(score[i]), int(tail[i]), dirs[i], j,
+                 int(blind_tail[i])) for j, i in enumerate(idx.tolist())]
         if not hyps:
             break
     finished.extend(h[:3] for h in hyps)
@@ -724,11 +773,37 @@ def light_band(evidence: list[SkeletonEvidence], A_mm: np.ndarray, P_mm: np.ndar
         uA, uP = ev.camera.project(A0), ev.camera.project(P)
         t = uP - uA
         t = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-9)
-        n = np.c_[-t[:, 1], t[:, 0]]
-        sides = [_on_crop_mask(ev.near_foreground, ev.offset_xy,
-                               uP[:, None, :] + sign * k[None, :, None] * n[:, None, :]).any(axis=1)
-                 for sign in (1.0, -1.0)]  # (n, k) samples across the line on either side
-        out[v] = sides[0] & sides[1]
+        # the samples ``k`` px across the line on either side (the normal (-t_y, t_x)), on near_foreground
+        out[v] = _band(uP, t, k, ev.near_foreground, ev.offset_xy.astype(float))
+    return out
+
+
+@njit(cache=True)
+def _band(uP, t, k, mask, off):
+    """(n,) bool: :func:`light_band` of one view from the points ``uP`` (n, 2) and the unit directions ``t`` (n, 2):
+    ``mask`` (:func:`_on_crop_mask`'s nearest pixel) at ``uP + (sign * k) * (-t_y, t_x)`` holds for some ``k`` on
+    both sides (``sign`` 1 and -1); the whole-array expressions it replaced, point by point (bit for bit)."""
+    h, w = mask.shape
+    out = np.zeros(len(uP), np.bool_)
+    for i in range(len(uP)):
+        both = True
+        for sign in (1.0, -1.0):
+            hit = False
+            for j in range(len(k)):
+                s = sign * k[j]
+                qx = uP[i, 0] + s * (-t[i, 1]) - off[0]
+                qy = uP[i, 1] + s * t[i, 0] - off[1]
+                if not (np.isfinite(qx) and np.isfinite(qy)):
+                    continue
+                rx = np.rint(qx)
+                ry = np.rint(qy)
+                if rx >= 0 and ry >= 0 and rx < w and ry < h and mask[int(ry), int(rx)]:
+                    hit = True
+                    break
+            if not hit:
+                both = False
+                break
+        out[i] = both
     return out
 
 
@@ -859,17 +934,16 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
     if not len(kk):
         return None
     order = np.lexsort((kk, jj))
+    kk, jj = kk[order], jj[order]
+    # the places refined: in that order, each at least 1.5 steps from those before it, up to MAX_REFINED (computed
+    # at once; the loop below stops early on the nearest gap found, and the places' distances only grow)
+    tried = _apart(tip + r[jj][:, None] * dirs[kk], 1.5 * step_mm, MAX_REFINED)
     best = None  # the nearest gap found so far, mm
     found: list[tuple[float, float, np.ndarray]] = []  # (gap, mean distance to the skeletons, place)
-    tried: list[np.ndarray] = []
-    for k, j in zip(kk[order], jj[order]):
-        if len(tried) == MAX_REFINED or (best is not None and r[j] - 2 * step_mm > best):
+    for k, j in zip(kk[tried].tolist(), jj[tried].tolist()):
+        if best is not None and r[j] - 2 * step_mm > best:
             break
         centre = dirs[k]
-        here = tip + r[j] * centre
-        if tried and np.linalg.norm(np.asarray(tried) - here, axis=1).min() < 1.5 * step_mm:
-            continue
-        tried.append(here)
         fine_dirs = cone_directions(centre, np.degrees(np.arctan2(2.0 * step_mm, r[j])), 3)
         rr = r[j] + np.arange(-1.0, 1.01, 0.25) * step_mm
         F = (tip + fine_dirs[:, None, :] * rr[None, :, None]).reshape(-1, 3)
@@ -906,6 +980,24 @@ def bridge_gap(evidence: list[SkeletonEvidence], curve_mm: np.ndarray, tangent: 
     # ahead
     near_ones = [f for f in found if f[0] <= best + step_mm]
     return min(near_ones, key=lambda f: (f[1], f[0]))[2]
+
+
+@njit(cache=True)
+def _apart(H, min_mm, most):
+    """Rows of ``H`` (n, 3) taken in order, each unless one taken before lies nearer than ``min_mm`` (the distance of
+    :func:`_nearest_distance`), at most ``most``."""
+    out = np.empty(min(len(H), most), np.int64)
+    taken = np.empty((min(len(H), most), 3))
+    k = 0
+    for i in range(len(H)):
+        if k == most:
+            break
+        if k > 0 and _nearest_distance(H[i:i + 1], taken[:k])[0] < min_mm:
+            continue
+        out[k] = i
+        taken[k] = H[i]
+        k += 1
+    return out[:k]
 
 
 def runs_out(evidence: list[SkeletonEvidence], curves: list[np.ndarray], step_mm: float) -> np.ndarray:

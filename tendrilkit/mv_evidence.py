@@ -37,7 +37,7 @@ from tendrilkit.camera import Camera, _project_brown
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
 
-__all__ = ["SkeletonEvidence", "skeleton_evidence", "front_line_pixels", "front_line_mask", "skeleton_distance", "project_distance", "mark_near", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
+__all__ = ["SkeletonEvidence", "skeleton_evidence", "front_line_pixels", "front_line_mask", "skeleton_distance", "project_distance", "project_costs", "mark_near", "mark_near_rows", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
 
 #: A place ``COVER_DEPTH_PX`` or more inside a dark region (pixels from the board) and farther than
 #: ``COVER_PX`` from the skeleton is covered in that view (a leaf or the stem in front of or behind the
@@ -336,6 +336,49 @@ def _project_distance(Xc, K, dist, distort, xy, off, start, items, cell, reach, 
     return True, d, g, seen, nearest, background, covered, p, ok, idx, tie
 
 
+def project_costs(ev: SkeletonEvidence, points_mm: np.ndarray, cap_px: float, d: np.ndarray, seen: np.ndarray,
+                  nearest: np.ndarray, background: np.ndarray, covered: np.ndarray) -> None:
+    """:func:`project_distance` as :func:`tendrilkit.mv_acquire.point_costs` reads it, into its rows (in place):
+    ``d`` the distance capped at ``cap_px`` (``np.minimum``), ``seen`` seen and not covered, ``nearest``,
+    ``background``, ``covered``; the same numbers, without the arrays it does not read."""
+    cam = ev.camera
+    X = np.asarray(points_mm, float)
+    if X.ndim == 2 and X.shape[1] == 3 and not (cam.has_distortion and cam.dist.size > 5):
+        start, items, cell = ev._grid
+        if _project_costs(X @ cam.R.T + cam.t_mm, cam.K, cam.dist, cam.has_distortion, ev.skeleton_xy,
+                          ev.offset_xy.astype(float), start, items, cell, ev._grid_reach, float(cap_px), ev.centre_xy,
+                          ev.tangent_xy, ev.seen, ev.near_foreground, ev.inside_px, COVER_DEPTH_PX, COVER_PX, d, seen,
+                          nearest, background, covered):
+            return
+    # OpenCV's longer models, or two skeleton pixels equally near a point (the k-d tree's choice)
+    dv, _, sv, nearest[:], background[:], covered[:] = project_distance(ev, X, outside_px=cap_px)
+    d[:] = np.minimum(dv, cap_px)
+    seen[:] = sv & ~covered
+
+
+@njit(cache=True)
+def _project_costs(Xc, K, dist, distort, xy, off, start, items, cell, reach, outside_px, centre, tangent, seen_px,
+                   near_fg, inside_px, cover_depth_px, cover_px, d_out, seen_out, nearest_out, bg_out, cov_out):
+    """:func:`project_costs` in one compiled call (:func:`_project_distance`'s kernels); False, nothing written,
+    where two skeleton pixels are equally near a point."""
+    p = _project_brown(Xc, K, dist, distort)
+    h, w = seen_px.shape
+    ok = _inside(p, off, h, w)
+    idx, tie = _grid_nearest(p, ok, xy, off, start, items, cell, reach, outside_px)
+    for i in range(len(p)):
+        if tie[i]:
+            return False
+    d, _, seen, nearest, background, covered = _line_distance(p, ok, idx, off, centre, tangent, seen_px, near_fg,
+                                                              inside_px, outside_px, cover_depth_px, cover_px)
+    for i in range(len(p)):
+        d_out[i] = d[i] if (d[i] < outside_px or np.isnan(d[i])) else outside_px  # np.minimum: NaN wins
+        seen_out[i] = seen[i] and not covered[i]
+        nearest_out[i] = nearest[i]
+        bg_out[i] = background[i]
+        cov_out[i] = covered[i]
+    return True
+
+
 @njit(cache=True)
 def _inside(p, off, h, w):
     """(n,) bool: the full-image points ``p`` (n, 2) lie on the crop (NaN: no)."""
@@ -509,27 +552,49 @@ def mark_near(ev: SkeletonEvidence, marked: np.ndarray, points_xy: np.ndarray, r
                items, cell, float(radius_px), marked)
 
 
+def mark_near_rows(ev: SkeletonEvidence, marked: np.ndarray, rows: np.ndarray, points_xy: np.ndarray,
+                   radius_px: float) -> None:
+    """:func:`mark_near` of several curves at once: ``marked`` (c, k) bool, one row per curve, and ``rows`` (n,)
+    int, the row of each of ``points_xy`` (n, 2): each row gets the skeleton pixels near its own points (in
+    place; the same pixels as ``mark_near(ev, marked[r], points_xy[rows == r], radius_px)`` per row, in one
+    compiled call)."""
+    start, items, cell = ev._grid
+    _mark_near_rows(np.asarray(points_xy, float).reshape(-1, 2), np.asarray(rows, np.int64), ev.skeleton_xy,
+                    ev.offset_xy.astype(float), start, items, cell, float(radius_px), marked)
+
+
 @njit(cache=True)
 def _mark_near(p, xy, off, start, items, cell, radius, marked):
+    for i in range(len(p)):
+        _mark_point(p[i, 0], p[i, 1], xy, off, start, items, cell, radius, marked)
+
+
+@njit(cache=True)
+def _mark_near_rows(p, rows, xy, off, start, items, cell, radius, marked):
+    for i in range(len(p)):
+        _mark_point(p[i, 0], p[i, 1], xy, off, start, items, cell, radius, marked[rows[i]])
+
+
+@njit(cache=True)
+def _mark_point(qx, qy, xy, off, start, items, cell, radius, marked):
+    """:func:`_mark_near` of one point ``(qx, qy)`` (NaN: nothing marked)."""
+    if not (np.isfinite(qx) and np.isfinite(qy)):
+        return
     S, rows, cols = cell[0], cell[1], cell[2]
     r2 = radius ** 2.0
-    for i in range(len(p)):
-        qx, qy = p[i, 0], p[i, 1]
-        if not (np.isfinite(qx) and np.isfinite(qy)):
-            continue
-        x0 = max(int(np.floor((qx - off[0] - radius) / S)) - 1, 0)
-        x1 = min(int(np.floor((qx - off[0] + radius) / S)) + 1, cols - 1)
-        y0 = max(int(np.floor((qy - off[1] - radius) / S)) - 1, 0)
-        y1 = min(int(np.floor((qy - off[1] + radius) / S)) + 1, rows - 1)
-        for yy in range(y0, y1 + 1):
-            for xx in range(x0, x1 + 1):
-                k = yy * cols + xx
-                for m in range(start[k], start[k + 1]):
-                    j = items[m]
-                    dx = qx - xy[j, 0]
-                    dy = qy - xy[j, 1]
-                    if dx * dx + dy * dy <= r2:
-                        marked[j] = True
+    x0 = max(int(np.floor((qx - off[0] - radius) / S)) - 1, 0)
+    x1 = min(int(np.floor((qx - off[0] + radius) / S)) + 1, cols - 1)
+    y0 = max(int(np.floor((qy - off[1] - radius) / S)) - 1, 0)
+    y1 = min(int(np.floor((qy - off[1] + radius) / S)) + 1, rows - 1)
+    for yy in range(y0, y1 + 1):
+        for xx in range(x0, x1 + 1):
+            k = yy * cols + xx
+            for m in range(start[k], start[k + 1]):
+                j = items[m]
+                dx = qx - xy[j, 0]
+                dy = qy - xy[j, 1]
+                if dx * dx + dy * dy <= r2:
+                    marked[j] = True
 
 
 

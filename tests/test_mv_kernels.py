@@ -682,3 +682,152 @@ def test_advance_is_the_245f631_numpy(tube_views):
             got = advance(ev, A, B, fraction=fraction)
             np.testing.assert_array_equal(got, want)
             assert want.any() and not want.all()
+
+
+# ---- the acquisition's compiled pieces (mv_acquire.py) against the Python / numpy of af99752 ----
+
+def test_mark_near_rows_is_mark_near_per_row(ev):
+    """Several curves' points marked at once, each on its own row: what ``mark_near`` marks per curve."""
+    from tendrilkit.mv_evidence import mark_near_rows
+
+    rng = np.random.default_rng(21)
+    p = _points(ev, rng, 300, 5.0)
+    rows = rng.integers(0, 4, len(p))
+    got = rng.random((5, len(ev.skeleton_xy))) < 0.1  # rows marked already keep their marks
+    want = got.copy()
+    mark_near_rows(ev, got, rows, p, 4.0)
+    for r in range(5):
+        mark_near(ev, want[r], p[rows == r], 4.0)
+    np.testing.assert_array_equal(got, want)
+    assert not np.array_equal(got[4], got[0])
+
+
+def _light_band_af99752(evidence, A_mm, P_mm, *, reach_px=6.0):
+    """mv_acquire.light_band as it was at af99752 (numpy samples, _on_crop_mask), copied unchanged."""
+    from tendrilkit.mv_acquire import _on_crop_mask
+
+    P = np.asarray(P_mm, float).reshape(-1, 3)
+    A0 = np.asarray(A_mm, float).reshape(-1, 3)
+    k = np.arange(1.0, reach_px + 1e-9)
+    out = np.zeros((len(evidence), len(P)), bool)
+    for v, ev in enumerate(evidence):
+        uA, uP = ev.camera.project(A0), ev.camera.project(P)
+        t = uP - uA
+        t = t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-9)
+        n = np.c_[-t[:, 1], t[:, 0]]
+        sides = [_on_crop_mask(ev.near_foreground, ev.offset_xy,
+                               uP[:, None, :] + sign * k[None, :, None] * n[:, None, :]).any(axis=1)
+                 for sign in (1.0, -1.0)]
+        out[v] = sides[0] & sides[1]
+    return out
+
+
+def test_light_band_is_the_af99752_numpy(tube_views):
+    """Points on, beside and far off the tube (off the crops too, NaN, at the line's start), from one start and
+    from one start per point: the old function's answers."""
+    from tendrilkit.mv_acquire import light_band
+
+    X, evidence = tube_views
+    rng = np.random.default_rng(22)
+    P = X[rng.integers(0, len(X), 600)] + rng.normal(0.0, 1.0, (600, 3)) * rng.choice([0.3, 1.0, 4.0, 40.0], (600, 1))
+    P[0] = np.nan
+    A = P + rng.normal(0.0, 1.0, P.shape)
+    A[1] = P[1]  # no direction
+    for reach in (6.0, 2.0):
+        for a in (X[700], A):
+            want = _light_band_af99752(evidence, a, P, reach_px=reach)
+            np.testing.assert_array_equal(light_band(evidence, a, P, reach_px=reach), want)
+            assert want.any() and not want.all()
+
+
+def test_self_near_and_per_parent_are_the_af99752_loops():
+    """grow_curve's self-avoidance and its per-parent limit, compiled: the old loops' answers."""
+    from tendrilkit.mv_acquire import _nodes_but_last, _per_parent, _self_near
+
+    rng = np.random.default_rng(23)
+    for trial in range(50):
+        width = int(rng.integers(1, 40))
+        hyps = [(np.cumsum(rng.normal(0.0, 1.0, (int(rng.integers(1, 30)), 3)), axis=0),) for _ in range(8)]
+        pts = np.vstack([h[0][-1] + rng.normal(0.0, 1.0, (width, 3)) for h in hyps])
+        want = np.zeros(len(pts), bool)
+        for h, hyp in enumerate(hyps):
+            if len(hyp[0]) > 6:
+                sel = slice(h * width, (h + 1) * width)
+                want[sel] = _nearest_distance(pts[sel], hyp[0][:-5]) < 1.2
+        np.testing.assert_array_equal(_self_near(pts, width, *_nodes_but_last(hyps, 5)), want)
+        own = np.repeat(np.arange(len(hyps)), width)
+        idx = rng.permutation(len(pts))[:int(rng.integers(0, len(pts) + 1))]
+        beam = int(rng.integers(1, 12))
+        kept, per_parent = [], np.zeros(len(hyps), int)
+        for i in idx:
+            if per_parent[own[i]] < 2:
+                kept.append(i)
+                per_parent[own[i]] += 1
+                if len(kept) == beam:
+                    break
+        assert _per_parent(idx, own, len(hyps), 2, beam).tolist() == kept
+
+
+def test_apart_is_the_af99752_loop():
+    """bridge_gap's places refined: each 1.5 steps from those taken before it (the old loop's norms), at most
+    ``MAX_REFINED``."""
+    from tendrilkit.mv_acquire import _apart
+
+    rng = np.random.default_rng(24)
+    for trial in range(40):
+        H = rng.normal(0.0, [1.0, 3.0, 10.0][trial % 3], (int(rng.integers(1, 300)), 3))
+        if trial % 5 == 0:
+            H[3::7] = np.nan
+        most = [100, 5, 1000][trial % 3]
+        tried, want = [], []
+        for i, here in enumerate(H):
+            if len(tried) == most:
+                break
+            if tried and np.linalg.norm(np.asarray(tried) - here, axis=1).min() < 1.5:
+                continue
+            tried.append(here)
+            want.append(i)
+        assert _apart(H, 1.5, most).tolist() == want
+
+
+def _point_costs_af99752(evidence, P_mm, *, cap_px=10.0, nearest=False, covered=False):
+    """mv_acquire.point_costs as it was at af99752 (project_distance, then numpy), copied unchanged."""
+    from tendrilkit.mv_evidence import project_distance
+
+    P = np.asarray(P_mm, float).reshape(-1, 3)
+    d = np.empty((len(evidence), len(P)))
+    seen = np.empty((len(evidence), len(P)), bool)
+    near = np.empty((len(evidence), len(P)), int)
+    bg = np.empty((len(evidence), len(P)), bool)
+    cov = np.empty((len(evidence), len(P)), bool)
+    for v, ev in enumerate(evidence):
+        dv, _, sv, near[v], bg[v], cov[v] = project_distance(ev, P, outside_px=cap_px)
+        d[v] = np.minimum(dv, cap_px)
+        seen[v] = sv & ~cov[v]
+    return (d, seen) + ((near, bg) if nearest else ()) + ((cov,) if covered else ())
+
+
+@pytest.mark.parametrize("which", ["ev", "ev_blob"])
+def test_point_costs_is_the_af99752_numpy(which, request):
+    """point_costs through project_costs (the arrays it reads, written in place): the old function's arrays, bit for
+    bit, with ties (the k-d tree's path), points off the crop, NaN, behind the camera; a camera with OpenCV's
+    8 coefficients (the general path)."""
+    from dataclasses import replace
+
+    from tendrilkit.mv_acquire import point_costs
+
+    ev = request.getfixturevalue(which)
+    rng = np.random.default_rng(25)
+    plain = replace(ev, camera=Camera(K=np.eye(3)))
+    xy = np.concatenate([_points(ev, rng, 300, s) for s in (0.3, 3.0, 40.0)] + [ev.skeleton_xy[:50] + 0.5])
+    P = np.c_[xy, np.ones(len(xy))]
+    Q = np.c_[rng.uniform(-0.3, 0.3, (500, 2)), rng.uniform(0.5, 2.0, 500)]
+    Q[:3] = [np.nan, 0.0, 1.0], [0.0, 0.0, 0.0], [0.1, 0.1, -1.0]  # NaN, at the camera, behind it
+    long = replace(ev, camera=Camera(K=ev.camera.K, dist=np.r_[ev.camera.dist[:5], 1e-3, 0.0, 0.0]))
+    for evs, pts in (([plain], P[50:]), ([plain, ev], P), ([ev, long, ev], Q)):
+        for cap in (2.5, 10.0):
+            want = _point_costs_af99752(evs, pts, cap_px=cap, nearest=True, covered=True)
+            got = point_costs(evs, pts, cap_px=cap, nearest=True, covered=True)
+            for a, b, name in zip(got, want, ["d", "seen", "nearest", "background", "covered"]):
+                assert a.tobytes() == b.tobytes() and a.dtype == b.dtype, name
+            assert want[1].any() and not want[1].all()
