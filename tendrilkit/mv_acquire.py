@@ -223,6 +223,12 @@ STOP_PX = 4.0
 #: The cost of a step turning by the search cone's half-angle (pixels), growing with the square of the
 #: angle: a fifth of ``ON_PX``, so the skeletons' bends are followed and ties are broken straight on.
 TURN_PX = 0.5
+#: The beam keeps, besides its best, the best child of a hypothesis heading more than this away from its best kept
+#: child (degrees; :func:`_split_siblings`), up to :data:`SPLIT_EXTRA` such children a step: the branches of a
+#: junction (the tendril going on, a second tendril or a shoot leaving it). Measured 2026-12-02 with
+#: ``benchmarks/rerun_multiview.py`` (see the README).
+SPLIT_DEG = 45.0
+SPLIT_EXTRA = 4
 #: A callable ``_TRACE(event, **values)`` that :func:`grow_curve` calls after every step's pruning (``"step"``: the
 #: hypotheses, each candidate's hypothesis row ``own`` and tip ``pts``, the acceptable candidates best first
 #: ``ranked``, those the cell filter keeps ``diverse``, those kept ``kept``; per candidate its ``cost``, ``ok``, the
@@ -491,6 +497,46 @@ def _per_parent(idx, own, n_parents, per_parent, beam):
     return out[:k]
 
 
+def _split_siblings(rows: np.ndarray, own: np.ndarray, dirs: np.ndarray, cos_max: float) -> np.ndarray:
+    """``rows`` (kept candidates, increasing: best first) with, per parent, its best child heading another way.
+
+    Parameters
+    ----------
+    rows : (k,) int array
+        What :func:`_one_per_cell_and_way` keeps of the candidates (sorted best first).
+    own : (n,) int array
+        Each candidate's parent hypothesis.
+    dirs : (n, 3) float array
+        Their last steps' unit directions.
+    cos_max : float
+        The cosine of :data:`SPLIT_DEG`.
+
+    Returns
+    -------
+    (k',) int array
+        Increasing rows: ``rows`` and, for every parent whose best child is kept and that has no kept child heading
+        more than :data:`SPLIT_DEG` away from it, its best child that does (after the kept one in rank), if any. At
+        a junction the branches' first steps lie within a cell of each other and head within 90 degrees of each
+        other: without it the branch that scores worse for a step or two (its next steps over a stretch the views
+        see badly) loses its cell to its sibling and is gone from the beam.
+    """
+    rows = np.asarray(rows, int)
+    if len(rows) == 0:
+        return rows
+    parents, at = np.unique(own[rows], return_index=True)
+    first = np.full(int(own.max()) + 1, -1)
+    first[parents] = rows[at]
+    f = first[own]
+    other = (f >= 0) & (np.einsum("ij,ij->i", dirs, dirs[np.maximum(f, 0)]) < cos_max)
+    kept = np.zeros(len(own), bool)
+    kept[rows] = True
+    split = np.zeros(len(first), bool)  # the parents with a kept child the other way already
+    split[own[other & kept]] = True
+    cand = np.flatnonzero(other & ~kept & ~split[own] & (np.arange(len(own)) > f))
+    _, at = np.unique(own[cand], return_index=True)
+    return np.sort(np.r_[rows, cand[at]])
+
+
 def _sphere(n: int) -> np.ndarray:
     i = np.arange(n) + 0.5
     phi = np.arccos(1 - 2 * i / n)
@@ -605,7 +651,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     step_mm : float
         Length of a growth step, mm.
     beam : int
-        Hypotheses kept after every step.
+        Hypotheses kept after every step (and up to :data:`SPLIT_EXTRA` more: a junction's other branches).
     n_seeds : int
         Starting directions.
     cone_deg : float
@@ -694,9 +740,24 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         idx = idx[np.argsort(score[idx], kind="stable")]
         ranked = idx
         # diversity: per cell of 1.5 steps the best hypothesis and the best heading against it, at most two
-        # children per parent, so that the branches of a crossing both stay in the beam
-        idx = diverse = idx[_one_per_cell_and_way(pts[idx], dirs[idx], 1.5 * step_mm)]
+        # children per parent, so that the branches of a crossing both stay in the beam; and besides the beam, up to
+        # SPLIT_EXTRA children heading over SPLIT_DEG away from their parent's best kept one (a junction's branches)
+        rows = _one_per_cell_and_way(pts[idx], dirs[idx], 1.5 * step_mm)
+        both = _split_siblings(rows, own[idx], dirs[idx], np.cos(np.radians(SPLIT_DEG)))  # rank order
+        diverse = idx[both]  # (the trace's)
+        split = idx[np.setdiff1d(both, rows)]
+        idx = idx[rows]
         idx = _per_parent(idx, own, len(hyps), 2, beam)
+        if len(split):  # the junctions' other branches besides the beam, not instead of its best
+            count = np.bincount(own[idx], minlength=len(hyps))
+            extra = []
+            for i in split.tolist():
+                if len(extra) == SPLIT_EXTRA:
+                    break
+                if count[own[i]] < 2:
+                    extra.append(i)
+                    count[own[i]] += 1
+            idx = np.r_[idx, np.asarray(extra, idx.dtype)]
         if _TRACE is not None:
             _TRACE("step", hyps=hyps, own=own, pts=pts, ranked=ranked, diverse=diverse, kept=idx, cost=cost, ok=ok,
                    m_end=m_end, m_mid=m_mid, vis=vis, confirmed=confirmed, contradicted=contradicted,
