@@ -543,7 +543,12 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
         if ev.skeleton_xy is not None:
             seen = keep & roi_contains(ev, dense)
             inside_px = ev.inside_px
-            radius_px = tendril_radius_px(ev, inside_px, dense[seen & (d <= tolerance_px)], coverage_tolerance_px)
+            on_mask = seen & (d <= tolerance_px)
+            # the curve's k-d tree, built once: the radius's, the coverage's and the skeleton's queries on the whole
+            # projection share it (where every sample is seen, on the tendril, their points are the same)
+            tree = cKDTree(dense) if len(ev.skeleton_xy) else None
+            radius_px = tendril_radius_px(ev, inside_px, dense[on_mask], coverage_tolerance_px,
+                                          tree=tree if on_mask.all() else None)
             if np.isfinite(radius_px):  # px to mm at the curve's median depth in this view
                 widths.append(2.0 * radius_px * float(np.median(cam.world_to_cam(X)[:, 2])) / float(cam.K[0, 0]))
             at_base = near_base(ev)  # the components at the base mark: the coverage's and the base check's
@@ -551,10 +556,10 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             out[f"coverage_frac_v{v + 1}"] = coverage_frac(ev, dense[seen], d[seen], tolerance_px,
                                                            coverage_tolerance_px, inside_px, radius_px,
                                                            near=at_base,
-                                                           tone=None if crop is None else (crop, channel))
+                                                           tone=None if crop is None else (crop, channel),
+                                                           tree=tree if seen.all() else None)
             local_px = local_inside_px(ev, dense, inside_px)  # the merged check's and the crossing's
             wide = on_wide(ev, dense, inside_px, radius_px, wide_ratio=WIDE_RATIO, local_px=local_px)
-            on_mask = seen & (d <= tolerance_px)
             # the skeleton shows the tendril's middle only where its line is seen: on pixels wider than the
             # tendril (a leaf it passes in front of) the skeleton is the blob's, not the tendril's
             on = dense[on_mask & ~wide]
@@ -562,7 +567,7 @@ def verify_curve(points_mm: np.ndarray, cameras: list, evidence: list[ViewEviden
             # the beyond-the-tip check's (one query for both)
             sk_dist = None
             if on_mask.any() and len(ev.skeleton_xy):
-                sk_dist = skeleton_to_curve_px(ev.skeleton_xy, dense, coverage_tolerance_px)
+                sk_dist = skeleton_to_curve_px(ev.skeleton_xy, dense, coverage_tolerance_px, tree=tree)
                 if len(on):
                     out[f"skeleton_mean_px_v{v + 1}"] = float(np.mean(cKDTree(ev.skeleton_xy).query(on)[0]))
                 length_px, tip_paths[v] = tip_continuation_path(ev, dense, coverage_tolerance_px, sk_dist=sk_dist)

@@ -15,6 +15,7 @@ import numpy as np
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.verify_base import WIDE_RATIO, near_base
 from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
+from tendrilkit.verify_tip import bounded_query
 
 __all__ = ["coverage_frac", "tendril_radius_px", "BORDER_PX", "MIN_BRANCH_PX"]
 
@@ -66,18 +67,18 @@ def _paler_than_the_tendril(tone: tuple, fg: np.ndarray, sr: np.ndarray, sc: np.
     return out
 
 
-def tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, cov_tol: float) -> float:
+def tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, cov_tol: float, *,
+                      tree=None) -> float:
     """The tendril's half width in this view, px: median inside distance of the skeleton pixels along the curve.
 
     NaN when the curve explains no skeleton pixel. Clutter crossing the
     tendril widens it only at the crossings; the median is the tendril's.
+    ``tree``: ``cKDTree(dense)`` when the caller has it.
     """
-    from scipy.spatial import cKDTree
-
     sk = ev.skeleton_xy
     if sk is None or len(sk) == 0 or len(dense) == 0:
         return float("nan")
-    dist, _ = cKDTree(dense).query(sk, distance_upper_bound=cov_tol + 1e-9)
+    dist, _ = bounded_query(dense, sk, cov_tol + 1e-9, tree=tree)
     near = sk[np.isfinite(dist)]
     if len(near) == 0:
         return float("nan")
@@ -87,7 +88,7 @@ def tendril_radius_px(ev: ViewEvidence, inside: np.ndarray, dense: np.ndarray, c
 
 def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float, cov_tol: float,
                   inside: np.ndarray, radius_px: float, *, near: np.ndarray | None = None,
-                  tone: tuple | None = None, parts: dict | None = None) -> float:
+                  tone: tuple | None = None, parts: dict | None = None, tree=None) -> float:
     """Fraction of the tendril's skeleton, in the components the curve runs on, that lies near the curve.
 
     Counted are the skeleton pixels of the components the curve runs along,
@@ -140,10 +141,9 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
 
     The coverage is the explained skeleton over explained plus the
     tendril's unexplained branches. ``near``: :func:`tendrilkit.verify_base.near_base`
-    of ``ev`` when the caller has it.
+    of ``ev`` when the caller has it; ``tree``: ``cKDTree(dense)`` when the
+    caller has it.
     """
-    from scipy.spatial import cKDTree
-
     on = dense[d <= tol]
     if len(on) == 0 or len(ev.skeleton_xy) == 0:
         return 0.0
@@ -182,7 +182,7 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
     if len(sk) == 0:
         return 0.0
     # one query serves the coverage (within cov_tol) and the crossing arms (attached within cov_tol + 3)
-    dist, nearest = cKDTree(dense).query(sk, distance_upper_bound=cov_tol + 3.0 + 1e-9)
+    dist, nearest = bounded_query(dense, sk, cov_tol + 3.0 + 1e-9, tree=tree)
     near = dist < cov_tol + 1e-9
     n_near = int(near.sum())
     free = ~near & thin

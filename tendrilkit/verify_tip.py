@@ -26,10 +26,11 @@ from collections.abc import Callable
 
 import cv2
 import numpy as np
+from numba import njit
 
 from tendrilkit.evidence import ViewEvidence
 
-__all__ = ["TIP_PX", "tip_continuation", "tip_continuation_path", "skeleton_to_curve_px", "on_wide", "tip_wide_fraction",
+__all__ = ["TIP_PX", "tip_continuation", "tip_continuation_path", "skeleton_to_curve_px", "bounded_query", "on_wide", "tip_wide_fraction",
            "wide_run_px", "crossing_samples", "rim_lines", "local_inside_px", "open_tip_px", "open_tip_message",
            "failing_views"]
 
@@ -106,7 +107,10 @@ def tip_continuation_path(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float
     start = np.nonzero(free & (np.hypot(*(sk - tip).T) <= cov_tol + 3.0))[0]
     if len(start) == 0:
         return none
-    idx = {(int(x), int(y)): i for i, (x, y) in enumerate(sk) if free[i]}
+    # the unexplained pixels by their integer (x, y) (truncated, as int() does), from plain lists: a Python loop
+    # over numpy rows costs about ten times as much
+    at = np.flatnonzero(free)
+    idx = dict(zip(map(tuple, sk[at].astype(np.int64).tolist()), at.tolist()))
     best = {int(i): 0.0 for i in start}
     came = {int(i): -1 for i in start}
     heap = [(0.0, int(i)) for i in start]
@@ -129,15 +133,47 @@ def tip_continuation_path(ev: ViewEvidence, dense_xy: np.ndarray, cov_tol: float
     return float(best[far]), np.asarray(sk[path[::-1]], float)
 
 
-def skeleton_to_curve_px(sk_xy: np.ndarray, dense_xy: np.ndarray, cov_tol: float) -> np.ndarray:
+def skeleton_to_curve_px(sk_xy: np.ndarray, dense_xy: np.ndarray, cov_tol: float, *, tree=None) -> np.ndarray:
     """(m,) float: each skeleton pixel's distance to the projected curve, px, inf beyond ``cov_tol`` (+ 1e-9).
 
     ``sk_xy`` (m, 2) and ``dense_xy`` (n, 2, n >= 1) in the same pixels; a
     skeleton pixel with a finite distance is explained by the curve.
+    ``tree``: ``cKDTree(dense_xy)`` when the caller has it.
+    """
+    return bounded_query(dense_xy, sk_xy, cov_tol + 1e-9, tree=tree)[0]
+
+
+def bounded_query(tree_xy: np.ndarray, xy: np.ndarray, bound_px: float, *, tree=None) -> tuple[np.ndarray, np.ndarray]:
+    """``cKDTree(tree_xy).query(xy, distance_upper_bound=bound_px)``, the points far from ``tree_xy`` left out.
+
+    Only the points ``xy`` (m, 2) inside the box of ``tree_xy`` (n, 2, n >=
+    1) grown by ``bound_px`` are queried: the others lie farther than the
+    bound from every point of the tree and get what the query gives them
+    (distance inf, index n). A skeleton's pixels away from the curve (the
+    stem, clutter) cost nothing; the values are the whole query's, bit for
+    bit (the same tree, each point queried alone). ``tree``:
+    ``cKDTree(tree_xy)`` when the caller has it (several checks query the
+    same curve; a tree built on the same points is the same tree).
+
+    Returns
+    -------
+    dist : (m,) float array
+        px, inf beyond ``bound_px``.
+    index : (m,) int array
+        The nearest point of ``tree_xy``, n beyond ``bound_px``.
     """
     from scipy.spatial import cKDTree
 
-    return cKDTree(dense_xy).query(sk_xy, distance_upper_bound=cov_tol + 1e-9)[0]
+    xy = np.asarray(xy, float).reshape(-1, 2)
+    lo = tree_xy.min(axis=0) - bound_px
+    hi = tree_xy.max(axis=0) + bound_px
+    near = np.flatnonzero((xy[:, 0] >= lo[0]) & (xy[:, 0] <= hi[0]) & (xy[:, 1] >= lo[1]) & (xy[:, 1] <= hi[1]))
+    dist = np.full(len(xy), np.inf)
+    index = np.full(len(xy), len(tree_xy), np.intp)
+    if len(near):
+        tree = cKDTree(tree_xy) if tree is None else tree
+        dist[near], index[near] = tree.query(xy[near], distance_upper_bound=bound_px)
+    return dist, index
 
 
 def on_wide(ev: ViewEvidence, dense_xy: np.ndarray, inside_px: np.ndarray, radius_px: float, *,
@@ -188,15 +224,28 @@ def local_inside_px(ev: ViewEvidence, xy: np.ndarray, inside_px: np.ndarray) -> 
     (n,) float32 array
         px: about the line's half width where a point lies on it (0 off the foreground).
     """
-    h, w = inside_px.shape
     off = ev.roi_offset_xy
-    r = np.rint(xy[:, 1] - off[1]).astype(int)
-    c = np.rint(xy[:, 0] - off[0]).astype(int)
-    local = np.zeros(len(xy), np.float32)
-    for dr in (-1, 0, 1):
-        for dc in (-1, 0, 1):
-            local = np.maximum(local, inside_px[np.clip(r + dr, 0, h - 1), np.clip(c + dc, 0, w - 1)])
-    return local
+    r = np.rint(xy[:, 1] - off[1]).astype(np.int64)
+    c = np.rint(xy[:, 0] - off[0]).astype(np.int64)
+    return _max_3x3(np.asarray(inside_px, np.float32), r, c)
+
+
+@njit(cache=True)
+def _max_3x3(inside_px, r, c):  # pragma: no cover - compiled
+    """(n,) float32: the largest of ``inside_px`` (float32) in the 3 x 3 pixels around each ``(r[k], c[k])``, the
+    rows and columns clipped to the array (0 at least: the maximum of none is 0, as the plain one starts)."""
+    h, w = inside_px.shape
+    out = np.zeros(len(r), np.float32)
+    for k in range(len(r)):
+        m = np.float32(0.0)
+        for dr in range(-1, 2):
+            rr = min(max(r[k] + dr, 0), h - 1)
+            for dc in range(-1, 2):
+                v = inside_px[rr, min(max(c[k] + dc, 0), w - 1)]
+                if v > m:
+                    m = v
+        out[k] = m
+    return out
 
 
 def tip_wide_fraction(wide: np.ndarray, on: np.ndarray, *, tip_px: int = TIP_PX) -> float | None:
@@ -459,14 +508,31 @@ def rim_lines(ev: ViewEvidence, inside_px: np.ndarray, radius_px: float, path_xy
     # the thin pixels over the whole crop, as ``thin`` on the box (exact distances to the core: the same pixels)
     thin_all = (inside_px > 0) & (cv2.distanceTransform((~core).astype(np.uint8), cv2.DIST_L2,
                                                         cv2.DIST_MASK_PRECISE) > reach)
-    _, thin_lab = cv2.connectedComponents(thin_all.astype(np.uint8), connectivity=8)
-    d_other = cv2.distanceTransform((~other).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    _, thin_lab, thin_box, _ = cv2.connectedComponentsWithStats(thin_all.astype(np.uint8), connectivity=8,
+                                                                 ltype=cv2.CV_32S)
 
     def line_px(k):  # the thin pixels of the line a rim piece belongs to (none if the two readings disagree)
         ys, xs = np.nonzero(comps == k)
         labs = thin_lab[ys + r0, xs + c0]
         labs = labs[labs > 0]
-        return np.nonzero(thin_lab == labs[0]) if len(labs) else (np.zeros(0, int), np.zeros(0, int))
+        if not len(labs):
+            return np.zeros(0, int), np.zeros(0, int)
+        x, y, bw, bh = (int(a) for a in thin_box[labs[0], :4])  # its pixels, in raster order, from its box
+        ys, xs = np.nonzero(thin_lab[y:y + bh, x:x + bw] == labs[0])
+        return ys + y, xs + x
+
+    def near_other(rows, cols):
+        """Whether a wide object not crossed here lies within ``reach + 1.5`` px of a line's pixels: the exact
+        distance transform of ``other`` on the line's box grown by more than that (a nearer pixel lies inside
+        it, a farther one's distance stays above the limit: the whole crop's answer)."""
+        m = int(np.ceil(reach + 1.5)) + 1
+        y0, y1 = max(int(rows.min()) - m, 0), min(int(rows.max()) + m + 1, h)
+        x0, x1 = max(int(cols.min()) - m, 0), min(int(cols.max()) + m + 1, w)
+        sub = other[y0:y1, x0:x1]
+        if not sub.any():
+            return False
+        d_other = cv2.distanceTransform((~sub).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        return float(d_other[rows - y0, cols - x0].min()) <= reach + 1.5
 
     way_out = max(len(line_px(k)[0]) for k in used)  # the longer of the curve's two lines: the one it goes on along
     free = 0
@@ -477,7 +543,7 @@ def rim_lines(ev: ViewEvidence, inside_px: np.ndarray, radius_px: float, path_xy
         if not len(rows):
             return None  # cannot tell where this line goes
         border = rows.min() == 0 or cols.min() == 0 or rows.max() == h - 1 or cols.max() == w - 1
-        if border or float(d_other[rows, cols].min()) <= reach + 1.5:
+        if border or near_other(rows, cols):
             continue  # it leads to another wide object or out of the ROI
         if len(rows) < MIN_FREE_LINE_FRAC * way_out:
             continue  # a stub (a leaf's stalk, a bud) far shorter than the line the curve goes on along

@@ -51,6 +51,7 @@ from __future__ import annotations
 
 
 import numpy as np
+from numba import njit
 from scipy.spatial import cKDTree
 
 from tendrilkit.evidence import ViewEvidence, roi_contains, sample_distance
@@ -91,15 +92,31 @@ def _suffix_medians(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     order = np.argsort(values[pos], kind="stable")
     val, at = values[pos][order], pos[order]
     cnt = np.cumsum(np.bincount(pos, minlength=n)[::-1])[::-1]  # finite values at positions >= k
+    return _suffix_middles(np.asarray(val, np.float64), np.asarray(at, np.int64), np.asarray(cnt, np.int64)), cnt
+
+
+@njit(cache=True)
+def _suffix_middles(val, at, cnt):  # pragma: no cover - compiled
+    """:func:`_suffix_medians`' medians from the sorted finite values ``val``, their positions ``at`` and the
+    suffix counts ``cnt``: for every k, along the sorted order, the first values at which the count of those at
+    positions >= k reaches the middle ranks (``(m - 1) // 2 + 1`` and ``m // 2 + 1``), and the mean of the two."""
+    n = len(cnt)
     med = np.full(n, np.nan)
-    has = cnt > 0
-    if has.any():
-        rank = np.cumsum(at[None, :] >= np.arange(n)[has, None], axis=1)  # of the sorted values, those of suffix k
-        m = cnt[has]
-        lo = np.argmax(rank >= ((m - 1) // 2 + 1)[:, None], axis=1)
-        hi = np.argmax(rank >= (m // 2 + 1)[:, None], axis=1)
-        med[has] = 0.5 * (val[lo] + val[hi])
-    return med, cnt
+    for k in range(n):
+        m = cnt[k]
+        if m <= 0:
+            continue
+        need_lo, need_hi = (m - 1) // 2 + 1, m // 2 + 1
+        rank, lo = 0, -1
+        for j in range(len(at)):
+            if at[j] >= k:
+                rank += 1
+                if lo < 0 and rank >= need_lo:
+                    lo = j
+                if rank >= need_hi:
+                    med[k] = 0.5 * (val[lo] + val[j])
+                    break
+    return med
 
 
 def distal_widening(points_mm: np.ndarray, cam, ev: ViewEvidence, *, tol_px: float = 2.0,

@@ -3,9 +3,13 @@
 Issue 17 cut the checks' cost without changing a figure: the ray ahead of
 the tip reads the distance to the dark pixels from small boxes instead of
 the whole crop's transform, the base check tests its samples' windows at
-once, the crossing rule counts skeleton neighbours by a sorted lookup, and
-one skeleton-to-curve query serves two checks. Each is compared here with
-the plain computation, written out as it was.
+once, the crossing rule counts skeleton neighbours on their box, and
+one skeleton-to-curve query serves two checks. Issue 17's second pass: the
+curve's k-d tree queries skip the points far outside its box, the 3 x 3
+largest inside distance and the suffix medians are compiled, the junctions
+of the out-of-ROI segments are found from the skeleton's pixels alone, and
+the tip continuation's pixel index is built from plain lists. Each is
+compared here with the plain computation, written out as it was.
 """
 
 import cv2
@@ -16,8 +20,9 @@ from scipy.spatial import cKDTree
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.verify_base import base_components, base_on_tendril, thin_at_base
 from tendrilkit.verify_beyond import _ray_stop, beyond_tip_px
-from tendrilkit.verify_crossing import _neighbour_counts
-from tendrilkit.verify_tip import skeleton_to_curve_px, tip_continuation
+from tendrilkit.verify_crossing import _neighbour_counts, border_segments
+from tendrilkit.verify_tip import bounded_query, local_inside_px, skeleton_to_curve_px, tip_continuation
+from tendrilkit.verify_widen import _suffix_medians
 
 
 def _strokes(rng, h, w, n):
@@ -132,3 +137,90 @@ def test_one_skeleton_query_serves_the_tip_and_the_beyond_checks(seed):
     inside = cv2.distanceTransform(mask.view(np.uint8), cv2.DIST_L2, 5)
     kw = dict(cov_tol=cov_tol, tol=2.0, wide_ratio=1.5)
     assert beyond_tip_px(ev, dense, inside, 2.0, sk_dist=sk_dist, **kw) == beyond_tip_px(ev, dense, inside, 2.0, **kw)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_bounded_query_equals_the_whole_query(seed):
+    rng = np.random.default_rng(400 + seed)
+    curve = np.cumsum(rng.normal(0, 1.0, (int(rng.integers(1, 300)), 2)), axis=0) + 100.0
+    pts = rng.uniform(0, 250, (int(rng.integers(0, 2000)), 2))
+    bound = float(rng.choice([4.0 + 1e-9, 7.0 + 1e-9, 30.0]))
+    tree = cKDTree(curve)
+    plain_d, plain_i = tree.query(pts, distance_upper_bound=bound)
+    for t in (None, tree):
+        d, i = bounded_query(curve, pts, bound, tree=t)
+        assert np.array_equal(d, plain_d) and np.array_equal(i, plain_i)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_local_inside_px_equals_the_plain_maximum(seed):
+    rng = np.random.default_rng(500 + seed)
+    mask = _strokes(rng, 120, 160, 6)
+    ev = _evidence(mask)
+    inside = cv2.distanceTransform(mask.view(np.uint8), cv2.DIST_L2, 5)
+    xy = rng.uniform(-5, [200, 150], (500, 2))  # crop pixels + the offset (30, 20), some outside the crop
+    h, w = inside.shape
+    r = np.rint(xy[:, 1] - 20).astype(int)
+    c = np.rint(xy[:, 0] - 30).astype(int)
+    plain = np.zeros(len(xy), np.float32)
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            plain = np.maximum(plain, inside[np.clip(r + dr, 0, h - 1), np.clip(c + dc, 0, w - 1)])
+    got = local_inside_px(ev, xy, inside)
+    assert got.dtype == np.float32 and np.array_equal(got, plain)
+
+
+def _suffix_medians_plain(values):
+    n = len(values)
+    med, cnt = np.full(n, np.nan), np.zeros(n, np.int64)
+    for k in range(n):
+        v = values[k:][np.isfinite(values[k:])]
+        cnt[k] = len(v)
+        if len(v):
+            v = np.sort(v)
+            med[k] = 0.5 * (v[(len(v) - 1) // 2] + v[len(v) // 2])
+    return med, cnt
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_suffix_medians_equal_the_plain_ones(seed):
+    rng = np.random.default_rng(600 + seed)
+    n = int(rng.integers(0, 120))
+    values = np.round(rng.uniform(0, 12, n), int(rng.integers(0, 3)))  # ties too
+    values[rng.random(n) < rng.random()] = np.nan
+    med, cnt = _suffix_medians(values)
+    plain_med, plain_cnt = _suffix_medians_plain(values)
+    assert np.array_equal(med, plain_med, equal_nan=True) and np.array_equal(cnt, plain_cnt)
+
+
+def _border_segments_plain(img, edge):
+    on = img > 0
+    p = np.pad(on, 1)
+    h, w = on.shape
+    ring = [p[r:r + h, c:c + w] for r, c in ((0, 1), (0, 2), (1, 2), (2, 2), (2, 1), (2, 0), (1, 0), (0, 0))]
+    runs = sum((~ring[k] & ring[(k + 1) % 8]).astype(np.uint8) for k in range(8))
+    junction = on & (runs >= 3)
+    zone = cv2.dilate(junction.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool) & on
+    n, seg = cv2.connectedComponents((on & ~zone).astype(np.uint8), connectivity=8, ltype=cv2.CV_32S)
+    at_edge = np.bincount(seg[on & edge & ~zone], minlength=n) > 0
+    at_edge[0] = False
+    drop = at_edge[seg] & on
+    if (zone & edge).any():
+        zl = cv2.connectedComponents(zone.astype(np.uint8), connectivity=8, ltype=cv2.CV_32S)[1]
+        hit = np.unique(zl[zone & edge])
+        near = cv2.dilate(np.isin(zl, hit).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+        drop |= np.isin(seg, np.unique(seg[near & (seg > 0)])) & (seg > 0)
+        drop |= np.isin(zl, hit) & zone
+    return drop
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_border_segments_equal_the_whole_box_computation(seed):
+    from skimage.morphology import skeletonize
+
+    rng = np.random.default_rng(700 + seed)
+    img = skeletonize(_strokes(rng, 80, 110, int(rng.integers(1, 7)))).astype(np.uint8)
+    edge = np.zeros(img.shape, bool)
+    edge[:int(rng.integers(1, 6))] = True
+    edge[:, -int(rng.integers(1, 6)):] = True
+    assert np.array_equal(border_segments(img, edge), _border_segments_plain(img, edge))
