@@ -766,15 +766,19 @@ def front_line_pixels(crop_bgr: np.ndarray, foreground: np.ndarray, skeleton: np
     mb = np.ascontiguousarray(m[y0:y1, x0:x1])
     # the pieces the skeleton lacks (a lighter core found where the tendril crosses itself lies on its skeleton)
     fresh = thin(mb) & ~skeleton[y0:y1, x0:x1]
-    _, lab, stats, _ = cv2.connectedComponentsWithStats(fresh.view(np.uint8), connectivity=8)
-    area = stats[:, cv2.CC_STAT_AREA]
+    n, lab = cv2.connectedComponents(fresh.view(np.uint8), connectivity=8)
+    # read at the pieces' pixels only (row by row), not over the box: their labels and sizes
+    rf, cf = np.nonzero(fresh)
+    at = lab[rf, cf]
+    area = np.bincount(at, minlength=n)
     keep = area >= FRONT_MIN_PX
     short = (area >= FRONT_END_MIN_PX) & ~keep
     short[0] = False
     if short.any():  # the short pieces that start at an end of the skeleton
-        keep[np.unique(lab[_near_skeleton_ends(skeleton, y0, y1, x0, x1) & short[lab]])] = True
+        keep[np.unique(at[_near_skeleton_ends(skeleton, y0, y1, x0, x1)[rf, cf] & short[at]])] = True
     keep[0] = False
-    rb, cb = np.nonzero(keep[lab])
+    sel = keep[at]
+    rb, cb = rf[sel], cf[sel]
     if len(rb) == 0:
         return none
     half = cv2.distanceTransform(mb.view(np.uint8), cv2.DIST_L2, 3)[rb, cb]

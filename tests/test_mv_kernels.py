@@ -891,3 +891,47 @@ def test_front_line_mask_is_the_per_channel_f6a558a(seed):
     top = rng.integers(0, 256, (h - 10, w - 7, 3), dtype=np.uint8)
     q = top.astype(np.float32) / level[4:h - 6, 2:w - 5].astype(np.float32)
     assert np.array_equal(_largest_ratio(top, level, 4, 2), np.maximum(np.maximum(q[..., 0], q[..., 1]), q[..., 2]))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_front_line_pixels_are_the_f6a558a_pieces(seed):
+    """The pieces read at their pixels (labels without the box's statistics) are those of f6a558a's labelling."""
+    from tendrilkit.mv_evidence import (FRONT_END_MIN_PX, FRONT_MIN_PX, _near_skeleton_ends, front_line_mask,
+                                        front_line_pixels)
+    from tendrilkit.skeleton.thinning import thin
+
+    rng = np.random.default_rng(seed)
+    h, w = 200, 240
+    img = np.full((h, w, 3), 220, np.uint8)
+    for _ in range(4):  # leaves with lines across them, some short (a tip resting on the leaf)
+        cy, cx = (int(v) for v in rng.integers(30, 170, 2))
+        cv2.ellipse(img, (cx, cy), (int(rng.integers(15, 45)),) * 2, 0, 0, 360, (48, 128, 62), -1)
+        for _ in range(3):
+            p = (cx + int(rng.integers(-20, 20)), cy + int(rng.integers(-20, 20)))
+            q = (p[0] + int(rng.integers(-40, 40)), p[1] + int(rng.integers(-40, 40)))
+            cv2.line(img, p, q, (50, 150, 110), int(rng.integers(2, 5)))
+    fg = img[:, :, 0] < 120
+    skeleton = np.zeros((h, w), bool)
+    skeleton[rng.integers(0, h, 60), rng.integers(0, w, 60)] = True  # ends here and there
+    skeleton[100, 20:200] = True
+    seen = np.ones((h, w), bool)
+    seen[:30, :40] = False
+    # f6a558a: every piece's size from the box's statistics
+    m = front_line_mask(img, fg, contrast=0.09) & seen
+    x, y, bw, bh = cv2.boundingRect(m.view(np.uint8))
+    y0, y1, x0, x1 = max(y - 1, 0), min(y + bh + 1, h), max(x - 1, 0), min(x + bw + 1, w)
+    mb = np.ascontiguousarray(m[y0:y1, x0:x1])
+    fresh = thin(mb) & ~skeleton[y0:y1, x0:x1]
+    _, lab, stats, _ = cv2.connectedComponentsWithStats(fresh.view(np.uint8), connectivity=8)
+    area = stats[:, cv2.CC_STAT_AREA]
+    keep = area >= FRONT_MIN_PX
+    short = (area >= FRONT_END_MIN_PX) & ~keep
+    short[0] = False
+    if short.any():
+        keep[np.unique(lab[_near_skeleton_ends(skeleton, y0, y1, x0, x1) & short[lab]])] = True
+    keep[0] = False
+    rb, cb = np.nonzero(keep[lab])
+    half = cv2.distanceTransform(mb.view(np.uint8), cv2.DIST_L2, 3)[rb, cb]
+    rr, cc, hh = front_line_pixels(img, fg, skeleton, seen, contrast=0.09)
+    assert len(rr) > 0
+    assert np.array_equal(rr, rb + y0) and np.array_equal(cc, cb + x0) and np.array_equal(hh, half)
