@@ -657,7 +657,8 @@ def front_line_mask(crop_bgr: np.ndarray, foreground: np.ndarray, *, contrast: f
     """
     from tendrilkit.segmentation.lines import _on_box, board_level
 
-    fg = np.where(np.asarray(foreground) > 0, np.uint8(255), np.uint8(0))
+    fg = np.asarray(foreground)
+    fg = (fg if fg.dtype == bool else fg > 0).view(np.uint8) * np.uint8(255)
     out = np.zeros(fg.shape, bool)
     if crop_bgr.ndim != 3 or crop_bgr.shape[:2] != fg.shape:
         raise ValueError(f"crop_bgr must be a (h, w, 3) image of the foreground's shape {fg.shape}, "
@@ -670,16 +671,53 @@ def front_line_mask(crop_bgr: np.ndarray, foreground: np.ndarray, *, contrast: f
     H, W = fg.shape
     m = int(disk_px)
     r0, r1, c0, c1 = max(y - m, 0), min(y + h + m, H), max(x - m, 0), min(x + w + m, W)
-    rel = np.zeros((r1 - r0, c1 - c0), np.float32)
-    for ch in cv2.split(np.ascontiguousarray(crop_bgr)):
-        top = cv2.morphologyEx(ch[r0:r1, c0:c1], cv2.MORPH_TOPHAT, disk).astype(np.float32)
-        np.maximum(rel, top / board_level(ch)[r0:r1, c0:c1].astype(np.float32), out=rel)
+    # the channels at once (each one's own pixels): the top-hat on the box, the board's level on the crop
+    top = cv2.morphologyEx(crop_bgr[r0:r1, c0:c1], cv2.MORPH_TOPHAT, disk).reshape(r1 - r0, c1 - c0, -1)
+    rel = _largest_ratio(top, board_level(crop_bgr).reshape(H, W, -1), r0, c0)
     if sigma_px > 0:
         rel = cv2.GaussianBlur(rel, (0, 0), float(sigma_px))
     cand = ((rel > float(contrast)) & (wide[r0:r1, c0:c1] > 0)).astype(np.uint8)
     cand = cv2.morphologyEx(cand, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3)))
     out[r0:r1, c0:c1] = cand > 0
     return out
+
+
+@njit(cache=True, error_model="numpy")
+def _largest_ratio(top, level, r0, c0):
+    """(h, w) float32: per pixel of ``top`` ((h, w, c) uint8, C order), the largest over the channels of its
+    ratio to ``level`` ((H, W, c) uint8, C order, 1-255) at ``[r0 + row, c0 + column]``: each ratio in float32
+    as NumPy's (the same numbers), without the float images of every channel. NumPy's error model (no check
+    for a division by 0) lets the divisions of a row run as vectors: about 6 times faster."""
+    h, w, nc = top.shape
+    n = w * nc
+    row = level.shape[1] * nc
+    tf = top.reshape(h * n)
+    lf = level.reshape(level.shape[0] * row)
+    out = np.empty((h, w), np.float32)
+    q = np.empty(n, np.float32)
+    for i in range(h):
+        _divide_row(tf[i * n:(i + 1) * n], lf[(r0 + i) * row + c0 * nc:(r0 + i) * row + c0 * nc + n], q)
+        _largest_of_row(q, nc, out[i])
+    return out
+
+
+@njit(cache=True)
+def _largest_of_row(q, nc, out):
+    """``out[j]``: the largest of ``q[j * nc:(j + 1) * nc]`` and 0."""
+    for j in range(out.size):
+        best = np.float32(0.0)  # the ratios are 0 or more
+        for c in range(nc):
+            v = q[j * nc + c]
+            if v > best:
+                best = v
+        out[j] = best
+
+
+@njit(cache=True, error_model="numpy")
+def _divide_row(top, level, out):
+    """``out[:] = top / level`` in float32 (uint8 arrays of ``out``'s size)."""
+    for k in range(out.size):
+        out[k] = np.float32(top[k]) / np.float32(level[k])
 
 
 def front_line_pixels(crop_bgr: np.ndarray, foreground: np.ndarray, skeleton: np.ndarray, seen: np.ndarray, *,
@@ -728,15 +766,19 @@ def front_line_pixels(crop_bgr: np.ndarray, foreground: np.ndarray, skeleton: np
     mb = np.ascontiguousarray(m[y0:y1, x0:x1])
     # the pieces the skeleton lacks (a lighter core found where the tendril crosses itself lies on its skeleton)
     fresh = thin(mb) & ~skeleton[y0:y1, x0:x1]
-    _, lab, stats, _ = cv2.connectedComponentsWithStats(fresh.view(np.uint8), connectivity=8)
-    area = stats[:, cv2.CC_STAT_AREA]
+    n, lab = cv2.connectedComponents(fresh.view(np.uint8), connectivity=8)
+    # read at the pieces' pixels only (row by row), not over the box: their labels and sizes
+    rf, cf = np.nonzero(fresh)
+    at = lab[rf, cf]
+    area = np.bincount(at, minlength=n)
     keep = area >= FRONT_MIN_PX
     short = (area >= FRONT_END_MIN_PX) & ~keep
     short[0] = False
     if short.any():  # the short pieces that start at an end of the skeleton
-        keep[np.unique(lab[_near_skeleton_ends(skeleton, y0, y1, x0, x1) & short[lab]])] = True
+        keep[np.unique(at[_near_skeleton_ends(skeleton, y0, y1, x0, x1)[rf, cf] & short[at]])] = True
     keep[0] = False
-    rb, cb = np.nonzero(keep[lab])
+    sel = keep[at]
+    rb, cb = rf[sel], cf[sel]
     if len(rb) == 0:
         return none
     half = cv2.distanceTransform(mb.view(np.uint8), cv2.DIST_L2, 3)[rb, cb]

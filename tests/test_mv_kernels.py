@@ -831,3 +831,107 @@ def test_point_costs_is_the_af99752_numpy(which, request):
             for a, b, name in zip(got, want, ["d", "seen", "nearest", "background", "covered"]):
                 assert a.tobytes() == b.tobytes() and a.dtype == b.dtype, name
             assert want[1].any() and not want[1].all()
+
+
+def _front_line_mask_per_channel(crop_bgr, foreground, contrast, sigma_px=1.0, disk_px=11):
+    """front_line_mask as of f6a558a: each channel's top-hat and board level on its own, in NumPy floats."""
+    from tendrilkit.segmentation.lines import _on_box, board_level
+
+    fg = np.where(np.asarray(foreground) > 0, np.uint8(255), np.uint8(0))
+    out = np.zeros(fg.shape, bool)
+    disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (int(disk_px) | 1,) * 2)
+    wide = _on_box(fg, cv2.MORPH_OPEN, disk)
+    x, y, w, h = cv2.boundingRect(wide)
+    if w == 0:
+        return out
+    H, W = fg.shape
+    m = int(disk_px)
+    r0, r1, c0, c1 = max(y - m, 0), min(y + h + m, H), max(x - m, 0), min(x + w + m, W)
+    rel = np.zeros((r1 - r0, c1 - c0), np.float32)
+    for ch in cv2.split(np.ascontiguousarray(crop_bgr)):
+        top = cv2.morphologyEx(ch[r0:r1, c0:c1], cv2.MORPH_TOPHAT, disk).astype(np.float32)
+        level = cv2.max(board_level(ch), 1)  # 2-D: the level of f6a558a (cv2.max)
+        np.maximum(rel, top / level[r0:r1, c0:c1].astype(np.float32), out=rel)
+    rel = cv2.GaussianBlur(rel, (0, 0), float(sigma_px))
+    cand = ((rel > float(contrast)) & (wide[r0:r1, c0:c1] > 0)).astype(np.uint8)
+    cand = cv2.morphologyEx(cand, cv2.MORPH_OPEN, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3)))
+    out[r0:r1, c0:c1] = cand > 0
+    return out
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_front_line_mask_is_the_per_channel_f6a558a(seed):
+    """The channels at once (board level, top-hat, compiled ratios) give the pixels of each channel on its own,
+    and the relative lightness is the same float32 numbers; the board level of a 3-channel image is each
+    channel's own."""
+    from tendrilkit.mv_evidence import _largest_ratio, front_line_mask
+    from tendrilkit.segmentation.lines import board_level
+
+    rng = np.random.default_rng(seed)
+    h, w = rng.integers(90, 260, 2)
+    img = np.clip(rng.normal(215, 12, (h, w, 3)), 0, 255).astype(np.uint8)  # an uneven board
+    img[:, : w // 5] = rng.integers(0, 40, (h, w // 5, 3))  # a dark edge (a board level down to 1)
+    for _ in range(3):  # leaves, mottled, with tendrils across them lighter in some channel
+        cy, cx, ry, rx = rng.integers(10, h - 10), rng.integers(10, w - 10), rng.integers(8, 40), rng.integers(8, 50)
+        cv2.ellipse(img, (int(cx), int(cy)), (int(rx), int(ry)), 0, 0, 360, tuple(int(v) for v in rng.integers(30, 130, 3)), -1)
+        img = cv2.add(img, rng.integers(0, 18, img.shape, dtype=np.uint8))
+        cv2.line(img, tuple(int(v) for v in rng.integers(0, w, 2)), tuple(int(v) for v in rng.integers(0, h, 2)),
+                 tuple(int(v) for v in rng.integers(40, 200, 3)), int(rng.integers(1, 5)))
+    fg = img[:, :, 0] < 120
+    ref = _front_line_mask_per_channel(img, fg, 0.09)
+    assert ref.any()
+    assert np.array_equal(front_line_mask(img, fg, contrast=0.09), ref)
+    assert np.array_equal(front_line_mask(img, fg.astype(np.uint8) * 7, contrast=0.09), ref)  # any nonzero
+    y0, x0 = 3, 5  # a crop of the image (a view, not C order) as skeleton_evidence passes it
+    assert np.array_equal(front_line_mask(img[y0:, x0:], fg[y0:, x0:], contrast=0.09),
+                          _front_line_mask_per_channel(img[y0:, x0:], fg[y0:, x0:], 0.09))
+    level = board_level(img)
+    for c in range(3):
+        assert np.array_equal(level[:, :, c], cv2.max(board_level(np.ascontiguousarray(img[:, :, c])), 1))
+    top = rng.integers(0, 256, (h - 10, w - 7, 3), dtype=np.uint8)
+    q = top.astype(np.float32) / level[4:h - 6, 2:w - 5].astype(np.float32)
+    assert np.array_equal(_largest_ratio(top, level, 4, 2), np.maximum(np.maximum(q[..., 0], q[..., 1]), q[..., 2]))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_front_line_pixels_are_the_f6a558a_pieces(seed):
+    """The pieces read at their pixels (labels without the box's statistics) are those of f6a558a's labelling."""
+    from tendrilkit.mv_evidence import (FRONT_END_MIN_PX, FRONT_MIN_PX, _near_skeleton_ends, front_line_mask,
+                                        front_line_pixels)
+    from tendrilkit.skeleton.thinning import thin
+
+    rng = np.random.default_rng(seed)
+    h, w = 200, 240
+    img = np.full((h, w, 3), 220, np.uint8)
+    for _ in range(4):  # leaves with lines across them, some short (a tip resting on the leaf)
+        cy, cx = (int(v) for v in rng.integers(30, 170, 2))
+        cv2.ellipse(img, (cx, cy), (int(rng.integers(15, 45)),) * 2, 0, 0, 360, (48, 128, 62), -1)
+        for _ in range(3):
+            p = (cx + int(rng.integers(-20, 20)), cy + int(rng.integers(-20, 20)))
+            q = (p[0] + int(rng.integers(-40, 40)), p[1] + int(rng.integers(-40, 40)))
+            cv2.line(img, p, q, (50, 150, 110), int(rng.integers(2, 5)))
+    fg = img[:, :, 0] < 120
+    skeleton = np.zeros((h, w), bool)
+    skeleton[rng.integers(0, h, 60), rng.integers(0, w, 60)] = True  # ends here and there
+    skeleton[100, 20:200] = True
+    seen = np.ones((h, w), bool)
+    seen[:30, :40] = False
+    # f6a558a: every piece's size from the box's statistics
+    m = front_line_mask(img, fg, contrast=0.09) & seen
+    x, y, bw, bh = cv2.boundingRect(m.view(np.uint8))
+    y0, y1, x0, x1 = max(y - 1, 0), min(y + bh + 1, h), max(x - 1, 0), min(x + bw + 1, w)
+    mb = np.ascontiguousarray(m[y0:y1, x0:x1])
+    fresh = thin(mb) & ~skeleton[y0:y1, x0:x1]
+    _, lab, stats, _ = cv2.connectedComponentsWithStats(fresh.view(np.uint8), connectivity=8)
+    area = stats[:, cv2.CC_STAT_AREA]
+    keep = area >= FRONT_MIN_PX
+    short = (area >= FRONT_END_MIN_PX) & ~keep
+    short[0] = False
+    if short.any():
+        keep[np.unique(lab[_near_skeleton_ends(skeleton, y0, y1, x0, x1) & short[lab]])] = True
+    keep[0] = False
+    rb, cb = np.nonzero(keep[lab])
+    half = cv2.distanceTransform(mb.view(np.uint8), cv2.DIST_L2, 3)[rb, cb]
+    rr, cc, hh = front_line_pixels(img, fg, skeleton, seen, contrast=0.09)
+    assert len(rr) > 0
+    assert np.array_equal(rr, rb + y0) and np.array_equal(cc, cb + x0) and np.array_equal(hh, half)

@@ -194,8 +194,9 @@ def faint_pixels(
 def reduce_grey(grey: np.ndarray) -> np.ndarray:
     """The 4x area reduction of a grey image (``(h // 4, w // 4)``, at least 1 x 1) from which
     :func:`faint_pixels` (without ``exclude``) and the light lines' board level
-    (:func:`tendrilkit.segmentation.lines.board_level`) take their local levels: made once, read by both."""
-    h, w = grey.shape
+    (:func:`tendrilkit.segmentation.lines.board_level`) take their local levels: made once, read by both.
+    An (h, w, c) image is reduced channel by channel (the same pixels as each channel's own reduction)."""
+    h, w = grey.shape[:2]
     return cv2.resize(grey, (max(w // 4, 1), max(h // 4, 1)), interpolation=cv2.INTER_AREA)
 
 

@@ -59,6 +59,8 @@ def board_level(grey: np.ndarray, *, window_px: int = 124, reduced: np.ndarray |
     Parameters
     ----------
     grey : (h, w) uint8 array
+        Or (h, w, 3): the level of each channel at once (the same pixels as each channel's own, in one pass
+        of each step).
     window_px : int
         Side of the square window, full-resolution pixels.
     reduced : (h // 4, w // 4) uint8 array, optional
@@ -68,18 +70,20 @@ def board_level(grey: np.ndarray, *, window_px: int = 124, reduced: np.ndarray |
     Returns
     -------
     (h, w) uint8 array
-        1-255.
+        1-255 (``grey``'s shape).
     """
-    h, w = grey.shape
+    h, w = grey.shape[:2]
     small = reduce_grey(grey) if reduced is None else reduced
-    if small.shape != (max(h // 4, 1), max(w // 4, 1)):
+    if small.shape[:2] != (max(h // 4, 1), max(w // 4, 1)) or small.ndim != grey.ndim:
         raise ValueError(f"reduced must have the shape {(max(h // 4, 1), max(w // 4, 1))} (grey's 4x reduction), "
                          f"got {small.shape}")
-    if min(small.shape) >= 3:
+    if min(small.shape[:2]) >= 3:
         small = cv2.medianBlur(small, 3)
     k = max(3, (int(window_px) // 4) | 1)
     env = cv2.blur(cv2.dilate(small, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))), (k, k))
-    return cv2.max(cv2.resize(env, (w, h), interpolation=cv2.INTER_LINEAR), 1)
+    # np.maximum, not cv2.max: a Python number is a scalar (1, 0, 0, 0) to OpenCV, the first channel's only
+    level = cv2.resize(env, (w, h), interpolation=cv2.INTER_LINEAR)
+    return np.maximum(level, np.uint8(1), out=level)
 
 
 def light_line_pixels(grey: np.ndarray, foreground: np.ndarray, *, width_px: int = 11, contrast: float = 0.1,
