@@ -501,11 +501,11 @@ def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm
     for ev in evidence:
         cam = ev.camera
         if cam.has_distortion and cam.dist.size > 5:
-            views.append((ev, None, None, None))
+            views.append((ev, None, None, None, None))
             continue
         start, items, cell = ev._grid
         off = ev.offset_xy.astype(float)
-        views.append((ev, cam.R.T, cam.t_mm, (cam.K, cam.dist, cam.has_distortion, step_h, ev.skeleton_xy, off, start,
+        views.append((ev, cam.R.T, cam.t_mm, off, (cam.K, cam.dist, cam.has_distortion, step_h, ev.skeleton_xy, off, start,
                                                items, cell, ev._grid_reach, ev.centre_xy, ev.tangent_xy, ev.seen,
                                                ev.near_foreground, ev.inside_px, COVER_DEPTH_PX, COVER_PX, huber_px)))
     for it in range(iterations):
@@ -513,7 +513,7 @@ def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm
         Hd = np.zeros((n, 3, 3))
         g = np.zeros((n, 3))
         S = None
-        for ev, RT, t_mm, fixed in views:
+        for ev, RT, t_mm, off, fixed in views:
             if fixed is None:  # OpenCV's projection: the general path
                 u, J = ev.camera.project_jacobian(X, distort=True, step_mm=step_h)
                 d, gd, seen = skeleton_distance(ev, u, outside_px=1e3)
@@ -524,7 +524,7 @@ def refine_curve(X0_mm: np.ndarray, evidence: list[SkeletonEvidence], *, base_mm
             done, u, J, ok, idx, tie = _view_terms(S @ RT + t_mm, *fixed, cap, Hd, g)
             if not done:  # two skeleton pixels equally near: the k-d tree's choice (skeleton_distance)
                 idx[tie] = ev.tree.query(u[tie], distance_upper_bound=1e3)[1]
-                _view_terms_from(u, J, ok, idx, fixed[5], ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground,
+                _view_terms_from(u, J, ok, idx, off, ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground,
                                  ev.inside_px, COVER_DEPTH_PX, COVER_PX, huber_px, cap, Hd, g)
         ab = _assemble(X, B, Hd, g, bend, float(segment_mm), float(length_weight), float(base_weight))
         _, x, info = _pbsv(ab, g.ravel(), lower=0, overwrite_ab=1, overwrite_b=0)

@@ -484,11 +484,17 @@ def _self_near(pts, width, old, start):
 def _per_parent(idx, own, n_parents, per_parent, beam):
     """The rows ``idx`` (best first) kept while their parent ``own[i]`` has fewer than ``per_parent`` kept, up to
     ``beam`` rows, in order."""
-    count = np.zeros(n_parents, np.int64)
-    out = np.empty(min(len(idx), beam), np.int64)
+    return _per_parent_counted(idx, own, np.zeros(n_parents, np.int64), per_parent, beam)
+
+
+@njit(cache=True)
+def _per_parent_counted(idx, own, count, per_parent, most):
+    """:func:`_per_parent` from the children each parent has kept already, ``count`` (updated in place): up to
+    ``most`` rows more."""
+    out = np.empty(min(len(idx), most), np.int64)
     k = 0
     for i in idx:
-        if k == beam:
+        if k == most:
             break
         if count[own[i]] < per_parent:
             out[k] = i
@@ -687,6 +693,7 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     hyps = [(B[None], 0.0, 0, d, h, 0) for h, d in enumerate(seeds)]
     claims = [np.zeros((len(seeds), len(ev.skeleton_xy)), bool) for ev in evidence]
     f_claim = np.linspace(0, 1, 5)[:, None]
+    split_cos = np.cos(np.radians(SPLIT_DEG))
     finished: list[tuple[np.ndarray, float, int]] = []
     look = np.array([2.0, 3.0, 4.0])
     cone = _local_cone(cone_deg, 3)
@@ -743,21 +750,13 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         # children per parent, so that the branches of a crossing both stay in the beam; and besides the beam, up to
         # SPLIT_EXTRA children heading over SPLIT_DEG away from their parent's best kept one (a junction's branches)
         rows = _one_per_cell_and_way(pts[idx], dirs[idx], 1.5 * step_mm)
-        both = _split_siblings(rows, own[idx], dirs[idx], np.cos(np.radians(SPLIT_DEG)))  # rank order
+        both = _split_siblings(rows, own[idx], dirs[idx], split_cos)  # rank order
         diverse = idx[both]  # (the trace's)
         split = idx[np.setdiff1d(both, rows)]
-        idx = idx[rows]
-        idx = _per_parent(idx, own, len(hyps), 2, beam)
+        count = np.zeros(len(hyps), np.int64)  # children kept per parent, the beam's and then the split's
+        idx = _per_parent_counted(idx[rows], own, count, 2, beam)
         if len(split):  # the junctions' other branches besides the beam, not instead of its best
-            count = np.bincount(own[idx], minlength=len(hyps))
-            extra = []
-            for i in split.tolist():
-                if len(extra) == SPLIT_EXTRA:
-                    break
-                if count[own[i]] < 2:
-                    extra.append(i)
-                    count[own[i]] += 1
-            idx = np.r_[idx, np.asarray(extra, idx.dtype)]
+            idx = np.r_[idx, _per_parent_counted(split, own, count, 2, SPLIT_EXTRA)]
         if _TRACE is not None:
             _TRACE("step", hyps=hyps, own=own, pts=pts, ranked=ranked, diverse=diverse, kept=idx, cost=cost, ok=ok,
                    m_end=m_end, m_mid=m_mid, vis=vis, confirmed=confirmed, contradicted=contradicted,
@@ -767,9 +766,8 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         claims = [c[own[idx]] for c in claims]  # each kept candidate starts from its parent's claims
         grown = [k for k, h in enumerate(parents) if len(h[0]) >= 3]
         if grown:
-            f = f_claim
-            P = np.vstack([parents[k][0][-3] + f * (parents[k][0][-2] - parents[k][0][-3]) for k in grown])
-            rows = np.repeat(np.asarray(grown, np.int64), len(f))
+            P = np.vstack([parents[k][0][-3] + f_claim * (parents[k][0][-2] - parents[k][0][-3]) for k in grown])
+            rows = np.repeat(np.asarray(grown, np.int64), len(f_claim))
             for v, ev in enumerate(evidence):
                 mark_near_rows(ev, claims[v], rows, ev.camera.project(P), 4.0)
         hyps = [(np.concatenate([parents[j][0], pts[i][None]]), float(score[i]), int(tail[i]), dirs[i], j,

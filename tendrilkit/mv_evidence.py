@@ -597,7 +597,6 @@ def _mark_point(qx, qy, xy, off, start, items, cell, radius, marked):
                     marked[j] = True
 
 
-
 #: :func:`front_line_mask`: lines up to about this wide (px, the top-hat's disk; a tendril's width and its blur)
 #: are found, inside regions at least this wide (the opening of the foreground by the same disk: a leaf, the stem)
 FRONT_DISK_PX = 11
