@@ -208,11 +208,11 @@ def score(rows: list[dict], curves: dict, gt) -> pd.DataFrame:
     table = pd.concat([pd.DataFrame({"frame": f, "point": range(len(P)), "x_mm": P[:, 0], "y_mm": P[:, 1],
                                      "z_mm": P[:, 2]}) for f, P in curves.items()]) if curves else None
     acc = accuracy_against_truth(table, gt.curves_table()) if table is not None else pd.DataFrame(
-        columns=["frame", "mean_mm", "max_mm", "base_mm", "tip_mm"])
+        columns=["frame", "mean_mm", "max_mm", "base_mm", "tip_mm", "miss_mm"])
     acc["frame"] = acc["frame"].astype(int)
-    t = t.merge(acc[["frame", "mean_mm", "max_mm", "base_mm", "tip_mm"]], on="frame", how="left")
+    t = t.merge(acc[["frame", "mean_mm", "max_mm", "base_mm", "tip_mm", "miss_mm"]], on="frame", how="left")
     t["ends"] = (t.base_mm <= 2.0) & (t.tip_mm <= 2.0)
-    t["within"] = (t.mean_mm <= 0.5) & (t.max_mm <= 2.0) & t.ends
+    t["within"] = (t.mean_mm <= 0.5) & (t.max_mm <= 2.0) & t.ends & (t.miss_mm <= 2.0)  # as scoring.score_result
     t["cause"] = ["" if w else frame_cause(curves.get(int(r.frame)), np.asarray(gt.curves[int(r.frame)], float), r)
                   for w, r in zip(t.within, t.itertuples())]
     t["pale"] = t.factors.str.contains("look=pale")

@@ -31,7 +31,10 @@ def accuracy_against_truth(curves: pd.DataFrame, truth: pd.DataFrame) -> pd.Data
     pandas.DataFrame
         ``frame``, ``mean_mm`` and ``max_mm`` (distance of each reconstructed
         point to the true polyline), ``base_mm`` and ``tip_mm`` (distance of
-        the first and last points to the true ends), sorted by frame.
+        the first and last points to the true ends), ``miss_mm`` (the other
+        way: the largest distance of a true point to the reconstructed
+        polyline; a curve that cuts across a loop, every point of it on the
+        truth, misses the loop), sorted by frame.
     """
     from scipy.spatial import cKDTree
 
@@ -48,9 +51,13 @@ def accuracy_against_truth(curves: pd.DataFrame, truth: pd.DataFrame) -> pd.Data
         n = max(2, int(np.ceil(seg.sum() / 0.02)))  # the true polyline every 0.02 mm
         Xd = resample_polyline(X, n)
         d, _ = cKDTree(Xd).query(P)
+        seg_p = np.linalg.norm(np.diff(P, axis=0), axis=1).sum() if len(P) > 1 else 0.0
+        Pd = resample_polyline(P, max(2, int(np.ceil(seg_p / 0.02)))) if seg_p > 0 else P
+        miss, _ = cKDTree(Pd).query(X)
         rows.append({"frame": int(frame), "mean_mm": float(d.mean()), "max_mm": float(d.max()),
-                     "base_mm": float(np.linalg.norm(P[0] - X[0])), "tip_mm": float(np.linalg.norm(P[-1] - X[-1]))})
-    return pd.DataFrame(rows, columns=["frame", "mean_mm", "max_mm", "base_mm", "tip_mm"])
+                     "base_mm": float(np.linalg.norm(P[0] - X[0])), "tip_mm": float(np.linalg.norm(P[-1] - X[-1])),
+                     "miss_mm": float(miss.max())})
+    return pd.DataFrame(rows, columns=["frame", "mean_mm", "max_mm", "base_mm", "tip_mm", "miss_mm"])
 
 
 def compare_correspondence(experiment_path: str | Path, out_dir: str | Path, *, truth: pd.DataFrame | None = None,

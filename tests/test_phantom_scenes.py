@@ -446,3 +446,26 @@ def test_every_marker_is_drawn_where_the_ground_truth_records_it():
                 assert mid in recorded, (seed, v, mid)
                 err = np.linalg.norm(corners_xy - cam.project(recorded[mid]), axis=1).max()
                 assert err < 1.0, (seed, v, mid, err)
+
+
+def test_a_curve_cutting_across_a_loop_is_not_within_the_truth():
+    """Every point of a curve that skips a loop lies on the truth and its ends are right: the truth's own distance
+    to the curve (``miss_mm``) tells (the issue's figures count a frame right only when no true point is off)."""
+    s = np.linspace(0.0, 1.0, 400)
+    line = np.c_[60.0 * s, np.zeros_like(s), np.zeros_like(s)]
+    # the truth: a straight tendril with a loop of 6 mm diameter at 30 mm
+    u = np.linspace(0.0, 2 * np.pi, 200)
+    loop = np.c_[30.0 + 3.0 * np.sin(u), 3.0 - 3.0 * np.cos(u), 0.2 * u]
+    truth_xyz = np.vstack([line[line[:, 0] < 30.0], loop, line[line[:, 0] > 30.0] + [0.0, 0.0, 0.2 * 2 * np.pi]])
+    cut = np.vstack([truth_xyz[:len(line[line[:, 0] < 30.0])], truth_xyz[-len(line[line[:, 0] > 30.0]):]])
+
+    def table(X):
+        return pd.DataFrame({"frame": 0, "point": np.arange(len(X)), "x_mm": X[:, 0], "y_mm": X[:, 1],
+                             "z_mm": X[:, 2]})
+
+    frames = pd.DataFrame({"frame": [0], "status": ["ok"], "message": [""]})
+    whole = score_frames(table(truth_xyz), frames, table(truth_xyz))
+    assert bool(whole.within.iloc[0]) and whole.miss_mm.iloc[0] < 0.05
+    t = score_frames(table(cut), frames, table(truth_xyz))
+    assert t.mean_mm.iloc[0] < 0.5 and t.max_mm.iloc[0] < 2.0 and t.base_mm.iloc[0] < 2.0 and t.tip_mm.iloc[0] < 2.0
+    assert t.miss_mm.iloc[0] > 5.0 and not bool(t.within.iloc[0])
