@@ -86,7 +86,10 @@ def board_level(grey: np.ndarray, *, window_px: int = 124, reduced: np.ndarray |
     # OpenCV, the first channel's only, and np.maximum with a uint8 scalar is 10 times slower (0.5 ms on a 1080p
     # view's ROI crop of three channels)
     flat = level.reshape(h, -1)
-    cv2.max(flat, 1, dst=flat)
+    if flat.size > 1:
+        cv2.max(flat, 1, dst=flat)
+    else:  # OpenCV takes a 1 x 1 array for a scalar
+        np.maximum(flat, np.uint8(1), out=flat)
     return level
 
 
