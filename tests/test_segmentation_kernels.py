@@ -3,8 +3,8 @@
 * :func:`tendrilkit.segmentation.kernels.binary_morphology` against ``cv2.morphologyEx``;
 * :func:`tendrilkit.segmentation.faint_pixels` with ``at`` / ``reduced`` against the function without them;
 * :func:`tendrilkit.segmentation.faint.drop_unanchored` against main 8382d0e's whole-image function;
-* the board's masked reduction (``faint._board_reduction``: two channels at once) and the board's level
-  (:func:`tendrilkit.segmentation.lines.board_level`, floored by ``cv2.max``) against main cd9d4c9's;
+* the board's level (:func:`tendrilkit.segmentation.lines.board_level`, floored by ``cv2.max``) against main
+  cd9d4c9's;
 * the pale options' whole foreground (:func:`tendrilkit.segmentation.foreground_roi`) against main 8382d0e's
   composition (the plain faint pass on every pixel, the board level reducing grey again).
 """
@@ -197,30 +197,6 @@ def test_fill_from_board_is_8382d0es():
             hole[:] = 255
             hole[int(rng.integers(0, shape[0])), int(rng.integers(0, shape[1]))] = 0
         np.testing.assert_array_equal(_fill_from_board(small, hole), _fill_from_board_8382d0e(small, hole))
-
-
-def test_board_reduction_is_cd9d4c9s():
-    """The board's share and levels reduced as two channels of one image: the same numbers as each reduced on its
-    own (main cd9d4c9), on images of every size (under 4 px, sides not divisible by 4), boards touching the sides,
-    no board, all board."""
-    from tendrilkit.segmentation.faint import _board_reduction
-
-    rng = np.random.default_rng(11)
-    for k in range(120):
-        shape = tuple(int(v) for v in rng.integers(1, 140, 2))
-        grey = rng.integers(0, 256, shape).astype(np.uint8)
-        valid = cv2.compare(_random_mask(rng, shape, float(rng.choice([0.0, 0.05, 0.5]))), 0, cv2.CMP_EQ)
-        if k % 10 == 0:
-            valid[:] = 0
-        if k % 10 == 1:
-            valid[:] = 255
-        size = (max(shape[1] // 4, 1), max(shape[0] // 4, 1))
-        share, total = _board_reduction(grey, valid, size)
-        want_share = cv2.resize(np.divide(valid, 255, dtype=np.float32), size, interpolation=cv2.INTER_AREA)
-        want_total = cv2.resize(cv2.bitwise_and(grey, valid).astype(np.float32), size, interpolation=cv2.INTER_AREA)
-        for got, want in ((share, want_share), (total, want_total)):
-            assert got.dtype == want.dtype and got.shape == want.shape
-            assert got.tobytes() == want.tobytes()
 
 
 def _board_level_cd9d4c9(grey, window_px=124):
