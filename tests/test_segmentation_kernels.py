@@ -3,6 +3,8 @@
 * :func:`tendrilkit.segmentation.kernels.binary_morphology` against ``cv2.morphologyEx``;
 * :func:`tendrilkit.segmentation.faint_pixels` with ``at`` / ``reduced`` against the function without them;
 * :func:`tendrilkit.segmentation.faint.drop_unanchored` against main 8382d0e's whole-image function;
+* the board's level (:func:`tendrilkit.segmentation.lines.board_level`, floored by ``cv2.max``) against main
+  cd9d4c9's;
 * the pale options' whole foreground (:func:`tendrilkit.segmentation.foreground_roi`) against main 8382d0e's
   composition (the plain faint pass on every pixel, the board level reducing grey again).
 """
@@ -195,3 +197,33 @@ def test_fill_from_board_is_8382d0es():
             hole[:] = 255
             hole[int(rng.integers(0, shape[0])), int(rng.integers(0, shape[1]))] = 0
         np.testing.assert_array_equal(_fill_from_board(small, hole), _fill_from_board_8382d0e(small, hole))
+
+
+def _board_level_cd9d4c9(grey, window_px=124):
+    """lines.board_level as it was at main cd9d4c9 (floored by np.maximum)."""
+    h, w = grey.shape[:2]
+    small = reduce_grey(grey)
+    if min(small.shape[:2]) >= 3:
+        small = cv2.medianBlur(small, 3)
+    k = max(3, (int(window_px) // 4) | 1)
+    env = cv2.blur(cv2.dilate(small, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))), (k, k))
+    level = cv2.resize(env, (w, h), interpolation=cv2.INTER_LINEAR)
+    return np.maximum(level, np.uint8(1), out=level)
+
+
+def test_board_level_is_cd9d4c9s():
+    """The level floored at 1 on a one-channel view (cv2.max): main cd9d4c9's, of one and of three channels, on
+    images of every size (a pixel, a row, a column), dark (the floor matters) and bright."""
+    rng = np.random.default_rng(12)
+    for k in range(80):
+        shape = tuple(int(v) for v in rng.integers(1, 120, 2))
+        if k % 8 == 0:
+            shape = (1, 1)
+        if k % 2:
+            shape = shape + (3,)
+        top = int(rng.choice([2, 30, 256]))
+        grey = rng.integers(0, top, shape).astype(np.uint8)
+        got, want = board_level(grey), _board_level_cd9d4c9(grey)
+        assert got.dtype == want.dtype and got.shape == want.shape
+        np.testing.assert_array_equal(got, want)
+        assert got.min() >= 1

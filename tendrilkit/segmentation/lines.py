@@ -81,9 +81,16 @@ def board_level(grey: np.ndarray, *, window_px: int = 124, reduced: np.ndarray |
         small = cv2.medianBlur(small, 3)
     k = max(3, (int(window_px) // 4) | 1)
     env = cv2.blur(cv2.dilate(small, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k))), (k, k))
-    # np.maximum, not cv2.max: a Python number is a scalar (1, 0, 0, 0) to OpenCV, the first channel's only
     level = cv2.resize(env, (w, h), interpolation=cv2.INTER_LINEAR)
-    return np.maximum(level, np.uint8(1), out=level)
+    # floored at 1 on a one-channel view of the level (h, w * c): a Python number is a scalar (1, 0, 0, 0) to
+    # OpenCV, the first channel's only, and np.maximum with a uint8 scalar is 10 times slower (0.5 ms on a 1080p
+    # view's ROI crop of three channels)
+    flat = level.reshape(h, -1)
+    if flat.size > 1:
+        cv2.max(flat, 1, dst=flat)
+    else:  # OpenCV takes a 1 x 1 array for a scalar
+        np.maximum(flat, np.uint8(1), out=flat)
+    return level
 
 
 def light_line_pixels(grey: np.ndarray, foreground: np.ndarray, *, width_px: int = 11, contrast: float = 0.1,
