@@ -851,14 +851,16 @@ def test_tendril_in_front_of_a_leaf_seen_by_its_colour_dev_scene_1068(tmp_path):
     segmentation reads it is as dark as the leaf, one blob with it, and the views showed that stretch covered:
     the curve crossed it on the other views' say, 3.9 mm off at its worst. Lighter than the leaf in its red
     channel, the tendril is a front line (``reconstruction.front_line_contrast``, 0.09) whose skeleton the curve
-    follows. Measured: max 1.25 mm (mean 0.13 mm, tip 0.11 mm); without the front lines max 3.90 mm."""
+    follows. Measured: max 1.25 mm (mean 0.13 mm, tip 0.11 mm); without the front lines max 3.90 mm, or on
+    another machine (the acquisition's beam taking another path at a near-tie without them) 2.06 mm (mean 0.30):
+    without them the curve is off by 0.8 mm more at least, wherever it runs."""
     images, cams, exp, X = _random_scene_frame(tmp_path, 1068)
     assert exp.reconstruction.front_line_contrast > 0  # the default
     e = _errors(reconstruct_frame(images, cams, exp, frame=0, fit=False).points_mm, X)
     assert e["mean"] <= 0.5 and e["max"] <= 2.0 and e["base"] <= 2.0 and e["tip"] <= 2.0, e
     off = _errors(reconstruct_frame(images, cams, _experiment(exp, front_line_contrast=0.0), frame=0,
                                     fit=False).points_mm, X)
-    assert off["max"] >= 3.0, off
+    assert off["max"] >= e["max"] + 0.5, (off, e)
 
 
 def _leaf_view(line: bool):
