@@ -470,6 +470,7 @@ class Verification(_Strict):
     max_open_tip_px: NonNegFloat = 3.0
     max_unseen_detour_mm: PositiveFloat = 3.0
     max_lone_tip_px: NonNegFloat = 3.0
+    max_bypass_px: NonNegFloat = 40.0
 
 
 class Analysis(_Strict):

@@ -17,7 +17,7 @@ from tendrilkit.verify_base import WIDE_RATIO, near_base
 from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
 from tendrilkit.verify_tip import bounded_query
 
-__all__ = ["coverage_frac", "tendril_radius_px", "BORDER_PX", "MIN_BRANCH_PX"]
+__all__ = ["coverage_frac", "tendril_radius_px", "bypass_px", "bypass_message", "BORDER_PX", "MIN_BRANCH_PX"]
 
 #: A branch of unexplained skeleton whose line reaches within this distance of the ROI's border (px: the
 #: skeleton pixel's distance to the border less its inside distance) comes from outside the region the
@@ -246,3 +246,56 @@ def coverage_frac(ev: ViewEvidence, dense: np.ndarray, d: np.ndarray, tol: float
         parts["explained_xy"] = sk[near]
         parts["missed_xy"] = sk[np.nonzero(free)[0][tendril[b]]]
     return float(n_near / max(n_near + n_free, 1))
+
+
+def bypass_px(explained_xy: np.ndarray, missed_xy: np.ndarray) -> float:
+    """The longest stretch of the tendril's skeleton the curve cuts across (px): a missed branch that leaves the
+    explained skeleton and joins it again.
+
+    ``explained_xy`` and ``missed_xy`` are :func:`coverage_frac`'s ``parts`` (the skeleton pixels the curve
+    explains, and the tendril's it counts as missed). Of each 8-connected piece of the missed pixels, those within
+    1.5 px of an explained pixel are where it joins; a piece joining at two places or more (more than 2 px apart)
+    runs from the curve and back to it: the curve took a shortcut (across a coil's turn seen from the side while the
+    other views see the coil end-on, where the shortcut lies on the tendril). Its pixel count, the largest such
+    piece's; 0: none. A branch that only leaves the curve (a spur, a missed tip, clutter) joins it at one place.
+    """
+    import cv2
+    from scipy.spatial import cKDTree
+
+    E = np.asarray(explained_xy, float).reshape(-1, 2)
+    M = np.asarray(missed_xy, float).reshape(-1, 2)
+    if len(E) == 0 or len(M) == 0:
+        return 0.0
+    lo = np.minimum(E.min(axis=0), M.min(axis=0)).astype(int) - 2
+    hi = np.maximum(E.max(axis=0), M.max(axis=0)).astype(int) + 3
+    m = (M - lo).astype(int)
+    img = np.zeros((hi[1] - lo[1], hi[0] - lo[0]), np.uint8)
+    img[m[:, 1], m[:, 0]] = 1
+    n, lab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
+    piece = lab[m[:, 1], m[:, 0]]
+    d, _ = cKDTree(E).query(M, distance_upper_bound=1.5 + 1e-9)
+    joins = np.isfinite(d)
+    best = 0
+    grow = np.ones((3, 3), np.uint8)
+    for k in range(1, n):
+        at = m[(piece == k) & joins]
+        if len(at) < 2:
+            continue
+        places = np.zeros(img.shape, np.uint8)
+        places[at[:, 1], at[:, 0]] = 1
+        n_places = cv2.connectedComponents(cv2.dilate(places, grow), connectivity=8)[0] - 1
+        if n_places >= 2:
+            best = max(best, int((piece == k).sum()))
+    return float(best)
+
+
+def bypass_message(figures: dict, n_views: int, limit_px: float) -> str | None:
+    """The message when the curve cuts across a stretch of the tendril's skeleton (``bypass_px_v<i>``) longer
+    than ``limit_px`` in one view or more, else None."""
+    hits = [(v, x) for v in range(1, n_views + 1) if (x := figures.get(f"bypass_px_v{v}")) is not None
+            and x > limit_px]
+    if not hits:
+        return None
+    return ("coverage: the tendril's skeleton leaves the curve and joins it again, the curve cutting across it (a "
+            "coil's turn) in " + ", ".join(f"view {v} ({x:.0f} px)" for v, x in hits)
+            + f" (limit {limit_px:g} px in one view)")

@@ -838,22 +838,24 @@ def test_every_checks_figure_is_a_frames_column(scene):
     cols = view_columns(2)
     for stem in ("tip_object_px", "turn_branch_px", "distal_widening_ratio"):
         assert [f"{stem}_v1", f"{stem}_v2"] == [c for c in cols if c.startswith(stem)]
-    assert cols[-17:-11] == ["tip_object_px_v1", "tip_object_px_v2", "turn_branch_px_v1", "turn_branch_px_v2",
+    assert cols[-19:-13] == ["tip_object_px_v1", "tip_object_px_v2", "turn_branch_px_v1", "turn_branch_px_v2",
                              "distal_widening_ratio_v1", "distal_widening_ratio_v2"]  # added at the table's end
-    assert cols[-11:-7] == ["tip_tone_frac_v1", "tip_tone_frac_v2", "off_colour_run_px_v1",
+    assert cols[-13:-9] == ["tip_tone_frac_v1", "tip_tone_frac_v2", "off_colour_run_px_v1",
                             "off_colour_run_px_v2"]  # and the tone and colour figures after them
-    assert cols[-7:-5] == ["open_tip_px_v1", "open_tip_px_v2"]  # then the open tip's
-    assert cols[-5:-3] == ["wide_crossing_px_v1", "wide_crossing_px_v2"]  # then the merged check's crossings
-    assert cols[-3] == "unseen_detour_mm"  # then the unseen detour's (verify_depth)
-    assert cols[-2:] == ["lone_tip_px_v1", "lone_tip_px_v2"]  # last the lone tip's (verify_sight)
+    assert cols[-9:-7] == ["open_tip_px_v1", "open_tip_px_v2"]  # then the open tip's
+    assert cols[-7:-5] == ["wide_crossing_px_v1", "wide_crossing_px_v2"]  # then the merged check's crossings
+    assert cols[-5] == "unseen_detour_mm"  # then the unseen detour's (verify_depth)
+    assert cols[-4:-2] == ["lone_tip_px_v1", "lone_tip_px_v2"]  # then the lone tip's (verify_sight)
+    assert cols[-2:] == ["bypass_px_v1", "bypass_px_v2"]  # last the bypass's (verify_coverage)
     q = verify_curve(_tendril_mm(), cams, ev)
     assert set(cols) <= set(q)
     assert q["distal_widening_ratio_v1"] is not None and q["distal_widening_ratio_v1"] <= Thresholds().max_distal_widening
     assert q["turn_branch_px_v1"] is None  # a right curve turns off no line
     from tendrilkit.schema import frames_table
 
-    assert frames_table(2).columns[-7:] == tuple(cols[-7:])
+    assert frames_table(2).columns[-9:] == tuple(cols[-9:])
     assert q["unseen_detour_mm"] == 0.0  # a right curve the views fix everywhere
+    assert q["bypass_px_v1"] == 0.0 and q["bypass_px_v2"] == 0.0  # a right curve cuts across nothing
 
 
 
@@ -998,3 +1000,23 @@ def test_verify_depth_docstring_examples_run():
 
     res = doctest.testmod(module)
     assert res.attempted >= 3 and res.failed == 0
+
+
+def test_bypass_is_a_missed_piece_joining_the_explained_skeleton_twice():
+    """A coil's turn the curve cuts across leaves the explained skeleton and joins it again: the bypass counts its
+    pixels and the check flags it over the limit; a branch that only leaves the curve (a spur, clutter, a missed
+    tip) joins once and is not a bypass."""
+    from tendrilkit.verify_coverage import bypass_message, bypass_px
+
+    x = np.arange(0, 200)
+    explained = np.c_[x, np.full(len(x), 100)].astype(float)  # the curve's straight path, explained
+    t = np.linspace(0.0, np.pi, 120)
+    arc = np.unique(np.round(np.c_[100 + 30 * np.cos(t), 100 - 30 * np.sin(t)]), axis=0)
+    loop = arc[np.abs(arc[:, 1] - 100) >= 1]  # a half-turn leaving the path at x = 70 and joining it at x = 130
+    assert bypass_px(explained, loop) == len(loop) and len(loop) > 40
+    spur = np.c_[np.full(60, 50), np.arange(101, 161)].astype(float)  # a branch leaving the path once
+    assert bypass_px(explained, spur) == 0.0
+    assert bypass_px(explained, np.zeros((0, 2))) == 0.0
+    q = {"bypass_px_v1": float(len(loop)), "bypass_px_v2": 0.0}
+    assert "view 1" in bypass_message(q, 2, Thresholds().max_bypass_px)
+    assert bypass_message({"bypass_px_v1": 20.0, "bypass_px_v2": None}, 2, Thresholds().max_bypass_px) is None
