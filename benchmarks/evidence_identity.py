@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # rerun_multiview, beside it
+
 
 def _scenes(out: Path, n: int | None) -> list[Path]:
     scenes = sorted((d for d in out.glob("random-*") if (d / "result-multiview" / "cameras.json").is_file()),
@@ -40,13 +42,10 @@ def _scenes(out: Path, n: int | None) -> list[Path]:
 
 
 def _load_scene(folder: Path):
-    """The scene's experiment (method forced to multiview, as ``rerun_multiview``) and cameras."""
-    from tendrilkit.io import read_cameras
-    from tendrilkit.params import load_experiment
+    """The scene's experiment (method forced to multiview) and cameras, as ``rerun_multiview`` reads them."""
+    from rerun_multiview import scene_experiment
 
-    exp = load_experiment(folder / "scene" / "experiment.yaml")
-    exp = exp.model_copy(update={"reconstruction": exp.reconstruction.model_copy(update={"method": "multiview"})})
-    return exp, read_cameras(folder / "result-multiview" / "cameras.json")
+    return scene_experiment(folder)
 
 
 def _frames(out: Path, folder: Path, k: int) -> list[int]:

@@ -132,26 +132,35 @@ def cache_folder(sets: dict) -> str:
     return "evidence-cache" + "".join(f"-{k}" for k in seg)
 
 
+def scene_experiment(folder: Path):
+    """A generalisation run's scene: its experiment (``reconstruction.method`` multiview, as the run's) and the
+    cameras the run calibrated (``result-multiview/cameras.json``)."""
+    from tendrilkit.io import read_cameras
+    from tendrilkit.params import load_experiment
+
+    exp = load_experiment(folder / "scene" / "experiment.yaml")
+    exp = exp.model_copy(update={"reconstruction": exp.reconstruction.model_copy(update={"method": "multiview"})})
+    return exp, read_cameras(folder / "result-multiview" / "cameras.json")
+
+
 def rerun_scene(folder: Path, cache: Path, *, fit: bool, sets: dict | None = None) -> list[dict]:
     """Reconstruct every processed frame of one scene again (multiview), evidence from ``cache``.
 
     ``sets``: {section: {key: value}} replacing the experiment's options (``--set``).
     """
     import tendrilkit.pipeline as pipeline
-    from tendrilkit.io import open_views, read_cameras
-    from tendrilkit.params import load_experiment, with_overrides
+    from tendrilkit.io import open_views
+    from tendrilkit.params import with_overrides
     from tendrilkit.phantom import read_ground_truth
     from tendrilkit.assembly import with_run_checks, with_temporal_checks
     from tendrilkit.runner import _next_curve, _read_views
     from tendrilkit.verify import Thresholds
     from tendrilkit.verify_calibration import world_marker_message
 
-    exp = load_experiment(folder / "scene" / "experiment.yaml")
-    exp = exp.model_copy(update={"reconstruction": exp.reconstruction.model_copy(update={"method": "multiview"})})
+    exp, cameras = scene_experiment(folder)
     if sets:
         exp = with_overrides(exp, sets)  # validated: a mistyped key is an error, not a silent baseline
     res = folder / "result-multiview"
-    cameras = read_cameras(res / "cameras.json")
     frames = sorted(int(f) for f in pd.read_csv(res / "frames.csv").frame)
     gt = read_ground_truth(folder / "scene")
     factors = ";".join(json.loads((folder / "scene" / "ground_truth" / "gt_meta.json").read_text())
@@ -199,20 +208,18 @@ def rerun_scene(folder: Path, cache: Path, *, fit: bool, sets: dict | None = Non
 
 
 def score(rows: list[dict], curves: dict, gt) -> pd.DataFrame:
-    """The rows with the distances to the truth (:func:`tendrilkit.evaluation.accuracy_against_truth`) and a cause."""
+    """The rows with the distances to the truth and the criteria of :func:`tendrilkit.scoring.score_frames`, and a
+    cause."""
     from diagnose_multiview import frame_cause
 
-    from tendrilkit.evaluation import accuracy_against_truth
+    from tendrilkit.scoring import score_frames
 
     t = pd.DataFrame(rows)
     table = pd.concat([pd.DataFrame({"frame": f, "point": range(len(P)), "x_mm": P[:, 0], "y_mm": P[:, 1],
-                                     "z_mm": P[:, 2]}) for f, P in curves.items()]) if curves else None
-    acc = accuracy_against_truth(table, gt.curves_table()) if table is not None else pd.DataFrame(
-        columns=["frame", "mean_mm", "max_mm", "base_mm", "tip_mm", "miss_mm"])
-    acc["frame"] = acc["frame"].astype(int)
-    t = t.merge(acc[["frame", "mean_mm", "max_mm", "base_mm", "tip_mm", "miss_mm"]], on="frame", how="left")
-    t["ends"] = (t.base_mm <= 2.0) & (t.tip_mm <= 2.0)
-    t["within"] = (t.mean_mm <= 0.5) & (t.max_mm <= 2.0) & t.ends & (t.miss_mm <= 2.0)  # as scoring.score_result
+                                     "z_mm": P[:, 2]}) for f, P in curves.items()]) if curves else pd.DataFrame()
+    s = score_frames(table, t[["frame", "status", "message"]], gt.curves_table())
+    s = s[["frame", "mean_mm", "max_mm", "base_mm", "tip_mm", "miss_mm", "within_ends", "within"]]
+    t = t.merge(s.rename(columns={"within_ends": "ends"}), on="frame", how="left")
     t["cause"] = ["" if w else frame_cause(curves.get(int(r.frame)), np.asarray(gt.curves[int(r.frame)], float), r)
                   for w, r in zip(t.within, t.itertuples())]
     t["pale"] = t.factors.str.contains("look=pale")

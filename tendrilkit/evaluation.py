@@ -40,6 +40,11 @@ def accuracy_against_truth(curves: pd.DataFrame, truth: pd.DataFrame) -> pd.Data
 
     from tendrilkit.geometry import resample_polyline
 
+    def dense(Y: np.ndarray) -> np.ndarray:
+        """The polyline ``Y`` every 0.02 mm (itself when it has no length: a single point)."""
+        length = float(np.linalg.norm(np.diff(Y, axis=0), axis=1).sum()) if len(Y) > 1 else 0.0
+        return resample_polyline(Y, max(2, int(np.ceil(length / 0.02)))) if length > 0 else Y
+
     rows = []
     for frame, g in curves.groupby("frame", sort=True):
         t = truth[truth.frame == frame].sort_values("point")
@@ -47,13 +52,8 @@ def accuracy_against_truth(curves: pd.DataFrame, truth: pd.DataFrame) -> pd.Data
             continue
         X = t[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
         P = g.sort_values("point")[["x_mm", "y_mm", "z_mm"]].to_numpy(float)
-        seg = np.linalg.norm(np.diff(X, axis=0), axis=1)
-        n = max(2, int(np.ceil(seg.sum() / 0.02)))  # the true polyline every 0.02 mm
-        Xd = resample_polyline(X, n)
-        d, _ = cKDTree(Xd).query(P)
-        seg_p = np.linalg.norm(np.diff(P, axis=0), axis=1).sum() if len(P) > 1 else 0.0
-        Pd = resample_polyline(P, max(2, int(np.ceil(seg_p / 0.02)))) if seg_p > 0 else P
-        miss, _ = cKDTree(Pd).query(X)
+        d, _ = cKDTree(dense(X)).query(P)  # each reconstructed point to the true polyline
+        miss, _ = cKDTree(dense(P)).query(X)  # and each true point to the reconstructed one
         rows.append({"frame": int(frame), "mean_mm": float(d.mean()), "max_mm": float(d.max()),
                      "base_mm": float(np.linalg.norm(P[0] - X[0])), "tip_mm": float(np.linalg.norm(P[-1] - X[-1])),
                      "miss_mm": float(miss.max())})

@@ -15,7 +15,7 @@ import numpy as np
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.verify_base import WIDE_RATIO, near_base
 from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
-from tendrilkit.verify_tip import bounded_query
+from tendrilkit.verify_tip import bounded_query, failing_views
 
 __all__ = ["coverage_frac", "tendril_radius_px", "bypass_px", "bypass_message", "BORDER_PX", "MIN_BRANCH_PX"]
 
@@ -266,34 +266,31 @@ def bypass_px(explained_xy: np.ndarray, missed_xy: np.ndarray) -> float:
     M = np.asarray(missed_xy, float).reshape(-1, 2)
     if len(E) == 0 or len(M) == 0:
         return 0.0
-    lo = np.minimum(E.min(axis=0), M.min(axis=0)).astype(int) - 2
-    hi = np.maximum(E.max(axis=0), M.max(axis=0)).astype(int) + 3
-    m = (M - lo).astype(int)
-    img = np.zeros((hi[1] - lo[1], hi[0] - lo[0]), np.uint8)
+    m = M.astype(int) - (M.min(axis=0).astype(int) - 1)  # on the missed pixels' box, a pixel of margin
+    shape = (int(m[:, 1].max()) + 2, int(m[:, 0].max()) + 2)
+    img = np.zeros(shape, np.uint8)
     img[m[:, 1], m[:, 0]] = 1
-    n, lab = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)
-    piece = lab[m[:, 1], m[:, 0]]
+    piece = cv2.connectedComponents(img, connectivity=8, ltype=cv2.CV_32S)[1][m[:, 1], m[:, 0]]
     d, _ = cKDTree(E).query(M, distance_upper_bound=1.5 + 1e-9)
     joins = np.isfinite(d)
-    best = 0
-    grow = np.ones((3, 3), np.uint8)
-    for k in range(1, n):
-        at = m[(piece == k) & joins]
-        if len(at) < 2:
-            continue
-        places = np.zeros(img.shape, np.uint8)
-        places[at[:, 1], at[:, 0]] = 1
-        n_places = cv2.connectedComponents(cv2.dilate(places, grow), connectivity=8)[0] - 1
-        if n_places >= 2:
-            best = max(best, int((piece == k).sum()))
-    return float(best)
+    if joins.sum() < 2:
+        return 0.0
+    # the places where pieces join: the join pixels grown by one pixel, labelled once
+    at = np.zeros(shape, np.uint8)
+    at[m[joins, 1], m[joins, 0]] = 1
+    place = cv2.connectedComponents(cv2.dilate(at, np.ones((3, 3), np.uint8)), connectivity=8,
+                                    ltype=cv2.CV_32S)[1][m[joins, 1], m[joins, 0]]
+    pairs = np.unique(np.c_[piece[joins], place], axis=0)  # (piece, place) once each
+    places = np.bincount(pairs[:, 0], minlength=int(piece.max()) + 1)
+    sizes = np.bincount(piece, minlength=len(places))
+    bypass = places >= 2
+    return float(sizes[bypass].max()) if bypass.any() else 0.0
 
 
 def bypass_message(figures: dict, n_views: int, limit_px: float) -> str | None:
     """The message when the curve cuts across a stretch of the tendril's skeleton (``bypass_px_v<i>``) longer
     than ``limit_px`` in one view or more, else None."""
-    hits = [(v, x) for v in range(1, n_views + 1) if (x := figures.get(f"bypass_px_v{v}")) is not None
-            and x > limit_px]
+    hits = failing_views(figures, "bypass_px", n_views, lambda x: x > limit_px)
     if not hits:
         return None
     return ("coverage: the tendril's skeleton leaves the curve and joins it again, the curve cutting across it (a "
