@@ -36,6 +36,7 @@ from scipy.spatial import cKDTree
 from tendrilkit.camera import Camera, _project_brown
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
+from tendrilkit.segmentation.lines import vein_pixels
 
 __all__ = ["SkeletonEvidence", "skeleton_evidence", "front_line_pixels", "front_line_mask", "skeleton_distance", "project_distance", "project_costs", "mark_near", "mark_near_rows", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
 
@@ -731,9 +732,11 @@ def front_line_pixels(crop_bgr: np.ndarray, foreground: np.ndarray, skeleton: np
     (``seen``) are thinned; the pieces of at least :data:`FRONT_MIN_PX` pixels
     off ``skeleton`` are returned, and the shorter ones of at least
     :data:`FRONT_END_MIN_PX` that start at an end of ``skeleton`` (a tip a few
-    pixels into the leaf it rests on). A leaf's midrib is such a line too (at the
-    board, where the other views' projections of a curve above it fall
-    elsewhere). :func:`skeleton_evidence` adds them.
+    pixels into the leaf it rests on). A leaf's midrib is such a line too, and
+    a 3D line on the leaf that every view sees: the curve took it off a coil
+    over the leaf (dev seeds 1044, 1059, 1074); lines along the middle of
+    their object that end in it are left out
+    (:func:`tendrilkit.segmentation.lines.vein_pixels`). :func:`skeleton_evidence` adds them.
 
     Parameters
     ----------
@@ -756,6 +759,9 @@ def front_line_pixels(crop_bgr: np.ndarray, foreground: np.ndarray, skeleton: np
     none = (np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0, np.float32))
     m = front_line_mask(crop_bgr, foreground, contrast=contrast)
     m &= seen
+    if m.any():  # a leaf's midrib is the leaf's own: a 3D line on it that every view sees, not the tendril
+        m &= vein_pixels(m.view(np.uint8), foreground.view(np.uint8) if foreground.dtype == bool else foreground,
+                         width_px=FRONT_DISK_PX) == 0
     x, y, bw, bh = cv2.boundingRect(m.view(np.uint8))
     if bw == 0:
         return none

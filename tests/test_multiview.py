@@ -908,6 +908,33 @@ def test_front_lines_add_the_tendril_across_a_leaf_to_the_skeleton():
     assert np.array_equal(off.skeleton_xy, sev.skeleton_xy) and off.inside_px is ev.inside_px
 
 
+def test_a_leafs_midrib_is_no_front_line_but_a_tendril_across_it_is():
+    """A leaf's midrib, lighter than the leaf like a tendril in front of it, runs along the leaf's middle: it is the
+    leaf's own vein (:func:`tendrilkit.segmentation.lines.vein_pixels`), a 3D line on the leaf that every view sees,
+    which the multi-view method would follow off the tendril (dev scenes 1059, 1074: coils over a leaf continued along
+    its midrib). The tendril crossing the leaf keeps its front line."""
+    img, ev, cam = _leaf_view(True)
+    cv2.line(img, (26, 100), (174, 100), (60, 150, 95), 3, cv2.LINE_AA)  # the midrib, along the leaf's long axis
+    out = skeleton_evidence(ev, cam, image_bgr=img, front_line_contrast=0.09)
+    sev = skeleton_evidence(ev, cam)
+    new = out.skeleton_xy[len(sev.skeleton_xy):]
+    d_line = np.abs(new[:, 0] - (60 + 80 * new[:, 1] / 159)) / np.hypot(1, 80 / 159)
+    along_midrib = (np.abs(new[:, 1] - 100) <= 2) & (d_line > 8)
+    assert along_midrib.sum() <= 5, new[along_midrib]
+    assert (d_line <= 2).sum() >= 40  # the tendril's line across the leaf, as without the midrib
+    # without the vein rule the midrib is a front line of its own
+    import tendrilkit.mv_evidence as E
+    from tendrilkit.segmentation.lines import vein_pixels
+
+    try:
+        E.vein_pixels = lambda lines, *a, **k: np.zeros_like(lines)
+        raw = skeleton_evidence(ev, cam, image_bgr=img, front_line_contrast=0.09).skeleton_xy[len(sev.skeleton_xy):]
+    finally:
+        E.vein_pixels = vein_pixels
+    d_raw = np.abs(raw[:, 0] - (60 + 80 * raw[:, 1] / 159)) / np.hypot(1, 80 / 159)
+    assert ((np.abs(raw[:, 1] - 100) <= 2) & (d_raw > 8)).sum() >= 60
+
+
 def test_no_front_line_on_a_mottled_leaf_alone():
     img, ev, cam = _leaf_view(False)
     sev = skeleton_evidence(ev, cam)

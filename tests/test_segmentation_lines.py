@@ -243,3 +243,45 @@ def test_light_line_pixels_are_the_245f631_whole_image_ones():
             np.testing.assert_array_equal(light_line_pixels(g, fg, width_px=width), want)
             found += int(want.any())
     assert found >= 12
+
+
+def _leaf_with_line(*, through: bool, petiole: bool = True, shift_x: int = 0):
+    """(lines, foreground) of a 220 x 360 crop: a leaf (an ellipse) with a light line along its long axis; the line
+    goes on as a thin dark line on the board at both ends when ``through`` (a tendril lying along the leaf), else it
+    ends inside the leaf's tip (a midrib), its petiole going on at the other end when ``petiole``. ``shift_x`` moves
+    the leaf left (negative: the crop cuts its left end)."""
+    fg = np.zeros((220, 360), np.uint8)
+    cx = 180 + shift_x
+    cv2.ellipse(fg, (cx, 110), (120, 50), 0, 0, 360, 255, -1)
+    line = np.zeros_like(fg)
+    if through:
+        cv2.line(fg, (0, 110), (359, 110), 255, 5)  # the tendril on the board
+        cv2.line(line, (cx - 118, 110), (cx + 118, 110), 255, 5)
+    else:
+        cv2.line(line, (cx - 110, 110), (cx + 118, 110), 255, 4)
+        if petiole:
+            cv2.line(fg, (cx + 120, 110), (359, 110), 255, 5)
+    fg[line > 0] = 0
+    return line, fg
+
+
+def test_a_midrib_is_a_vein_a_tendril_along_the_leaf_is_not():
+    from tendrilkit.segmentation.lines import vein_pixels
+
+    midrib, fg = _leaf_with_line(through=False)
+    v = vein_pixels(midrib, fg)
+    assert (v > 0).sum() >= 0.9 * (midrib > 0).sum()  # the whole midrib, its ends near the tip and the petiole too
+    assert not (v & ~midrib).any()
+    bare, fg = _leaf_with_line(through=False, petiole=False)
+    assert (vein_pixels(bare, fg) > 0).sum() >= 0.9 * (bare > 0).sum()
+    cut, fg = _leaf_with_line(through=False, shift_x=-110)  # the crop (the ROI) cuts the leaf's tip end
+    assert (vein_pixels(cut, fg) > 0).sum() >= 0.9 * (cut > 0).sum()
+    tendril, fg = _leaf_with_line(through=True)  # on the board beyond both ends: a line in front of the leaf
+    assert not vein_pixels(tendril, fg).any()
+    # a line across the leaf: the depth changes along it
+    across = np.zeros_like(fg)
+    cv2.line(across, (180, 62), (180, 158), 255, 5)
+    leaf = np.zeros_like(fg)
+    cv2.ellipse(leaf, (180, 110), (120, 50), 0, 0, 360, 255, -1)
+    leaf[across > 0] = 0
+    assert not vein_pixels(across, leaf).any()

@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 
 from tendrilkit.segmentation.faint import drop_unanchored, faint_pixels, reduce_grey
-from tendrilkit.segmentation.lines import bridge_line_gaps, light_line_pixels, lines_in_front
+from tendrilkit.segmentation.lines import bridge_line_gaps, light_line_pixels, lines_in_front, vein_pixels
 
 __all__ = ["LabelledForeground", "label_foreground", "grey_image", "foreground_roi", "faint_options"]
 
@@ -238,6 +238,11 @@ def foreground_roi(
             box[np.unique(lab[b0:b1, a0:a1])] = True
             box[0] = False
             lines[box[lab]] = 0
+        veins = vein_pixels(lines, fg, width_px=int(line_width_px))
+        if veins.any():  # a leaf's midrib is the leaf's: dark with it (covered), not a line in front of it
+            lines = cv2.bitwise_and(lines, cv2.bitwise_not(veins))
+            fg = cv2.bitwise_or(fg, veins)
+            dark = cv2.bitwise_or(dark, veins)
         fg = lines_in_front(fg, lines, dark)
     if bridge_gap_px > 0:  # 4d: a line broken where it crosses another joined across the gap
         fg = bridge_line_gaps(fg, gap_px=int(bridge_gap_px))

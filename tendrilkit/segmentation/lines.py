@@ -44,7 +44,7 @@ import numpy as np
 from tendrilkit.segmentation.faint import reduce_grey
 from tendrilkit.segmentation.kernels import binary_morphology
 
-__all__ = ["light_line_pixels", "lines_in_front", "bridge_line_gaps", "board_level"]
+__all__ = ["light_line_pixels", "vein_pixels", "lines_in_front", "bridge_line_gaps", "board_level"]
 
 
 def board_level(grey: np.ndarray, *, window_px: int = 124, reduced: np.ndarray | None = None) -> np.ndarray:
@@ -198,6 +198,156 @@ def light_line_pixels(grey: np.ndarray, foreground: np.ndarray, *, width_px: int
     keep[0] = False
     out[y:y + h, x:x + w][keep[lab]] = 255
     return out
+
+
+#: A light line's pixels lie along an object's own vein (:func:`vein_pixels`) where the object's depth (distance to
+#: its edge, the line counted as the object's), smoothed over ``VEIN_SIGMA_PX``, changes by less than this per pixel.
+VEIN_SLOPE = 0.5
+VEIN_SIGMA_PX = 2.0
+#: The ray along a vein's axis looks for the object's end this many times the depth at the flat stretch's end (plus
+#: two line widths) beyond it: the stretch ends where the line stops being seen, and a leaf is longer than it is
+#: wide (its end along the axis lies farther than its edge across).
+RAY_DEPTHS = 4.0
+#: ... and finds it where the ray reaches the board (or the image's edge) after at most this many half widths of a
+#: line thinner than the object (its rim: long at a pointed tip); a longer thin run is a line going on beyond it.
+THIN_RUN = 3.0
+
+
+def vein_pixels(lines: np.ndarray, foreground: np.ndarray, *, width_px: int = 11) -> np.ndarray:
+    """The light lines' pixels that are a wide object's own vein (a leaf's midrib), not a line in front of it.
+
+    A leaf's midrib is lighter than the leaf on both sides and darker than
+    the board: :func:`light_line_pixels` finds it as it finds a pale tendril
+    in front of the leaf, and the skeleton then holds a thin line along the
+    leaf that every view sees where the leaf is (a 3D line the multi-view
+    method follows off the tendril). A vein runs along the middle of its
+    object: with the line counted as the object's, the object's depth (the
+    distance to its edge) is at its ridge there and hardly changes along the
+    line or across it. A line in front of the object crosses it, or runs
+    beside its middle: the depth changes by about a pixel per pixel along
+    or across it. Pixels of ``lines`` at least ``width_px`` deep where the
+    depth (smoothed over :data:`VEIN_SIGMA_PX`) changes by less than
+    :data:`VEIN_SLOPE` per pixel, in a stretch of at least three times
+    ``width_px`` along the line, mark a vein's middle; the line's pixels
+    within half ``width_px`` (and a pixel) of that stretch's axis, from
+    before its first pixel to beyond its last as far as the ray below
+    (where the object's ends draw near, the depth falls off and the vein
+    goes on to them; the light lines lie inside the object), are returned (where a tendril crosses a vein, a few pixels of it
+    go with the vein: a covered gap the other views bridge). A vein ends in
+    its object at one end at least (the leaf's tip, or where the ROI cuts the
+    leaf; the other end may go on as the petiole): a line along the middle
+    whose axis, followed past both ends of the flat stretch for
+    :data:`RAY_DEPTHS` times the depth there and two widths more, reaches
+    the board from the object at neither end (:func:`_ends_free`: it runs on
+    as a thin line, or meets another object) goes through the object and on
+    beyond it, a tendril lying along a leaf's middle, and is kept.
+
+    Parameters
+    ----------
+    lines : (h, w) uint8 array
+        Nonzero on the light lines' pixels (:func:`light_line_pixels`).
+    foreground : (h, w) uint8 array
+        Nonzero on the dark pixels (the objects the lines are in).
+    width_px : int
+        The light lines' widest width, px (``segmentation.line_width_px``).
+
+    Returns
+    -------
+    (h, w) uint8 array
+        255 on the veins' pixels (a subset of ``lines``), 0 elsewhere.
+
+    Example
+    -------
+    >>> fg = np.zeros((120, 200), np.uint8)
+    >>> _ = cv2.ellipse(fg, (100, 60), (90, 40), 0, 0, 360, 255, -1)   # a leaf
+    >>> vein = np.zeros_like(fg); vein[58:63, 30:170] = 255; fg[vein > 0] = 0   # its midrib, lighter
+    >>> cross = np.zeros_like(fg); cross[25:95, 58:63] = 255; fg[cross > 0] = 0  # a pale line across it
+    >>> out = vein_pixels(cv2.bitwise_or(vein, cross), fg)
+    >>> int(out[60, 120] > 0), int(out[35, 60] > 0), int(out[85, 60] > 0)
+    (1, 0, 0)
+    """
+    ln = cv2.compare(lines, 0, cv2.CMP_GT)
+    out = np.zeros(ln.shape, np.uint8)
+    x, y, w, h = cv2.boundingRect(ln)
+    if w == 0:
+        return out
+    H, W = ln.shape
+    m = 4 * int(width_px)  # the ridge is read within this margin of the line
+    r0, r1, c0, c1 = max(y - m, 0), min(y + h + m, H), max(x - m, 0), min(x + w + m, W)
+    obj = cv2.bitwise_or(cv2.compare(foreground, 0, cv2.CMP_GT), ln)
+    # a slit the darkness rule left between the line and the object (its lightest core, a pixel or two) is the
+    # object's: closed, or the depth would read the slit as the object's edge
+    obj = cv2.morphologyEx(obj, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))
+    if obj.all():  # no edge: nothing to measure the depth from
+        return out
+    # on the whole image (the ray below goes on to the object's end); OpenCV reads beyond the image as the object
+    depth = cv2.distanceTransform(obj, cv2.DIST_L2, 5)
+    smooth = cv2.GaussianBlur(depth[r0:r1, c0:c1], (0, 0), VEIN_SIGMA_PX)
+    gx = cv2.Sobel(smooth, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)
+    gy = cv2.Sobel(smooth, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)
+    flat = (gx * gx + gy * gy < VEIN_SLOPE ** 2) & (depth[r0:r1, c0:c1] >= width_px) & (ln[r0:r1, c0:c1] > 0)
+    if not flat.any():
+        return out
+    n, lab, stats, _ = cv2.connectedComponentsWithStats(flat.astype(np.uint8), connectivity=8)
+    long_ = np.zeros(n, bool)
+    long_[1:] = np.maximum(stats[1:, cv2.CC_STAT_WIDTH], stats[1:, cv2.CC_STAT_HEIGHT]) >= 3 * int(width_px)
+    if not long_[1:].any():
+        return out
+    # the vein: the line's pixels near the ridge's axis, which goes on past the flat stretch (where the object's
+    # ends draw near and the depth falls) as far as the ray that finds the object's end
+    lr, lc = np.nonzero(ln[r0:r1, c0:c1])
+    pts = np.column_stack([lc, lr]).astype(np.float64)
+    vein = np.zeros(len(pts), bool)
+    half = int(width_px) / 2.0 + 1.0
+    fr, fc = np.nonzero(flat)
+    at = lab[fr, fc]
+    for k in np.flatnonzero(long_):
+        rr, cc = fr[at == k], fc[at == k]
+        q = np.column_stack([cc, rr]).astype(np.float64)
+        c = q.mean(axis=0)
+        u = np.linalg.svd(q - c, full_matrices=False)[2][0]  # the ridge's direction
+        t = (q - c) @ u
+        ends = (t <= t.min() + 2.0) | (t >= t.max() - 2.0)
+        reach = float(depth[r0 + rr[ends], c0 + cc[ends]].max()) + half
+        ray = RAY_DEPTHS * reach + 2 * width_px
+        full = c + np.array([c0, r0], float)  # the axis's point on the whole image
+        if not (_ends_free(depth, full, u, t.min(), -1.0, ray, half)
+                or _ends_free(depth, full, u, t.max(), 1.0, ray, half)):
+            continue  # a line through the object along its middle, going on at both ends: in front of it
+        tp = (pts - c) @ u
+        across = np.abs((pts - c) @ np.array([-u[1], u[0]]))
+        vein |= (tp >= t.min() - ray) & (tp <= t.max() + ray) & (across <= half)
+    out[r0 + lr[vein], c0 + lc[vein]] = 255
+    return out
+
+
+def _ends_free(depth: np.ndarray, c: np.ndarray, u: np.ndarray, t_end: float, sign: float, length: float,
+               half: float) -> bool:
+    """Whether the ray from the point ``c + t_end u`` (x, y) on, along ``sign u``, leaves its object straight onto
+    the board within ``length`` px: the line ends in its object (a vein at its leaf's tip), rather than going on
+    beyond it as a thin line (a tendril across the leaf, a leaf's petiole). ``depth``: the object's distance to the
+    board per pixel; under ``half`` (a line's half width and a pixel) the ray is on something thin: the object's
+    rim (long at a pointed leaf's tip) or a line going on. The board must come within ``THIN_RUN`` times ``half``
+    of thin pixels. A ray leaving the image (the ROI) from the object or its rim: free too (an object the ROI cuts:
+    a line along its middle is its vein, not a tendril, which would run thin beyond the object first). A ray
+    entering another wide object after the rim: not free (unknown)."""
+    h, w = depth.shape
+    thin = 0
+    for s in np.arange(1.0, length + 1.0):
+        x, y = c + (t_end + sign * s) * u
+        col, row = int(round(x)), int(round(y))
+        if not (0 <= row < h and 0 <= col < w):
+            return True
+        d = depth[row, col]
+        if d == 0:
+            return True
+        if d < half:
+            thin += 1
+            if thin > THIN_RUN * half:
+                return False  # a thin line goes on from the object
+        elif thin:
+            return False  # into another object
+    return False
 
 
 def _on_box(mask: np.ndarray, op: int, kernel: np.ndarray) -> np.ndarray:
