@@ -234,13 +234,15 @@ def auto_smoothing_length_mm(points_mm: np.ndarray, *, reference_mm: float = 20.
     return _auto_smoothing(points_mm, reference_mm, reference_noise_mm, of_resampled=True)[0]
 
 
-def _auto_smoothing(points_mm, reference_mm=20.0, reference_noise_mm=0.15, of_resampled=False):
+def _auto_smoothing(points_mm, reference_mm=20.0, reference_noise_mm=0.15, of_resampled=False, with_noise=False):
     """:func:`auto_smoothing_length_mm` and the frames it computed with that length (or ``None``).
 
     ``of_resampled``: the coiling is measured on the frames of ``points_mm``
     resampled once more, as :func:`auto_smoothing_length_mm` does; otherwise
     on ``frenet_frames(points_mm, smoothing_length_mm=length)`` itself, which
-    is then returned so that callers need not smooth again.
+    is then returned so that callers need not smooth again. ``with_noise``: also
+    :func:`noise_sigma_mm` of ``points_mm`` (mm), which it computed (the piece-wise fit's
+    retry rule reads it too).
     """
     data = resample_curve(points_mm)
     L = float(arc_length(data)[-1])
@@ -255,9 +257,9 @@ def _auto_smoothing(points_mm, reference_mm=20.0, reference_noise_mm=0.15, of_re
         w = np.median(np.hypot(fr.kappa, fr.tau * fr.tau_defined))
         cap = 0.6 * 2 * np.pi / w if w > 0 else np.inf
         if Ls <= cap:
-            return Ls, fr
+            return (Ls, fr, sigma) if with_noise else (Ls, fr)
         Ls = float(np.clip(cap, 4 * h, L / 3))
-    return Ls, None
+    return (Ls, None, sigma) if with_noise else (Ls, None)
 
 
 def frenet_frames(

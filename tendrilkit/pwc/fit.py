@@ -273,7 +273,7 @@ def fit_piecewise_clothoid(
     memo: dict = {}  # the retry with more lookahead repeats the first steps: computed once
     res = _auto_search(prep, lookahead=lookahead, memo=memo, **kw)
     # read once: the retries' yardstick
-    noise_mm = _retry_yardstick_mm(points_mm, prep.data, target_r2) if refine and retries else None
+    noise_mm = _retry_yardstick_mm(points_mm, prep.data, target_r2, prep.noise_mm) if refine and retries else None
     if refine and retries and _missed(res["best"], target_r2, noise_mm, s.size):
         # a search that misses the target, or leaves residuals well above the data's noise,
         # may have taken a wrong turn: look further along the paths, and smooth less
@@ -311,14 +311,15 @@ RETRY_NOISE_RATIO = 0.9
 RETRY_ALLOWANCE_FRACTION = 0.05
 
 
-def _retry_yardstick_mm(points_mm, data_mm, target_r2):
+def _retry_yardstick_mm(points_mm, data_mm, target_r2, noise_mm=None):
     """The rms residual (mm) above which (:data:`RETRY_NOISE_RATIO` of it) a search is tried again.
 
-    The larger of the noise of ``points_mm`` (as given) and :data:`RETRY_ALLOWANCE_FRACTION` of the
-    rms residual the target R^2 allows on ``data_mm`` (n, 3) (the points resampled, what the fit's
-    R^2 is measured on): :math:`\\sqrt{(1 - R^2_{target}) \\, SST / 3n}`.
+    The larger of the noise of ``points_mm`` (as given; ``noise_mm``, if already known) and
+    :data:`RETRY_ALLOWANCE_FRACTION` of the rms residual the target R^2 allows on ``data_mm`` (n, 3)
+    (the points resampled, what the fit's R^2 is measured on): :math:`\\sqrt{(1 - R^2_{target}) \\, SST / 3n}`.
     """
-    return max(noise_sigma_mm(points_mm), RETRY_ALLOWANCE_FRACTION * _allowed_rms_mm(data_mm, target_r2))
+    noise_mm = noise_sigma_mm(points_mm) if noise_mm is None else noise_mm
+    return max(noise_mm, RETRY_ALLOWANCE_FRACTION * _allowed_rms_mm(data_mm, target_r2))
 
 
 #: BIC compares the candidates' residuals down to this fraction of the rms the target R^2 allows

@@ -30,7 +30,9 @@ class _Prepared:
     measure against); ``wk``, ``wt`` (n,): sample weights of curvature (1) and
     torsion (kappa^2 where torsion is defined); ``Ck``, ``Ct`` (n + 1, n + 1):
     interval costs (:func:`~tendrilkit.pwc.costs.line_costs`); ``free_knots``:
-    refinement moves the inner knots; ``min_gap_mm``: closest knots, mm.
+    refinement moves the inner knots; ``min_gap_mm``: closest knots, mm; ``noise_mm``: the
+    input points' :func:`~tendrilkit.frenet.noise_sigma_mm` where the automatic smoothing
+    computed it (else ``None``).
     """
 
     fr: FrenetFrames
@@ -42,14 +44,15 @@ class _Prepared:
     Ct: np.ndarray
     free_knots: bool
     min_gap_mm: float
+    noise_mm: float | None = None
 
 
 def _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points, free_knots=True):
     """Smooth ``points_mm`` (n, 3) and cost both signals (options: :func:`~tendrilkit.pwc.fit_piecewise_clothoid`)."""
-    fr = None
+    fr = noise_mm = None
     if smoothing_length_mm is None:
         # the frames the choice of length computed are reused when they have the points asked for
-        smoothing_length_mm, fr = _auto_smoothing(points_mm)
+        smoothing_length_mm, fr, noise_mm = _auto_smoothing(points_mm, with_noise=True)
         if n_points is not None and (fr is None or fr.s_mm.size != n_points):
             fr = None
     if fr is None:
@@ -66,4 +69,5 @@ def _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points, fr
         wt = np.ones(n) * 1e-12
     Ck = line_costs(s, fr.kappa, weights=wk, score=score, min_size=min_size)
     Ct = line_costs(s, fr.tau, weights=wt, score=score, min_size=min_size)
-    return _Prepared(fr, s, np.ascontiguousarray(fr.data_mm), wk, wt, Ck, Ct, free_knots, float(KNOT_GAP_SAMPLES * h))
+    return _Prepared(fr, s, np.ascontiguousarray(fr.data_mm), wk, wt, Ck, Ct, free_knots, float(KNOT_GAP_SAMPLES * h),
+                     noise_mm)
