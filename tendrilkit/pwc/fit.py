@@ -14,7 +14,7 @@ import numpy as np
 
 from tendrilkit.frenet import FrenetFrames, _orthonormal_frame, noise_sigma_mm
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, join_segments
-from tendrilkit.pwc.rebuild import FitScores, fit_scores, rebuild_curve
+from tendrilkit.pwc.rebuild import FitScores, _rebuild, fit_scores
 from tendrilkit.pwc.refine import _refine_laws
 from tendrilkit.pwc.search import segment_penalty
 from tendrilkit.pwc.selection import _auto_search, _mid_penalty, _preferred
@@ -118,10 +118,9 @@ class PWCFit:
 def _finish(prep, law_k, law_t, *, bounds_k, bounds_t, pen_k, pen_t, rng_k, rng_t, selection,
             candidates, refined, positions):
     s, data, fr = prep.s, prep.data, prep.fr
-    F0 = (fr.T[0], fr.N[0], fr.B[0])
-    pts, R, t = rebuild_curve(s, law_k, law_t, data, frame0=F0, positions=positions)
+    Fm = _orthonormal_frame(fr.T[0], fr.N[0], fr.B[0])
+    pts, R, t = _rebuild(s, law_k, law_t, data, Fm, positions)  # rebuild_curve from that frame
     # report the registration from the identity frame at the origin
-    Fm = _orthonormal_frame(*F0)
     R_id = R @ Fm.T
     t_id = t + R @ data[0]
     return PWCFit(
