@@ -8,6 +8,8 @@ paper's target R^2), each candidate refined from the current fit.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from tendrilkit.pwc.costs import _check_signal
@@ -43,7 +45,13 @@ def _bic(sse: float, n: int, k_kappa: int, k_tau: int) -> float:
     """
     m = 3 * n
     p = 2 * k_kappa + 2 * k_tau + 6
-    return float(m * np.log(np.float64(max(sse, 1e-300)) / m) + p * np.log(np.float64(m)))
+    return float(m * np.log(np.float64(max(sse, 1e-300)) / m) + p * _log_count(m))
+
+
+@lru_cache(maxsize=64)
+def _log_count(m: int) -> np.float64:
+    """``np.log(np.float64(m))``, once per count of residuals (the same for every candidate of a fit)."""
+    return np.log(np.float64(m))
 
 
 def _preferred(x, y, target_r2, criterion):
@@ -161,8 +169,11 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             # the path laws, or constants (median curvature; curvature-weighted median
             # torsion, or none): noisy estimates can start the fit in a wrong basin
             ends_k, ends_t = laws_k[a].knots_mm, laws_t[b].knots_mm
-            kc = PiecewiseLinearLaw(ends_k, np.full(ends_k.size, float(np.median(fr.kappa))), "kappa")
-            tc = PiecewiseLinearLaw(ends_t, np.full(ends_t.size, _weighted_median(fr.tau, prep.wt)), "tau")
+            if "medians" not in memo:  # of prep's signals: a retry reads them again
+                memo["medians"] = (float(np.median(fr.kappa)), _weighted_median(fr.tau, prep.wt))
+            med_k, med_t = memo["medians"]
+            kc = PiecewiseLinearLaw(ends_k, np.full(ends_k.size, med_k), "kappa")
+            tc = PiecewiseLinearLaw(ends_t, np.full(ends_t.size, med_t), "tau")
             t0 = PiecewiseLinearLaw(ends_t, np.zeros(ends_t.size), "tau")
             starts = [(laws_k[a], path_tau(b)), (kc, tc), (kc, t0), (laws_k[a], t0)]
         elif move == "k":
