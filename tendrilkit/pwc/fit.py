@@ -268,11 +268,12 @@ def fit_piecewise_clothoid(
     kw = dict(criterion=criterion, target_r2=target_r2, max_segments=max_segments, refine=refine,
               insertions=insertions, quick_iterations=quick_iterations, max_candidates=max_candidates)
     if criterion == "bic":
-        kw["precision_mm"] = BIC_PRECISION_FRACTION * _allowed_rms_mm(prep.data, target_r2)
+        kw["precision_mm"] = BIC_PRECISION_FRACTION * _allowed_rms_mm(prep.data, target_r2, prep.sst_mm2)
     memo: dict = {}  # the retry with more lookahead repeats the first steps: computed once
     res = _auto_search(prep, lookahead=lookahead, memo=memo, **kw)
     # read once: the retries' yardstick
-    noise_mm = _retry_yardstick_mm(points_mm, prep.data, target_r2, prep.noise_mm) if refine and retries else None
+    noise_mm = (_retry_yardstick_mm(points_mm, prep.data, target_r2, prep.noise_mm, prep.sst_mm2)
+                if refine and retries else None)
     if refine and retries and _missed(res["best"], target_r2, noise_mm, s.size):
         # a search that misses the target, or leaves residuals well above the data's noise,
         # may have taken a wrong turn: look further along the paths, and smooth less
@@ -310,15 +311,16 @@ RETRY_NOISE_RATIO = 0.9
 RETRY_ALLOWANCE_FRACTION = 0.05
 
 
-def _retry_yardstick_mm(points_mm, data_mm, target_r2, noise_mm=None):
+def _retry_yardstick_mm(points_mm, data_mm, target_r2, noise_mm=None, sst_mm2=None):
     """The rms residual (mm) above which (:data:`RETRY_NOISE_RATIO` of it) a search is tried again.
 
-    The larger of the noise of ``points_mm`` (as given; ``noise_mm``, if already known) and
+    ``noise_mm``, ``sst_mm2``: the noise and ``data_mm``'s sum of squares about their mean, if already
+    known. The larger of the noise of ``points_mm`` (as given) and
     :data:`RETRY_ALLOWANCE_FRACTION` of the rms residual the target R^2 allows on ``data_mm`` (n, 3)
     (the points resampled, what the fit's R^2 is measured on): :math:`\\sqrt{(1 - R^2_{target}) \\, SST / 3n}`.
     """
     noise_mm = noise_sigma_mm(points_mm) if noise_mm is None else noise_mm
-    return max(noise_mm, RETRY_ALLOWANCE_FRACTION * _allowed_rms_mm(data_mm, target_r2))
+    return max(noise_mm, RETRY_ALLOWANCE_FRACTION * _allowed_rms_mm(data_mm, target_r2, sst_mm2))
 
 
 #: BIC compares the candidates' residuals down to this fraction of the rms the target R^2 allows
@@ -332,9 +334,10 @@ def _retry_yardstick_mm(points_mm, data_mm, target_r2, noise_mm=None):
 BIC_PRECISION_FRACTION = 0.02
 
 
-def _allowed_rms_mm(data_mm, target_r2):
-    """The rms residual (mm) the target R^2 allows on ``data_mm`` (n, 3): :math:`\\sqrt{(1 - R^2) SST / 3n}`."""
-    sst = float(np.sum((data_mm - data_mm.mean(axis=0)) ** 2))
+def _allowed_rms_mm(data_mm, target_r2, sst_mm2=None):
+    """The rms residual (mm) the target R^2 allows on ``data_mm`` (n, 3): :math:`\\sqrt{(1 - R^2) SST / 3n}`
+    (``sst_mm2``: the SST, if already known)."""
+    sst = float(np.sum((data_mm - data_mm.mean(axis=0)) ** 2)) if sst_mm2 is None else sst_mm2
     return float(np.sqrt((1.0 - target_r2) * sst / (3 * len(data_mm))))
 
 

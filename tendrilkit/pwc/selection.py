@@ -129,7 +129,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
                      _DistinctLaws(s, fr.tau, prep.wt, path_t, "tau"))
     path_k, path_t, laws_k, laws_t = memo[key]
     n = s.size
-    sst = float(np.sum((prep.data - prep.data.mean(axis=0)) ** 2))
+    sst = prep.sst_mm2
     sse_floor = 3 * n * precision_mm ** 2  # residuals below the precision asked for explain nothing more
     rows: list[list[float]] = []
     quick = (quick_iterations, 1e-4)
@@ -272,7 +272,19 @@ def _weighted_median(y, w):
     """The smallest ``y`` whose cumulative weight reaches half the total (0 without weight)."""
     if not w.sum() > 0:
         return 0.0
-    return float(np.quantile(y, 0.5, weights=w, method="inverted_cdf"))
+    # np.quantile(y, 0.5, weights=w, method="inverted_cdf")'s steps for one 1-d array of finite
+    # values and weights >= 0 (the same sort, cumulative weights and search: the same value) without
+    # its generic set-up, a third of its time
+    if not (y.ndim == 1 and y.shape == w.shape and np.isfinite(y).all() and (w >= 0).all()):
+        return float(np.quantile(y, 0.5, weights=w, method="inverted_cdf"))
+    order = np.argsort(y, axis=0)
+    cdf = w[order].cumsum(dtype=np.float64)
+    cdf /= cdf[-1]
+    if np.isnan(cdf[-1]):
+        return float(np.quantile(y, 0.5, weights=w, method="inverted_cdf"))  # its error
+    if cdf[0] == 0:
+        cdf[cdf == 0] = -1
+    return float(y[order[min(int(np.searchsorted(cdf, 0.5, side="left")), y.size - 1)]])
 
 
 class _DistinctLaws:

@@ -32,7 +32,9 @@ class _Prepared:
     interval costs (:func:`~tendrilkit.pwc.costs.line_costs`); ``free_knots``:
     refinement moves the inner knots; ``min_gap_mm``: closest knots, mm; ``noise_mm``: the
     input points' :func:`~tendrilkit.frenet.noise_sigma_mm` where the automatic smoothing
-    computed it (else ``None``).
+    computed it (else ``None``); ``sst_mm2``: the data's sum of squares about their mean (mm^2,
+    the R^2's denominator); ``hinge_xs_mm``: the positions the knot score test tries (mm,
+    :func:`~tendrilkit.pwc.refine._hinge_positions`). Each made once per curve.
     """
 
     fr: FrenetFrames
@@ -45,6 +47,8 @@ class _Prepared:
     free_knots: bool
     min_gap_mm: float
     noise_mm: float | None = None
+    sst_mm2: float = float("nan")
+    hinge_xs_mm: np.ndarray | None = None
 
 
 def _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points, free_knots=True):
@@ -69,5 +73,8 @@ def _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points, fr
         wt = np.ones(n) * 1e-12
     Ck = line_costs(s, fr.kappa, weights=wk, score=score, min_size=min_size)
     Ct = line_costs(s, fr.tau, weights=wt, score=score, min_size=min_size)
-    return _Prepared(fr, s, np.ascontiguousarray(fr.data_mm), wk, wt, Ck, Ct, free_knots, float(KNOT_GAP_SAMPLES * h),
-                     noise_mm)
+    data = np.ascontiguousarray(fr.data_mm)
+    gap = float(KNOT_GAP_SAMPLES * h)
+    sst = float(np.sum((data - data.mean(axis=0)) ** 2))
+    xs = np.arange(s[0] + gap, s[-1] - gap, max(gap / 2, (s[-1] - s[0]) / 200))
+    return _Prepared(fr, s, data, wk, wt, Ck, Ct, free_knots, gap, noise_mm, sst, xs)
