@@ -12,7 +12,6 @@ from functools import lru_cache
 
 import numpy as np
 
-from tendrilkit.pwc.costs import _check_signal
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _insert_knot, _Joiner, _merge_knots
 from tendrilkit.pwc.rebuild import _law_sse
 from tendrilkit.pwc.refine import _best_insertions, _hinge_positions, _refine_laws, _refine_starts
@@ -297,7 +296,8 @@ class _DistinctLaws:
 
     def __init__(self, s, y, w, path, kind):
         self.path, self.kind = path, kind
-        self.joiner = _Joiner(*_check_signal(s, y, w))
+        # the prepared curve's arrays, checked when their cost tables were made (line_costs)
+        self.joiner = _Joiner(s, y, w)
         self.idx: list[int] = []
         self.laws: list[PiecewiseLinearLaw] = []
         self._seen: set = set()
