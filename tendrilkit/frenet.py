@@ -453,19 +453,19 @@ def _frames_of(data: np.ndarray, smoothing_length_mm: float, kappa_floor: float 
     # numpy's einsum (its order of summation is its own), the rest compiled
     tau, N, B = _torsion_normals(defined, np.einsum("ij,ij->i", cr[defined], d3[defined]), crn, d2, T,
                                  np.einsum("ij,ij->i", d2, T))
-    if defined.any():
-        idx = np.flatnonzero(defined)
-        nearest = idx[np.clip(np.searchsorted(idx, np.arange(m)), 0, idx.size - 1)]
-        for i in np.flatnonzero(~defined):
-            v = N[nearest[i]] - (N[nearest[i]] @ T[i]) * T[i]
-            N[i] = v / np.linalg.norm(v) if np.linalg.norm(v) > 1e-9 else _perpendicular(T[i])
-    else:
-        p = _perpendicular(T[0])
-        for i in range(m):
-            v = p - (p @ T[i]) * T[i]
-            N[i] = v / np.linalg.norm(v) if np.linalg.norm(v) > 1e-9 else _perpendicular(T[i])
     undefined = ~defined
-    if undefined.any():  # their normals carried over: their binormals again
+    if undefined.any():  # normals carried over there, and their binormals made again
+        if defined.any():
+            idx = np.flatnonzero(defined)
+            nearest = idx[np.clip(np.searchsorted(idx, np.arange(m)), 0, idx.size - 1)]
+            for i in np.flatnonzero(undefined):
+                v = N[nearest[i]] - (N[nearest[i]] @ T[i]) * T[i]
+                N[i] = v / np.linalg.norm(v) if np.linalg.norm(v) > 1e-9 else _perpendicular(T[i])
+        else:
+            p = _perpendicular(T[0])
+            for i in range(m):
+                v = p - (p @ T[i]) * T[i]
+                N[i] = v / np.linalg.norm(v) if np.linalg.norm(v) > 1e-9 else _perpendicular(T[i])
         B[undefined] = np.cross(T[undefined], N[undefined])
     return FrenetFrames(
         data_mm=data, smooth_mm=z, s_mm=s, T=T, N=N, B=B, kappa=kappa, tau=tau,

@@ -264,7 +264,7 @@ def _pwl_step_means(s, knots, values):
 
 
 def _insert_knot(law, x):
-    k = np.sort(np.concatenate([law.knots_mm, [x]]))
+    k = np.array(sorted(law.knots_mm.tolist() + [float(x)]))  # a few knots: Python's sort, the same order
     return PiecewiseLinearLaw(k, law(k), law.kind)
 
 
