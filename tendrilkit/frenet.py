@@ -253,7 +253,7 @@ def _auto_smoothing(points_mm, reference_mm=20.0, reference_noise_mm=0.15, of_re
     # the points frenet_frames would resample (those of points_mm are data: not resampled again)
     pts = resample_curve(data) if of_resampled else data
     for _ in range(2):
-        fr = _frames_of(pts, Ls, None)
+        fr = _frames_of(pts, Ls, None, None if of_resampled else h)
         w = np.median(np.hypot(fr.kappa, fr.tau * fr.tau_defined))
         cap = 0.6 * 2 * np.pi / w if w > 0 else np.inf
         if Ls <= cap:
@@ -432,10 +432,13 @@ def _torsion_normals(defined, cr_d3, crn, d2, T, d2_T):
     return tau, N, B
 
 
-def _frames_of(data: np.ndarray, smoothing_length_mm: float, kappa_floor: float | None) -> FrenetFrames:
-    """:func:`frenet_frames` of points already resampled (``data``, :func:`resample_curve`'s)."""
+def _frames_of(data: np.ndarray, smoothing_length_mm: float, kappa_floor: float | None,
+               h: float | None = None) -> FrenetFrames:
+    """:func:`frenet_frames` of points already resampled (``data``, :func:`resample_curve`'s); ``h``:
+    their mean spacing (mm), if the caller has it."""
     m = data.shape[0]
-    h = arc_length(data)[-1] / (m - 1)
+    if h is None:
+        h = arc_length(data)[-1] / (m - 1)
     lam = whittaker_lambda(smoothing_length_mm, h)
     z = _smooth_padded(data, lam, smoothing_length_mm, h)
     s, d1, d2, d3, sp, T, cr, crn, ok = _curve_derivatives(np.ascontiguousarray(z, dtype=float))

@@ -150,9 +150,12 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
 
     def path_tau(b):
         """The torsion path law ``b`` as a start: its values within the range of the torsion where defined."""
-        law = laws_t[b]
-        v = np.clip(law.values, tau_lo, tau_hi)
-        return law if np.array_equal(v, law.values) else PiecewiseLinearLaw(law.knots_mm, v, "tau")
+        k = ("path_tau", max_segments, b)  # of prep's signals and the path: made once
+        if k not in memo:
+            law = laws_t[b]
+            v = np.clip(law.values, tau_lo, tau_hi)
+            memo[k] = law if np.array_equal(v, law.values) else PiecewiseLinearLaw(law.knots_mm, v, "tau")
+        return memo[k]
 
     def from_path(a, b, cur=None, move=None):
         """Candidate (a, b) of the paths. Without refinement: the laws as they are.
