@@ -1,6 +1,6 @@
 """Check that this checkout's piece-wise clothoid fits equal another checkout's, number for number.
 
-    .venv/bin/python benchmarks/pwc_identity.py --baseline /tmp/old [--csv RUN/curves.csv] [--extra 200]
+    .venv/bin/python benchmarks/pwc_identity.py --baseline /tmp/old [--csv RUN/curves.csv] [--extra 200] [--old-dump F]
 
 Fits, with both checkouts (each in a fresh process started in its folder, so that each loads its own
 ``tendrilkit``), every frame of ``--csv`` (a reconstruction's curves.csv, as the fit command cuts it) and the
@@ -9,7 +9,9 @@ seeded noisy ground-truth curves of ``benchmarks/bench_pwc.py`` (seeds 1000-1039
 and bytes (the laws, the frames, the points, the registration, the candidates table, ...) and every scalar,
 recursively through its dataclasses. Prints how many fits were compared, how many differ, and the largest
 absolute difference of a number; exits 1 if any differs. Also compares the fit command's three tables
-(``--workers 1``) byte for byte on ``--csv``.
+(``--workers 1``) byte for byte on ``--csv``. ``--old-dump F``: the baseline's fits kept in ``F`` (made at
+the first run, read at the next ones: a change checked in half the time). Run it after every change of the
+fit (issue 17: a speed-up keeps the fits bit-identical); a clean baseline: ``git clone -q . /tmp/old``.
 """
 
 from __future__ import annotations
