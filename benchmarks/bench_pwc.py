@@ -37,13 +37,17 @@
    estimated twice), the SST, the score test's positions, the start medians and the torsion path
    starts; the fit command's float cells by Python's repr (numpy's text; pwc_curves 79 -> 55 ms) and
    its distinct-row count without np.unique (90 -> 15 us a frame). Per frame (40 seeded curves, 7
-   alternate runs, load 0.8): median 11.1 -> 9.8 ms CPU (-12 %; at load 4: 11.3 -> 9.6); the fit
-   command --workers 1 on a reconstruction's 100 frames (9 alternate runs, load 3.5-4.3): median
-   3.08 -> 2.55 s CPU, 3.18 -> 2.64 s wall (best runs 2.29 -> 2.00 s CPU); its parts: the fits
-   1.42 -> 1.15 s, the tables written 0.14 -> 0.08 s, start-up unchanged (imports and numba's set-up
+   alternate runs of bench_pwc --baseline, load 0.8): median 11.1 -> 9.8 ms CPU (-12 %; at load 4:
+   11.3 -> 9.6); curve by curve alternated between two processes (5 rounds, which the machine's drift
+   of +-30 % over minutes hits alike): the 40 seeded curves -13 % (median 14.0 -> 12.4 ms then), a
+   reconstruction's 100 frames -20 % (12.8 -> 10.3 ms). The fit command --workers 1 on those 100 frames:
+   its fits, frame by frame alternated through fit_frame, -11 % (1.43 -> 1.27 s CPU), the tables
+   written 0.11-0.14 -> 0.08 s, its start-up unchanged (imports and numba's set-up
    0.5-0.6 s; each compiled function called from Python loads its numba cache at the first call,
-   3-5 ms, those bringing BLAS and LAPACK 10-45 ms: 10 such now, 9 before). Where a fit's CPU goes
-   now: Levenberg-Marquardt about 50 %, the score test 12 %, the cost tables and penalty paths 7 %,
+   3-5 ms, those bringing BLAS and LAPACK 10-45 ms: 10 such now, 9 before): about 0.15 s of 2.3-2.6 s,
+   which whole runs scatter around by +-15 % (medians of 9 alternate runs 3.08 -> 2.55 s CPU at load
+   3.5-4.3, of 15 others 2.63 -> 2.70 s at load 1-2; the target's 2 s needs the fits near 1 s).
+   Where a fit's CPU goes now: Levenberg-Marquardt about 50 %, the score test 12 %, the cost tables and penalty paths 7 %,
    joins 2 %, the rest Python spread over a hundred lines (none above 1.5 %). Tried and not kept (no
    gain at the same bits): _frame_columns updating only the columns a step can change, or column by
    column (its loop over the parameters vectorises as it is: 12-20 us either way); the count programme
