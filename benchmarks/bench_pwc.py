@@ -47,8 +47,8 @@
    3-5 ms, those bringing BLAS and LAPACK 10-45 ms: 10 such now, 9 before): about 0.15 s of 2.3-2.6 s,
    which whole runs scatter around by +-15 % (medians of 9 alternate runs 3.08 -> 2.55 s CPU at load
    3.5-4.3, of 15 others 2.63 -> 2.70 s at load 1-2; the target's 2 s needs the fits near 1 s).
-   Where a fit's CPU goes now: Levenberg-Marquardt about 50 %, the score test 12 %, the cost tables and penalty paths 7 %,
-   joins 2 %, the rest Python spread over a hundred lines (none above 1.5 %). Tried and not kept (no
+   Where a fit's CPU goes now: Levenberg-Marquardt about 50 %, the score test 12 %, the cost tables
+   and penalty paths 7 %, joins 2 %, the rest Python spread over a hundred lines (none above 1.5 %). Tried and not kept (no
    gain at the same bits): _frame_columns updating only the columns a step can change, or column by
    column (its loop over the parameters vectorises as it is: 12-20 us either way); the count programme
    reading its cost table transposed, or its minimum found by a vectorised pass and a search; a law's
