@@ -128,7 +128,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
                      _DistinctLaws(s, fr.tau, prep.wt, path_t, "tau"))
     path_k, path_t, laws_k, laws_t = memo[key]
     n = s.size
-    sst = prep.sst_mm2
+    sst = prep.sst_mm2 if prep.sst_mm2 is not None else float(np.sum((prep.data - prep.data.mean(axis=0)) ** 2))
     sse_floor = 3 * n * precision_mm ** 2  # residuals below the precision asked for explain nothing more
     rows: list[list[float]] = []
     quick = (quick_iterations, 1e-4)

@@ -47,7 +47,7 @@ class _Prepared:
     free_knots: bool
     min_gap_mm: float
     noise_mm: float | None = None
-    sst_mm2: float = float("nan")
+    sst_mm2: float | None = None
     hinge_xs_mm: np.ndarray | None = None
 
 
