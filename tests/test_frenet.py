@@ -218,3 +218,31 @@ def test_weighted_whittaker_matches_dense_normal_equations():
         expected = np.linalg.solve(np.diag(w) + 7.3 * D.T @ D, w * y)
         np.testing.assert_allclose(whittaker_smooth(y, lam=7.3, weights=w), expected, atol=1e-10)
 
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(3, 120), st.integers(0, 2**31 - 1), st.sampled_from(["helix", "walk", "uniform"]))
+def test_compiled_derivatives_are_numpys_steps_bit_for_bit(n, seed, kind):
+    """_curve_derivatives (one compiled call) gives the bits of the numpy steps it replaced: arc length,
+    three np.gradient (both of its branches: steps equal or not), the speed, tangent, d1 x d2 and its norm."""
+    from tendrilkit.frenet import _curve_derivatives
+    from tendrilkit.geometry import arc_length
+
+    rng = np.random.default_rng(seed)
+    if kind == "helix":
+        t = np.linspace(0, 10, n)
+        z = np.c_[np.cos(t), np.sin(t), 0.3 * t] * rng.uniform(1, 50) + rng.normal(0, rng.uniform(0, 0.5), (n, 3))
+    elif kind == "walk":
+        z = np.cumsum(rng.normal(size=(n, 3)), axis=0)
+    else:
+        z = np.c_[np.arange(n) * 0.7, np.zeros(n), np.zeros(n)]
+    s = arc_length(z)
+    got = _curve_derivatives(z)
+    assert got[-1]
+    d1 = np.gradient(z, s, axis=0, edge_order=2)
+    d2 = np.gradient(d1, s, axis=0, edge_order=2)
+    d3 = np.gradient(d2, s, axis=0, edge_order=2)
+    sp = np.linalg.norm(d1, axis=1)
+    cr = np.cross(d1, d2)
+    for a, b in zip(got[:-1], (s, d1, d2, d3, sp, d1 / sp[:, None], cr, np.linalg.norm(cr, axis=1))):
+        assert a.tobytes() == b.tobytes()

@@ -197,3 +197,25 @@ def test_project_jacobian_matches_differences():
     ud, Jd = cam.project_jacobian(X, distort=True)
     np.testing.assert_allclose(ud, cam.project(X))
     assert 0 < np.abs(Jd - J).max() < 0.2 * np.abs(J).max()  # the distortion changes the Jacobian a little
+
+
+def test_compiled_pchip_is_the_array_formula_bit_for_bit():
+    """pchip_interpolate's compiled path gives the bits of its numpy slopes and Hermite sum (flat steps,
+    sign changes, points on the nodes and at the ends)."""
+    from tendrilkit.geometry import _pchip_core, _pchip_slopes
+
+    rng = np.random.default_rng(2)
+    for trial in range(300):
+        m, d = int(rng.integers(2, 60)), int(rng.integers(1, 4))
+        u = np.cumsum(rng.uniform(0.01, 2, m))
+        y = [rng.normal(size=(m, d)), np.cumsum(rng.normal(size=(m, d)), 0), np.round(rng.normal(size=(m, d)))][trial % 3]
+        ui = np.sort(np.r_[rng.uniform(u[0], u[-1], 50), u[rng.integers(0, m, 3)], u[0], u[-1]])
+        with np.errstate(all="ignore"):
+            sl = _pchip_slopes(u, y)
+            j = np.clip(np.searchsorted(u, ui, side="right") - 1, 0, u.size - 2)
+            h = (u[j + 1] - u[j])[:, None]
+            t = ((ui - u[j])[:, None]) / h
+            t2, t3 = t * t, t * t * t
+            ref = ((2 * t3 - 3 * t2 + 1) * y[j] + (t3 - 2 * t2 + t) * h * sl[j] + (-2 * t3 + 3 * t2) * y[j + 1]
+                   + (t3 - t2) * h * sl[j + 1])
+        assert _pchip_core(u, np.ascontiguousarray(y), ui).tobytes() == ref.tobytes()

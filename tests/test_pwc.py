@@ -786,3 +786,66 @@ def test_torsion_path_laws_start_within_the_torsion_measured():
     assert np.abs(f.tau_law.values).max() < 1.0
     assert mean_distance_mm(f.points_mm, resample_curve(make_phantom("S3").curves_mm[44], 4000)) < 0.05
 
+
+
+def _python_join(s, y, w, bounds):
+    """The join of a segmentation as it was written in Python (before _join_core): the reference."""
+    from tendrilkit.pwc.laws import _Lines, _refit_values
+
+    line, h_min = _Lines(s, y, w), float(np.min(np.diff(s)))
+    b = [int(v) for v in bounds]
+    while True:
+        lines = [line(a, c) for a, c in zip(b[:-1], b[1:])]
+        knots, bad = [float(s[0])], None
+        for i in range(len(lines) - 1):
+            (a1, c1), (a2, c2) = lines[i], lines[i + 1]
+            lo, hi = s[b[i]], s[b[i + 2] - 1]
+            if a1 == a2:
+                bad = i
+                break
+            x = (c2 - c1) / (a1 - a2)
+            if not (lo < x < hi) or x <= knots[-1] + 0.5 * h_min or x >= s[-1] - 0.5 * h_min:
+                bad = i
+                break
+            knots.append(float(x))
+        if bad is None:
+            break
+        del b[bad + 1]
+    kn = np.array(knots + [float(s[-1])])
+    return kn, _refit_values(s, y, w, kn)
+
+
+def test_compiled_join_is_the_python_join_bit_for_bit():
+    """_join_core (lines, overshoot merges, refit in one compiled call) gives the Python join's bits,
+    merges included, on weighted and unweighted signals."""
+    from tendrilkit.pwc.laws import _Joiner
+
+    rng = np.random.default_rng(7)
+    merged = 0
+    for trial in range(300):
+        n = int(rng.integers(6, 200))
+        s = np.cumsum(rng.uniform(0.2, 1.5, n))
+        y = (rng.normal(size=n) * 0.01 if trial % 3 == 0 else
+             np.interp(s, np.sort(rng.uniform(s[0], s[-1], 4)), rng.normal(size=4)) + rng.normal(0, 0.001, n))
+        w = np.ones(n) if trial % 3 != 2 else rng.uniform(0, 1, n) * (rng.uniform(size=n) > 0.3)
+        k = int(rng.integers(1, min(10, n // 3) + 1))
+        b = np.r_[0, np.sort(rng.choice(np.arange(1, n), k - 1, replace=False)), n]
+        law = _Joiner(s, y, w).join(b)
+        kn, v = _python_join(s, y, w, b)
+        merged += kn.size < b.size
+        assert law.knots_mm.tobytes() == kn.tobytes() and law.values.tobytes() == v.tobytes()
+    assert merged > 50
+
+
+def test_weighted_median_is_numpys_inverted_cdf_quantile():
+    """The torsion start's weighted median (np.quantile's steps without its set-up): the same values, ties
+    and zero weights included."""
+    from tendrilkit.pwc.selection import _weighted_median
+
+    rng = np.random.default_rng(4)
+    for t in range(500):
+        n = int(rng.integers(1, 200))
+        y = rng.normal(size=n) if t % 2 else np.round(rng.normal(size=n), 1)
+        w = rng.uniform(size=n) ** 2 * (rng.uniform(size=n) > [0.0, 0.5, 0.9][t % 3])
+        if w.sum() > 0:
+            assert _weighted_median(y, w) == float(np.quantile(y, 0.5, weights=w, method="inverted_cdf"))

@@ -14,7 +14,7 @@ import numpy as np
 
 from tendrilkit.frenet import FrenetFrames, _orthonormal_frame, noise_sigma_mm
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, join_segments
-from tendrilkit.pwc.rebuild import FitScores, fit_scores, rebuild_curve
+from tendrilkit.pwc.rebuild import FitScores, _rebuild, fit_scores
 from tendrilkit.pwc.refine import _refine_laws
 from tendrilkit.pwc.search import segment_penalty
 from tendrilkit.pwc.selection import _auto_search, _mid_penalty, _preferred
@@ -118,10 +118,9 @@ class PWCFit:
 def _finish(prep, law_k, law_t, *, bounds_k, bounds_t, pen_k, pen_t, rng_k, rng_t, selection,
             candidates, refined, positions):
     s, data, fr = prep.s, prep.data, prep.fr
-    F0 = (fr.T[0], fr.N[0], fr.B[0])
-    pts, R, t = rebuild_curve(s, law_k, law_t, data, frame0=F0, positions=positions)
+    Fm = _orthonormal_frame(fr.T[0], fr.N[0], fr.B[0])
+    pts, R, t = _rebuild(s, law_k, law_t, data, Fm, positions)  # rebuild_curve from that frame
     # report the registration from the identity frame at the origin
-    Fm = _orthonormal_frame(*F0)
     R_id = R @ Fm.T
     t_id = t + R @ data[0]
     return PWCFit(
@@ -269,11 +268,12 @@ def fit_piecewise_clothoid(
     kw = dict(criterion=criterion, target_r2=target_r2, max_segments=max_segments, refine=refine,
               insertions=insertions, quick_iterations=quick_iterations, max_candidates=max_candidates)
     if criterion == "bic":
-        kw["precision_mm"] = BIC_PRECISION_FRACTION * _allowed_rms_mm(prep.data, target_r2)
+        kw["precision_mm"] = BIC_PRECISION_FRACTION * _allowed_rms_mm(prep.data, target_r2, prep.sst_mm2)
     memo: dict = {}  # the retry with more lookahead repeats the first steps: computed once
     res = _auto_search(prep, lookahead=lookahead, memo=memo, **kw)
     # read once: the retries' yardstick
-    noise_mm = _retry_yardstick_mm(points_mm, prep.data, target_r2) if refine and retries else None
+    noise_mm = (_retry_yardstick_mm(points_mm, prep.data, target_r2, prep.noise_mm, prep.sst_mm2)
+                if refine and retries else None)
     if refine and retries and _missed(res["best"], target_r2, noise_mm, s.size):
         # a search that misses the target, or leaves residuals well above the data's noise,
         # may have taken a wrong turn: look further along the paths, and smooth less
@@ -311,14 +311,16 @@ RETRY_NOISE_RATIO = 0.9
 RETRY_ALLOWANCE_FRACTION = 0.05
 
 
-def _retry_yardstick_mm(points_mm, data_mm, target_r2):
+def _retry_yardstick_mm(points_mm, data_mm, target_r2, noise_mm=None, sst_mm2=None):
     """The rms residual (mm) above which (:data:`RETRY_NOISE_RATIO` of it) a search is tried again.
 
-    The larger of the noise of ``points_mm`` (as given) and :data:`RETRY_ALLOWANCE_FRACTION` of the
-    rms residual the target R^2 allows on ``data_mm`` (n, 3) (the points resampled, what the fit's
-    R^2 is measured on): :math:`\\sqrt{(1 - R^2_{target}) \\, SST / 3n}`.
+    ``noise_mm``, ``sst_mm2``: the noise and ``data_mm``'s sum of squares about their mean, if already
+    known. The larger of the noise of ``points_mm`` (as given) and
+    :data:`RETRY_ALLOWANCE_FRACTION` of the rms residual the target R^2 allows on ``data_mm`` (n, 3)
+    (the points resampled, what the fit's R^2 is measured on): :math:`\\sqrt{(1 - R^2_{target}) \\, SST / 3n}`.
     """
-    return max(noise_sigma_mm(points_mm), RETRY_ALLOWANCE_FRACTION * _allowed_rms_mm(data_mm, target_r2))
+    noise_mm = noise_sigma_mm(points_mm) if noise_mm is None else noise_mm
+    return max(noise_mm, RETRY_ALLOWANCE_FRACTION * _allowed_rms_mm(data_mm, target_r2, sst_mm2))
 
 
 #: BIC compares the candidates' residuals down to this fraction of the rms the target R^2 allows
@@ -332,9 +334,10 @@ def _retry_yardstick_mm(points_mm, data_mm, target_r2):
 BIC_PRECISION_FRACTION = 0.02
 
 
-def _allowed_rms_mm(data_mm, target_r2):
-    """The rms residual (mm) the target R^2 allows on ``data_mm`` (n, 3): :math:`\\sqrt{(1 - R^2) SST / 3n}`."""
-    sst = float(np.sum((data_mm - data_mm.mean(axis=0)) ** 2))
+def _allowed_rms_mm(data_mm, target_r2, sst_mm2=None):
+    """The rms residual (mm) the target R^2 allows on ``data_mm`` (n, 3): :math:`\\sqrt{(1 - R^2) SST / 3n}`
+    (``sst_mm2``: the SST, if already known)."""
+    sst = float(np.sum((data_mm - data_mm.mean(axis=0)) ** 2)) if sst_mm2 is None else sst_mm2
     return float(np.sqrt((1.0 - target_r2) * sst / (3 * len(data_mm))))
 
 

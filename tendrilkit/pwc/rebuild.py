@@ -99,12 +99,28 @@ def rebuild_curve(
     t : (3,) float array
         The registration: ``points = P_integrated @ R.T + t``.
     """
-    s = np.asarray(s_mm, dtype=float)
-    data = np.ascontiguousarray(data_mm, dtype=float)
     F0 = np.eye(3) if frame0 is None else _orthonormal_frame(*frame0)
-    P, _, _, _ = _integrate(s, kappa_law.step_means(s), tau_law.step_means(s), F0, data[0].copy(), positions == "exact")
-    R, t = rigid_fit(P, data)
+    return _rebuild(s_mm, kappa_law, tau_law, data_mm, F0, positions)
+
+
+def _rebuild(s_mm, kappa_law, tau_law, data_mm, F0, positions):
+    """:func:`rebuild_curve` from the orthonormal frame ``F0`` (3, 3) (rows T, N, B)."""
+    s = np.ascontiguousarray(s_mm, dtype=float)
+    data = np.ascontiguousarray(data_mm, dtype=float)
+    c = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    P, R, t = _rebuild_core(s, c(kappa_law.knots_mm), c(kappa_law.values), c(tau_law.knots_mm), c(tau_law.values),
+                            F0, data[0].copy(), positions == "exact", data)
     return P @ R.T + t, R, t
+
+
+@njit(cache=True)
+def _rebuild_core(s, kk, vk, kt, vt, F0, p0, exact_positions, data):
+    """The laws' step means, the integration from ``F0`` at ``p0`` and its registration onto ``data``:
+    ``(P, R, t)``, the same steps as one call (each compiled function called from Python loads its
+    numba cache at a process's start, about 3 ms: three of them were this)."""
+    P, _, _, _ = _integrate(s, _pwl_step_means(s, kk, vk), _pwl_step_means(s, kt, vt), F0, p0, exact_positions)
+    R, t = rigid_fit(P, data)
+    return P, R, t
 
 
 @dataclass(frozen=True, eq=False)

@@ -663,8 +663,11 @@ def _hinge_means(s, xs):
 def _hinge_positions(prep, lk, lt):
     """The positions the score test tries (mm) and, per law, those at least the minimum gap from its knots."""
     s, gap = prep.s, prep.min_gap_mm
-    xs = np.arange(s[0] + gap, s[-1] - gap, max(gap / 2, (s[-1] - s[0]) / 200))
-    return xs, [np.min(np.abs(xs[:, None] - law.knots_mm[None, :]), axis=1) >= gap for law in (lk, lt)]
+    xs = prep.hinge_xs_mm
+    if xs is None:
+        xs = np.arange(s[0] + gap, s[-1] - gap, max(gap / 2, (s[-1] - s[0]) / 200))
+    # np.minimum.reduce: np.min's reduction without its wrapper (called for every step of a search)
+    return xs, [np.minimum.reduce(np.abs(xs[:, None] - law.knots_mm[None, :]), axis=1) >= gap for law in (lk, lt)]
 
 
 def _best_insertions(prep, lk, lt, state=None):

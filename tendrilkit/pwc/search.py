@@ -74,6 +74,58 @@ def _dp_counts(C, kmax):
     return G, back
 
 
+@njit(cache=True)
+def _path_core(C, kmax):
+    """:func:`penalty_path` after its checks, compiled: :func:`_dp_counts`, the lower convex hull of
+    :math:`(k, G_k(n))`, its decreasing part, the penalty intervals and every hull count's segmentation
+    (back-tracked), the same arithmetic as in Python (a float times an int as a float). Returns
+    ``G[:, n]`` (a copy), the counts, their costs, the intervals' ends and the segmentations end to end
+    (``flat[ends[i]:ends[i + 1]]``).
+    """
+    G, back = _dp_counts(C, kmax)
+    n = C.shape[0] - 1
+    g = G[:, n].copy()
+    hull = np.empty(kmax, dtype=np.int64)
+    h = 0
+    for k in range(1, kmax + 1):
+        if not np.isfinite(g[k]):
+            continue
+        while h >= 2:
+            k1, k2 = hull[h - 2], hull[h - 1]
+            # drop k2 if it lies on or above the segment k1 -> k
+            if (g[k2] - g[k1]) * (k - k1) >= (g[k] - g[k1]) * (k2 - k1):
+                h -= 1
+            else:
+                break
+        hull[h] = k
+        h += 1
+    # keep only the part with decreasing cost (optimal for some penalty >= 0)
+    while h >= 2 and g[hull[h - 1]] >= g[hull[h - 2]]:
+        h -= 1
+    counts = hull[:h].copy()
+    costs = np.empty(h)
+    for i in range(h):
+        costs[i] = g[counts[i]]
+    lo = np.zeros(h)
+    hi = np.full(h, np.inf)
+    for i in range(h - 1):
+        slope = (costs[i] - costs[i + 1]) / (counts[i + 1] - counts[i])
+        lo[i] = slope
+        hi[i + 1] = slope
+    ends = np.zeros(h + 1, dtype=np.int64)
+    for i in range(h):
+        ends[i + 1] = ends[i] + counts[i] + 1
+    flat = np.empty(ends[h], dtype=np.int64)
+    for i in range(h):
+        k = counts[i]
+        j = n
+        flat[ends[i + 1] - 1] = n
+        for kk in range(k, 0, -1):
+            j = back[kk, j]
+            flat[ends[i] + kk - 1] = j
+    return g, counts, costs, lo, hi, flat, ends
+
+
 def _backtrack(arg: np.ndarray, n: int) -> np.ndarray:
     cuts = [n]
     j = n
@@ -201,38 +253,7 @@ def penalty_path(C: np.ndarray, *, kmax: int | None = None) -> PenaltyPath:
         raise DegenerateCurveError(f"no segment of {n} samples is long enough")
     kcap = n // min_size
     kmax = kcap if kmax is None else max(1, min(int(kmax), kcap))
-    G, back = _dp_counts(C, kmax)
-    g = G[:, n]
-    ks = [k for k in range(1, kmax + 1) if np.isfinite(g[k])]
-    # lower convex hull of (k, g_k), scanning k upwards
-    hull: list[int] = []
-    for k in ks:
-        while len(hull) >= 2:
-            k1, k2 = hull[-2], hull[-1]
-            # drop k2 if it lies on or above the segment k1 -> k
-            if (g[k2] - g[k1]) * (k - k1) >= (g[k] - g[k1]) * (k2 - k1):
-                hull.pop()
-            else:
-                break
-        hull.append(k)
-    # keep only the part with decreasing cost (optimal for some penalty >= 0)
-    while len(hull) >= 2 and g[hull[-1]] >= g[hull[-2]]:
-        hull.pop()
-    counts = np.array(hull, dtype=np.int64)
-    costs = g[counts]
-    lo = np.zeros(counts.size)
-    hi = np.full(counts.size, np.inf)
-    for i in range(counts.size - 1):
-        slope = (costs[i] - costs[i + 1]) / (counts[i + 1] - counts[i])
-        lo[i] = slope
-        hi[i + 1] = slope
-    bounds = []
-    for k in counts:
-        cuts = [n]
-        j = n
-        for kk in range(int(k), 0, -1):
-            j = int(back[kk, j])
-            cuts.append(j)
-        bounds.append(np.array(cuts[::-1], dtype=np.int64))
+    g, counts, costs, lo, hi, flat, ends = _path_core(C, kmax)
+    bounds = [flat[ends[i]:ends[i + 1]].copy() for i in range(counts.size)]
     return PenaltyPath(counts=counts, costs=costs, penalty_lo=lo, penalty_hi=hi,
-                       bounds=tuple(bounds), all_costs=g.copy())
+                       bounds=tuple(bounds), all_costs=g)

@@ -8,9 +8,10 @@ paper's target R^2), each candidate refined from the current fit.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
-from tendrilkit.pwc.costs import _check_signal
 from tendrilkit.pwc.laws import PiecewiseLinearLaw, _insert_knot, _Joiner, _merge_knots
 from tendrilkit.pwc.rebuild import _law_sse
 from tendrilkit.pwc.refine import _best_insertions, _hinge_positions, _refine_laws, _refine_starts
@@ -43,7 +44,13 @@ def _bic(sse: float, n: int, k_kappa: int, k_tau: int) -> float:
     """
     m = 3 * n
     p = 2 * k_kappa + 2 * k_tau + 6
-    return float(m * np.log(np.float64(max(sse, 1e-300)) / m) + p * np.log(np.float64(m)))
+    return float(m * np.log(np.float64(max(sse, 1e-300)) / m) + p * _log_count(m))
+
+
+@lru_cache(maxsize=64)
+def _log_count(m: int) -> np.float64:
+    """``np.log(np.float64(m))``, once per count of residuals (the same for every candidate of a fit)."""
+    return np.log(np.float64(m))
 
 
 def _preferred(x, y, target_r2, criterion):
@@ -121,7 +128,7 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
                      _DistinctLaws(s, fr.tau, prep.wt, path_t, "tau"))
     path_k, path_t, laws_k, laws_t = memo[key]
     n = s.size
-    sst = float(np.sum((prep.data - prep.data.mean(axis=0)) ** 2))
+    sst = prep.sst_mm2 if prep.sst_mm2 is not None else float(np.sum((prep.data - prep.data.mean(axis=0)) ** 2))
     sse_floor = 3 * n * precision_mm ** 2  # residuals below the precision asked for explain nothing more
     rows: list[list[float]] = []
     quick = (quick_iterations, 1e-4)
@@ -143,9 +150,12 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
 
     def path_tau(b):
         """The torsion path law ``b`` as a start: its values within the range of the torsion where defined."""
-        law = laws_t[b]
-        v = np.clip(law.values, tau_lo, tau_hi)
-        return law if np.array_equal(v, law.values) else PiecewiseLinearLaw(law.knots_mm, v, "tau")
+        k = ("path_tau", max_segments, b)  # of prep's signals and the path: made once
+        if k not in memo:
+            law = laws_t[b]
+            v = np.clip(law.values, tau_lo, tau_hi)
+            memo[k] = law if np.array_equal(v, law.values) else PiecewiseLinearLaw(law.knots_mm, v, "tau")
+        return memo[k]
 
     def from_path(a, b, cur=None, move=None):
         """Candidate (a, b) of the paths. Without refinement: the laws as they are.
@@ -161,8 +171,11 @@ def _auto_search(prep, *, criterion, target_r2, max_segments, refine, lookahead,
             # the path laws, or constants (median curvature; curvature-weighted median
             # torsion, or none): noisy estimates can start the fit in a wrong basin
             ends_k, ends_t = laws_k[a].knots_mm, laws_t[b].knots_mm
-            kc = PiecewiseLinearLaw(ends_k, np.full(ends_k.size, float(np.median(fr.kappa))), "kappa")
-            tc = PiecewiseLinearLaw(ends_t, np.full(ends_t.size, _weighted_median(fr.tau, prep.wt)), "tau")
+            if "medians" not in memo:  # of prep's signals: a retry reads them again
+                memo["medians"] = (float(np.median(fr.kappa)), _weighted_median(fr.tau, prep.wt))
+            med_k, med_t = memo["medians"]
+            kc = PiecewiseLinearLaw(ends_k, np.full(ends_k.size, med_k), "kappa")
+            tc = PiecewiseLinearLaw(ends_t, np.full(ends_t.size, med_t), "tau")
             t0 = PiecewiseLinearLaw(ends_t, np.zeros(ends_t.size), "tau")
             starts = [(laws_k[a], path_tau(b)), (kc, tc), (kc, t0), (laws_k[a], t0)]
         elif move == "k":
@@ -261,7 +274,19 @@ def _weighted_median(y, w):
     """The smallest ``y`` whose cumulative weight reaches half the total (0 without weight)."""
     if not w.sum() > 0:
         return 0.0
-    return float(np.quantile(y, 0.5, weights=w, method="inverted_cdf"))
+    # np.quantile(y, 0.5, weights=w, method="inverted_cdf")'s steps for one 1-d array of finite
+    # values and weights >= 0 (the same sort, cumulative weights and search: the same value) without
+    # its generic set-up, a third of its time
+    if not (y.ndim == 1 and y.shape == w.shape and np.isfinite(y).all() and (w >= 0).all()):
+        return float(np.quantile(y, 0.5, weights=w, method="inverted_cdf"))
+    order = np.argsort(y, axis=0)
+    cdf = w[order].cumsum(dtype=np.float64)
+    cdf /= cdf[-1]
+    if np.isnan(cdf[-1]):
+        return float(np.quantile(y, 0.5, weights=w, method="inverted_cdf"))  # its error
+    if cdf[0] == 0:
+        cdf[cdf == 0] = -1
+    return float(y[order[min(int(np.searchsorted(cdf, 0.5, side="left")), y.size - 1)]])
 
 
 class _DistinctLaws:
@@ -274,7 +299,8 @@ class _DistinctLaws:
 
     def __init__(self, s, y, w, path, kind):
         self.path, self.kind = path, kind
-        self.joiner = _Joiner(*_check_signal(s, y, w))
+        # the prepared curve's arrays, checked when their cost tables were made (line_costs)
+        self.joiner = _Joiner(s, y, w)
         self.idx: list[int] = []
         self.laws: list[PiecewiseLinearLaw] = []
         self._seen: set = set()

@@ -30,7 +30,11 @@ class _Prepared:
     measure against); ``wk``, ``wt`` (n,): sample weights of curvature (1) and
     torsion (kappa^2 where torsion is defined); ``Ck``, ``Ct`` (n + 1, n + 1):
     interval costs (:func:`~tendrilkit.pwc.costs.line_costs`); ``free_knots``:
-    refinement moves the inner knots; ``min_gap_mm``: closest knots, mm.
+    refinement moves the inner knots; ``min_gap_mm``: closest knots, mm; ``noise_mm``: the
+    input points' :func:`~tendrilkit.frenet.noise_sigma_mm` where the automatic smoothing
+    computed it (else ``None``); ``sst_mm2``: the data's sum of squares about their mean (mm^2,
+    the R^2's denominator); ``hinge_xs_mm``: the positions the knot score test tries (mm,
+    :func:`~tendrilkit.pwc.refine._hinge_positions`). Each made once per curve.
     """
 
     fr: FrenetFrames
@@ -42,14 +46,17 @@ class _Prepared:
     Ct: np.ndarray
     free_knots: bool
     min_gap_mm: float
+    noise_mm: float | None = None
+    sst_mm2: float | None = None
+    hinge_xs_mm: np.ndarray | None = None
 
 
 def _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points, free_knots=True):
     """Smooth ``points_mm`` (n, 3) and cost both signals (options: :func:`~tendrilkit.pwc.fit_piecewise_clothoid`)."""
-    fr = None
+    fr = noise_mm = None
     if smoothing_length_mm is None:
         # the frames the choice of length computed are reused when they have the points asked for
-        smoothing_length_mm, fr = _auto_smoothing(points_mm)
+        smoothing_length_mm, fr, noise_mm = _auto_smoothing(points_mm, with_noise=True)
         if n_points is not None and (fr is None or fr.s_mm.size != n_points):
             fr = None
     if fr is None:
@@ -66,4 +73,8 @@ def _prepare(points_mm, smoothing_length_mm, score, min_segment_mm, n_points, fr
         wt = np.ones(n) * 1e-12
     Ck = line_costs(s, fr.kappa, weights=wk, score=score, min_size=min_size)
     Ct = line_costs(s, fr.tau, weights=wt, score=score, min_size=min_size)
-    return _Prepared(fr, s, np.ascontiguousarray(fr.data_mm), wk, wt, Ck, Ct, free_knots, float(KNOT_GAP_SAMPLES * h))
+    data = np.ascontiguousarray(fr.data_mm)
+    gap = float(KNOT_GAP_SAMPLES * h)
+    sst = float(np.sum((data - data.mean(axis=0)) ** 2))
+    xs = np.arange(s[0] + gap, s[-1] - gap, max(gap / 2, (s[-1] - s[0]) / 200))
+    return _Prepared(fr, s, data, wk, wt, Ck, Ct, free_knots, gap, noise_mm, sst, xs)
