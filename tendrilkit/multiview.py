@@ -949,7 +949,7 @@ def _fit(X0, evidence, B, segment_mm, prior_mm=0.0, max_length_mm=np.inf, refine
 def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, previous_mm: np.ndarray | None = None,
                           segment_mm: float = 1.0, min_score: float = 0.9, max_shrink: float = 0.08,
                           max_growth: float = 0.08, choice_candidates: int = 6,
-                          keep_candidates: bool = False) -> MultiviewResult:
+                          keep_candidates: bool = False, colour_px: float = 1.0) -> MultiviewResult:
     """The 3D curve of one frame from every view's evidence, tracked or acquired.
 
     Parameters
@@ -985,6 +985,11 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
         beam's own choice (the former default).
     keep_candidates : bool
         Keep every candidate's nodes in the result (figures).
+    colour_px : float
+        The acquisition's cost of a step onto a line of another colour than
+        the one its hypothesis followed so far (:func:`tendrilkit.mv_acquire.grow_curve`;
+        the evidence's :attr:`~tendrilkit.mv_evidence.SkeletonEvidence.skeleton_chroma`
+        needed, :func:`~tendrilkit.mv_evidence.attach_chroma`); 0: off, the default before 2026-12-02.
 
     Returns
     -------
@@ -1017,8 +1022,8 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
             note = f"tracking lost (length {100 * (shrink - 1):.0f} % from the previous frame): acquired afresh"
     if not cands or note:
         # (nodes, beam score) of the hypotheses the final choice weighs: the beam's own choice alone with 1
-        grown = (grow_curve(evidence, B, candidates=int(choice_candidates)) if choice_candidates > 1
-                 else [(grow_curve(evidence, B), 0.0)])
+        grown = (grow_curve(evidence, B, candidates=int(choice_candidates), colour_px=colour_px)
+                 if choice_candidates > 1 else [(grow_curve(evidence, B, colour_px=colour_px), 0.0)])
         grown = [(G, sc) for G, sc in grown if len(G) >= 3]
         if not grown:
             if not cands:

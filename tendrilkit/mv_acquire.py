@@ -212,6 +212,18 @@ from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, mark_near_rows, 
 
 __all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap", "light_band"]
 
+#: The colour a hypothesis follows (``grow_curve``'s ``colour_px``): per view, the running mean of the chromaticity
+#: (:attr:`SkeletonEvidence.skeleton_chroma`) at the skeleton pixels its steps land on, each step weighing
+#: ``COLOUR_EMA`` (a tendril's colour changes slowly along it: younger towards the tip, shaded); a step whose
+#: chromaticity differs from it by more than ``COLOUR_TOL`` (sum of the three channels' differences, the mean over the
+#: views seeing it on their skeleton, two at least) pays ``colour_px`` per ``COLOUR_TOL`` beyond, up to ``COLOUR_CAP``
+#: times: at a crossing, the branch of the tendril's colour wins over a shoot, a petiole or another tendril of
+#: another colour. Measured 2026-12-02 (``rerun_multiview.py``, the same harness on both sides, ``colour_px`` 1):
+#: MEASURED_COLOUR
+COLOUR_TOL = 0.06
+COLOUR_EMA = 0.2
+COLOUR_CAP = 2.0
+
 #: A point's distance to a view's skeleton is capped at this (pixels).
 CAP_PX = 10.0
 #: The cost of a step no two views see (pixels).
@@ -645,7 +657,7 @@ def _first_against(lead, against):
 
 def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm: float = 2.0, beam: int = 8,
                n_seeds: int = 6, cone_deg: float = 40.0, max_length_mm: float = 400.0,
-               max_unseen_steps: int = 6, candidates: int = 1):
+               max_unseen_steps: int = 6, candidates: int = 1, colour_px: float = 0.0):
     """Grow the tendril's 3D curve from the base by a beam search on every view's evidence.
 
     Parameters
@@ -671,6 +683,11 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     candidates : int
         With more than one: the finished hypotheses the choice weighs, up to
         this many (see Returns).
+    colour_px : float
+        Cost (pixels, per step, up to :data:`COLOUR_CAP` times it) of a step
+        onto a line of another colour than the one its hypothesis followed so
+        far (every view's :attr:`SkeletonEvidence.skeleton_chroma` needed; 0:
+        off); see :data:`COLOUR_TOL`.
 
     Returns
     -------
@@ -690,7 +707,10 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         return none_ if candidates <= 1 else [(none_, 0.0)]
     # a hypothesis: (nodes (m, 3), score, unconfirmed tail, last direction, its row of claims, blind tail); claims:
     # per view, the skeleton pixels each hypothesis explains (a row per hypothesis, a column per pixel)
-    hyps = [(B[None], 0.0, 0, d, h, 0) for h, d in enumerate(seeds)]
+    V = len(evidence)
+    use_col = colour_px > 0 and all(ev.skeleton_chroma is not None for ev in evidence)
+    # ... and, last, per view the colour (chromaticity) the hypothesis followed so far (NaN: none seen yet)
+    hyps = [(B[None], 0.0, 0, d, h, 0, np.full((V, 3), np.nan)) for h, d in enumerate(seeds)]
     claims = [np.zeros((len(seeds), len(ev.skeleton_xy)), bool) for ev in evidence]
     f_claim = np.linspace(0, 1, 5)[:, None]
     split_cos = np.cos(np.radians(SPLIT_DEG))
@@ -728,6 +748,21 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             da, sa = point_costs(evidence, ahead.reshape(-1, 3))
             ma, na = _mean_seen(da, sa)
             cost[blind] = 0.5 * (NEUTRAL_PX + np.where(na >= 2, ma, NEUTRAL_PX).reshape(-1, len(look)).mean(axis=1))
+        if use_col:  # a step onto a line of another colour than its hypothesis's so far (a shoot, another tendril)
+            follow = np.stack([h[6] for h in hyps])[own]  # (N, V, 3)
+            step_col = np.full((N, V, 3), np.nan)
+            dev = np.zeros(N)
+            n_dev = np.zeros(N)
+            for v, ev in enumerate(evidence):
+                i = near[v, :N]
+                on = seen[v, :N] & (d[v, :N] <= ON_PX) & (i >= 0)
+                ch = ev.skeleton_chroma[np.maximum(i, 0)]
+                step_col[on, v] = ch[on]
+                known = on & np.isfinite(follow[:, v, 0])
+                dev += np.where(known, np.abs(ch - np.nan_to_num(follow[:, v])).sum(axis=1), 0.0)
+                n_dev += known
+            off_colour = np.where(n_dev >= 2, dev / np.maximum(n_dev, 1), 0.0)
+            cost = cost + colour_px * np.clip((off_colour - COLOUR_TOL) / COLOUR_TOL, 0.0, COLOUR_CAP)
         if not first:  # bending
             turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1)))
             cost = cost + TURN_PX * (turn / cone_deg) ** 2
@@ -770,8 +805,14 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             rows = np.repeat(np.asarray(grown, np.int64), len(f_claim))
             for v, ev in enumerate(evidence):
                 mark_near_rows(ev, claims[v], rows, ev.camera.project(P), 4.0)
+        if use_col:  # each kept step's views that see it on their skeleton update its colour (a running mean)
+            colours = [np.where(np.isfinite(step_col[i]), np.where(np.isfinite(follow[i]), (1.0 - COLOUR_EMA) * follow[i]
+                                                                   + COLOUR_EMA * step_col[i], step_col[i]), follow[i])
+                       for i in idx.tolist()]
+        else:
+            colours = [hyps[0][6]] * len(idx)
         hyps = [(np.concatenate([parents[j][0], pts[i][None]]), float(score[i]), int(tail[i]), dirs[i], j,
-                 int(blind_tail[i])) for j, i in enumerate(idx.tolist())]
+                 int(blind_tail[i]), colours[j]) for j, i in enumerate(idx.tolist())]
         if not hyps:
             break
     finished.extend(h[:3] for h in hyps)

@@ -38,7 +38,7 @@ from tendrilkit.evidence import ViewEvidence
 from tendrilkit.exceptions import TendrilLostError
 from tendrilkit.segmentation.lines import vein_pixels
 
-__all__ = ["SkeletonEvidence", "skeleton_evidence", "front_line_pixels", "front_line_mask", "skeleton_distance", "project_distance", "project_costs", "mark_near", "mark_near_rows", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
+__all__ = ["SkeletonEvidence", "skeleton_evidence", "attach_chroma", "front_line_pixels", "front_line_mask", "skeleton_distance", "project_distance", "project_costs", "mark_near", "mark_near_rows", "COVER_PX", "COVER_DEPTH_PX", "WIDE_PX"]
 
 #: A place ``COVER_DEPTH_PX`` or more inside a dark region (pixels from the board) and farther than
 #: ``COVER_PX`` from the skeleton is covered in that view (a leaf or the stem in front of or behind the
@@ -95,6 +95,11 @@ class SkeletonEvidence:
         (``covered`` of :func:`skeleton_distance`).
     camera : Camera
         The view's calibrated camera.
+    skeleton_chroma : (k, 3) float array or None
+        Per skeleton pixel, the image's chromaticity there (B, G, R over
+        their sum, the image blurred over 3 x 3 px): the colour of the line
+        it lies on, whatever the light (:func:`attach_chroma`; None: not
+        read).
     """
 
     offset_xy: np.ndarray
@@ -108,6 +113,7 @@ class SkeletonEvidence:
     seen: np.ndarray
     inside_px: np.ndarray
     camera: Camera
+    skeleton_chroma: np.ndarray | None = None
 
     @cached_property
     def skeleton_labels(self) -> np.ndarray:
@@ -239,6 +245,36 @@ def _local_lines(xy: np.ndarray, tree: cKDTree, radius_px: float = 3.5, k: int =
     sxx, syy, sxy = (r[..., 0] ** 2).sum(1), (r[..., 1] ** 2).sum(1), (r[..., 0] * r[..., 1]).sum(1)
     ang = 0.5 * np.arctan2(2 * sxy, sxx - syy)
     return c, np.column_stack([np.cos(ang), np.sin(ang)])
+
+
+def attach_chroma(ev: SkeletonEvidence, image_bgr: np.ndarray) -> SkeletonEvidence:
+    """``ev`` with :attr:`SkeletonEvidence.skeleton_chroma` read from the view's image (in place, once).
+
+    The chromaticity (each channel over the sum of the three, the image
+    blurred over 3 x 3 px, one added to every channel against division by
+    0) at every skeleton pixel: the multi-view acquisition compares a step's
+    colour with the colour its hypothesis followed so far
+    (:func:`tendrilkit.mv_acquire.grow_curve`'s ``colour_px``). Set on the
+    frozen evidence, as its cached properties are: the evidence is the same
+    otherwise.
+    """
+    if ev.skeleton_chroma is None:
+        img = np.asarray(image_bgr)
+        xy = np.round(ev.skeleton_xy).astype(np.intp).reshape(-1, 2)
+        if img.ndim != 3 or img.shape[2] != 3 or len(xy) == 0:
+            chroma = np.full((len(xy), 3), 1.0 / 3.0)
+        else:
+            h, w = img.shape[:2]
+            col, row = np.clip(xy[:, 0], 0, w - 1), np.clip(xy[:, 1], 0, h - 1)
+            # blurred on the pixels' box grown by one: every pixel's 3 x 3 window lies in it, or meets the image's
+            # border where the box does (the same values as the whole image's blur)
+            r0, r1 = max(int(row.min()) - 1, 0), min(int(row.max()) + 2, h)
+            c0, c1 = max(int(col.min()) - 1, 0), min(int(col.max()) + 2, w)
+            box = np.ascontiguousarray(img[r0:r1, c0:c1])
+            px = cv2.blur(box, (3, 3))[row - r0, col - c0].astype(np.float64) + 1.0
+            chroma = px / px.sum(axis=1, keepdims=True)
+        object.__setattr__(ev, "skeleton_chroma", chroma)
+    return ev
 
 
 def skeleton_distance(ev: SkeletonEvidence, points_xy: np.ndarray, *, outside_px: float = 50.0, index: bool = False):

@@ -314,6 +314,11 @@ class Reconstruction(_Strict):
     around it in some colour channel by at least this fraction of the board's
     level there, is evidence of the tendril in front of that object
     (:func:`tendrilkit.mv_evidence.front_line_pixels`; 0.09; 0: off, the
+    default before 2026-12-02); ``colour_px`` (multiview): an acquisition's
+    cost, pixels per step, of a step onto a line of another colour
+    (chromaticity) than the one its hypothesis followed so far: at a crossing
+    the branch of the tendril's own colour wins over a shoot, a petiole or
+    another tendril (:func:`tendrilkit.mv_acquire.grow_curve`; 1; 0: off, the
     default before 2026-12-02).
     """
 
@@ -322,6 +327,7 @@ class Reconstruction(_Strict):
     front_line_contrast: float = Field(0.09, ge=0, lt=1)
     segment_mm: float = Field(default_factory=lambda: stage_default("multiview", "segment_mm"), gt=0.1, le=10.0)
     choice_candidates: int = Field(default_factory=lambda: stage_default("multiview", "choice_candidates"), ge=1, le=20)
+    colour_px: float = Field(default_factory=lambda: stage_default("multiview", "colour_px"), ge=0, le=20)
 
 
 class Triangulation(_Strict):

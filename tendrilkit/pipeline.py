@@ -451,6 +451,7 @@ def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous
                      ) -> FrameResult:
     """:func:`reconstruct_frame` by ``reconstruction.method: multiview`` (:mod:`tendrilkit.multiview`)."""
     from tendrilkit.multiview import base_point_from_marks, distance_table, reconstruct_multiview
+    from tendrilkit.mv_evidence import attach_chroma
     from tendrilkit.verify import Thresholds, verify_frame
 
     V = len(cameras)
@@ -465,6 +466,9 @@ def _multiview_frame(images, cameras: list[Camera], exp, *, frame: int, previous
             raise DegenerateCurveError("fewer than two views have evidence of the tendril")
         t0 = time.perf_counter()
         B = base_point_from_marks([m.base_point for m in exp.views], cameras, max_px=exp.correspondence.max_distance_px)
+        if exp.reconstruction.colour_px > 0:  # the colour of each view's skeleton pixels (the acquisition's)
+            for v in used:
+                attach_chroma(evidence[v], images[v])
         mv = reconstruct_multiview([evidence[v] for v in used], B, previous_mm=previous_mm,
                                    **stage_options(exp, "multiview"))
         timings["multiview"] = time.perf_counter() - t0

@@ -991,3 +991,36 @@ def test_junctions_other_branch_kept_dev_scene_1072(tmp_path, monkeypatch):
     monkeypatch.setattr(A, "SPLIT_EXTRA", 0)
     short = _errors(reconstruct_frame(images, cams, exp, frame=0, fit=False).points_mm, X)
     assert short["tip"] >= 20.0, short
+
+
+def test_attach_chroma_reads_the_blurred_image_at_the_skeleton_once():
+    """The chromaticity at every skeleton pixel is the whole image's 3 x 3 blur there (read on a box), set once."""
+    from tendrilkit.mv_evidence import attach_chroma
+
+    img, ev, cam = _leaf_view(True)
+    sev = skeleton_evidence(ev, cam, image_bgr=img, front_line_contrast=0.09)
+    assert sev.skeleton_chroma is None
+    out = attach_chroma(sev, img)
+    assert out is sev and sev.skeleton_chroma.shape == (len(sev.skeleton_xy), 3)
+    xy = np.clip(np.round(sev.skeleton_xy).astype(int), 0, [img.shape[1] - 1, img.shape[0] - 1])
+    px = cv2.blur(img, (3, 3))[xy[:, 1], xy[:, 0]].astype(float) + 1.0
+    assert np.array_equal(sev.skeleton_chroma, px / px.sum(axis=1, keepdims=True))
+    before = sev.skeleton_chroma
+    attach_chroma(sev, np.zeros_like(img))  # already read: kept
+    assert sev.skeleton_chroma is before
+
+
+@pytest.mark.slow
+def test_a_crossing_of_another_colour_is_not_followed_dev_scene_1053(tmp_path):
+    """Dev scene 1053, frame 2, acquired: at a crossing the beam took a line of another colour and the curve ran
+    off the tendril (measured 2026-12-02: mean 5.9 mm, tip 33 mm off). With the colour each hypothesis follows
+    (``reconstruction.colour_px`` 1, :func:`tendrilkit.mv_acquire.grow_curve`) it stays on the tendril (mean 0.37 mm,
+    tip 0.28 mm). Margins, not one machine's beam path: right with it, off by millimetres without."""
+    from tendrilkit.params import with_overrides
+
+    images, cams, exp, X = _random_scene_frame(tmp_path, 1053, frame=2)
+    e = _errors(reconstruct_frame(images, cams, exp, frame=2, fit=False).points_mm, X)
+    assert e["mean"] <= 0.5 and e["tip"] <= 2.0 and e["max"] <= 2.0, e
+    off = with_overrides(exp, {"reconstruction": {"colour_px": 0.0}})
+    o = _errors(reconstruct_frame(images, cams, off, frame=2, fit=False).points_mm, X)
+    assert o["mean"] >= e["mean"] + 1.0 or o["tip"] >= 10.0, (o, e)
