@@ -982,14 +982,20 @@ def test_junctions_other_branch_kept_dev_scene_1072(tmp_path, monkeypatch):
     """Dev scene 1072, frame 0, acquired: where a branch leaves the tendril, the tendril's own continuation lost its
     beam cell to its sibling heading onto the branch, and the curve ended 83 mm short of the tip. Kept besides the
     beam (``SPLIT_DEG``, ``SPLIT_EXTRA``), it wins the final choice. Measured (2026-12-02): mean 0.08 mm, max 0.45 mm,
-    tip 0.19 mm; without the split 82.7 mm off at the tip."""
+    tip 0.19 mm; without the split 82.7 mm off at the tip. Since the colour each hypothesis follows
+    (``reconstruction.colour_px``) the sibling heading onto the branch pays for its colour too: the split's own effect
+    is measured with the colour off."""
     import tendrilkit.mv_acquire as A
+    from tendrilkit.params import with_overrides
 
     images, cams, exp, X = _random_scene_frame(tmp_path, 1072)
     e = _errors(reconstruct_frame(images, cams, exp, frame=0, fit=False).points_mm, X)
     assert e["mean"] <= 0.5 and e["max"] <= 2.0 and e["base"] <= 2.0 and e["tip"] <= 2.0, e
+    plain = with_overrides(exp, {"reconstruction": {"colour_px": 0.0}})
+    e0 = _errors(reconstruct_frame(images, cams, plain, frame=0, fit=False).points_mm, X)
+    assert e0["mean"] <= 0.5 and e0["max"] <= 2.0 and e0["tip"] <= 2.0, e0
     monkeypatch.setattr(A, "SPLIT_EXTRA", 0)
-    short = _errors(reconstruct_frame(images, cams, exp, frame=0, fit=False).points_mm, X)
+    short = _errors(reconstruct_frame(images, cams, plain, frame=0, fit=False).points_mm, X)
     assert short["tip"] >= 20.0, short
 
 

@@ -25,7 +25,7 @@ EXPECTED = {
                  "max_unused_fraction", "overrides"},
     "correspondence": {"max_distance_px", "depth_smoothing"},
     "triangulation": {"refine"},
-    "multiview": {"segment_mm", "choice_candidates"},
+    "multiview": {"segment_mm", "choice_candidates", "colour_px"},
     "fit": {"selection", "criterion", "target_r2", "penalty_kappa", "penalty_tau", "score", "max_segments", "refine",
             "smoothing_length_mm"},
 }
@@ -145,17 +145,20 @@ def test_the_multiview_pipeline_passes_its_options(monkeypatch):
 
     exp = _experiment(**{**NON_DEFAULT, "reconstruction": {"method": "multiview", "segment_mm": 2.0,
                                                                            "choice_candidates": 1,
-                                                                           "front_line_contrast": 0.15}})
+                                                                           "front_line_contrast": 0.15,
+                                                                           "colour_px": 0.5}})
     calls: dict = {}
     monkeypatch.setattr(tendrilkit.evidence, "view_evidence", _record(calls, "segmentation", object()))
     monkeypatch.setattr(tendrilkit.mv_evidence, "skeleton_evidence", _record(calls, "evidence", object()))
     monkeypatch.setattr(tendrilkit.multiview, "base_point_from_marks", _record(calls, "base", np.zeros(3)))
+    monkeypatch.setattr(tendrilkit.mv_evidence, "attach_chroma", lambda ev, image: calls.setdefault("chroma", []).append(ev))
     monkeypatch.setattr(tendrilkit.multiview, "reconstruct_multiview", _record(calls, "multiview", stop=True))
     cams = [Camera(K=np.eye(3), t_mm=np.zeros(3)) for _ in range(2)]
     with pytest.raises(_Reached):
         pipeline.reconstruct_frame([np.zeros((4, 4, 3), np.uint8)] * 2, cams, exp, frame=0)
     assert calls["multiview"]["segment_mm"] == 2.0
     assert calls["multiview"]["choice_candidates"] == 1
+    assert calls["multiview"]["colour_px"] == 0.5 and len(calls["chroma"]) == 2  # each view's colour read
     assert calls["evidence"]["front_line_contrast"] == 0.15
     for key, value in stage_options(exp, "segmentation").items():
         assert calls["segmentation"][key] == value
