@@ -15,7 +15,7 @@ import numpy as np
 from tendrilkit.evidence import ViewEvidence
 from tendrilkit.verify_base import WIDE_RATIO, near_base
 from tendrilkit.verify_crossing import across_gaps, border_segments, crossing_branches
-from tendrilkit.verify_tip import bounded_query, failing_views
+from tendrilkit.verify_tip import bounded_query, px_over_message
 
 __all__ = ["coverage_frac", "tendril_radius_px", "bypass_px", "bypass_message", "BORDER_PX", "MIN_BRANCH_PX"]
 
@@ -290,9 +290,6 @@ def bypass_px(explained_xy: np.ndarray, missed_xy: np.ndarray) -> float:
 def bypass_message(figures: dict, n_views: int, limit_px: float) -> str | None:
     """The message when the curve cuts across a stretch of the tendril's skeleton (``bypass_px_v<i>``) longer
     than ``limit_px`` in one view or more, else None."""
-    hits = failing_views(figures, "bypass_px", n_views, lambda x: x > limit_px)
-    if not hits:
-        return None
-    return ("coverage: the tendril's skeleton leaves the curve and joins it again, the curve cutting across it (a "
-            "coil's turn) in " + ", ".join(f"view {v} ({x:.0f} px)" for v, x in hits)
-            + f" (limit {limit_px:g} px in one view)")
+    return px_over_message(figures, "bypass_px", n_views, limit_px,
+                           "coverage: the tendril's skeleton leaves the curve and joins it again, the curve cutting "
+                           "across it (a coil's turn)")

@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tendrilkit.verify_tip import failing_views
+from tendrilkit.verify_tip import px_over_message
 
 __all__ = ["SIGHT_TOL_PX", "SIGHT_REACH_MM", "sight_line_xy", "sight_deviation_px", "lone_tip_px",
            "lone_tip_message"]
@@ -163,9 +163,6 @@ def lone_tip_px(paths: list, lengths: list, cameras: list, tip_world: np.ndarray
 def lone_tip_message(figures: dict, n_views: int, limit_px: float) -> str | None:
     """The message when the tendril goes on beyond the tip, unseen by the other views (``lone_tip_px_v<i>``),
     by more than ``limit_px`` in one view or more, else None."""
-    hits = failing_views(figures, "lone_tip_px", n_views, lambda x: x > limit_px)
-    if not hits:
-        return None
-    return ("tip: the tendril goes on beyond the curve's tip where the other views cannot see it (along their line "
-            "of sight, or beyond their ROI) in " + ", ".join(f"view {v} ({x:.0f} px)" for v, x in hits)
-            + f" (limit {limit_px:g} px in one view)")
+    return px_over_message(figures, "lone_tip_px", n_views, limit_px,
+                           "tip: the tendril goes on beyond the curve's tip where the other views cannot see it "
+                           "(along their line of sight, or beyond their ROI)")

@@ -599,12 +599,25 @@ def failing_views(figures: dict, stem: str, n_views: int, fails, *, min_views: i
     return hits if len(hits) >= min_views else []
 
 
+def px_over_message(figures: dict, stem: str, n_views: int, limit_px: float, says: str) -> str | None:
+    """The message ``says`` + the views whose ``<stem>_v<i>`` (px) exceeds ``limit_px`` in one view or more, else
+    None (the one-view pixel checks: open tip, lone tip, bypass).
+
+    Example
+    -------
+    >>> px_over_message({"x_v1": 12.0, "x_v2": 3.0}, "x", 2, 5.0, "tip: too far")
+    'tip: too far in view 1 (12 px) (limit 5 px in one view)'
+    """
+    hits = failing_views(figures, stem, n_views, lambda x: x > limit_px)
+    if not hits:
+        return None
+    return (says + " in " + ", ".join(f"view {v} ({x:.0f} px)" for v, x in hits)
+            + f" (limit {limit_px:g} px in one view)")
+
+
 def open_tip_message(figures: dict, n_views: int, limit_px: float) -> str | None:
     """The message when the tendril goes on over the open board beyond the tip (``open_tip_px_v<i>``) by more
     than ``limit_px`` in one view or more, else None."""
-    hits = failing_views(figures, "open_tip_px", n_views, lambda x: x > limit_px)
-    if not hits:
-        return None
-    return ("tip: the tendril goes on beyond the curve's tip over the open board (its skeleton and the image's tone "
-            "ahead of the tip, no object there) in " + ", ".join(f"view {v} ({x:.0f} px)" for v, x in hits)
-            + f" (limit {limit_px:g} px in one view)")
+    return px_over_message(figures, "open_tip_px", n_views, limit_px,
+                           "tip: the tendril goes on beyond the curve's tip over the open board (its skeleton and the "
+                           "image's tone ahead of the tip, no object there)")
