@@ -71,7 +71,8 @@ Tracking (:func:`reconstruct_multiview`)
     and coverage (skeleton pixels of the touched components explained). When
     there is no previous curve, or the check fails, the curve is acquired
     from the base (:func:`tendrilkit.mv_acquire.grow_curve`) and the better
-    of the two is kept. With ``choice_candidates`` over 1 (6, the default
+    of the two is kept; a tracked curve that shrank (``max_shrink``) is not
+    weighed: the views may explain a part of the tendril better than all of it. With ``choice_candidates`` over 1 (6, the default
     since 2026-12-01, with the pale segmentation options;
     ``reconstruction.choice_candidates`` of the experiment file), of the acquisition's
     best few finished hypotheses (tips apart), each refined on every view,
@@ -966,7 +967,9 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
     max_shrink : float
         A tracked curve shorter than the previous one by more than this
         fraction is lost too (a tendril grows; it does not shrink by 8 %
-        between processed frames).
+        between processed frames), and is kept only if the fresh acquisition
+        finds no curve: it is not weighed against the acquired one, however well
+        the views explain it (its part of the tendril).
     max_growth : float
         The length prior's other side: a tracked curve's tip is not extended
         beyond the previous curve's length plus this fraction (a tendril's
@@ -1015,11 +1018,16 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
         cands.append({"mode": "tracked", "nodes_mm": X, "precision": prec, "coverage": cov, "score": _score(prec, cov)})
         worst = float(np.nanmin(prec * cov)) if np.any(np.isfinite(prec * cov)) else 0.0
         shrink = _length(X) / max(_length(P), 1e-9)
+        shrunk = shrink < 1.0 - max_shrink
         if cands[-1]["score"] < min_score or worst < min_score - 0.1:
             note = (f"tracking lost (precision x coverage {cands[-1]['score']:.2f}, worst view {worst:.2f}; "
                     f"limits {min_score}, {min_score - 0.1:.1f}): acquired afresh")
-        elif shrink < 1.0 - max_shrink:
+        elif shrunk:
             note = f"tracking lost (length {100 * (shrink - 1):.0f} % from the previous frame): acquired afresh"
+        # a tracked curve this much shorter than the previous one is not the tendril (which does not shrink), even
+        # where the views explain it better than the fresh acquisition: not a candidate then (dev seed 1072 frame
+        # 3: 49 mm of a 138 mm tendril, precision x coverage 0.79 against the right acquisition's 0.72)
+        cands[-1]["shrunk"] = shrunk
     if not cands or note:
         # (nodes, beam score) of the hypotheses the final choice weighs: the beam's own choice alone with 1
         grown = (grow_curve(evidence, B, candidates=int(choice_candidates), colour_px=colour_px)
@@ -1033,7 +1041,8 @@ def reconstruct_multiview(evidence: list[SkeletonEvidence], base_mm: np.ndarray,
             prec, cov = curve_support(X, evidence)
             cands.append({"mode": "acquired", "nodes_mm": X, "precision": prec, "coverage": cov,
                           "score": _score(prec, cov)})
-    best = max(cands, key=lambda c: (round(c["score"], 3), _length(c["nodes_mm"])))  # ties: the longer, then tracked
+    eligible = [c for c in cands if not c.get("shrunk")] or cands  # a shrunk tracked curve: only if nothing else
+    best = max(eligible, key=lambda c: (round(c["score"], 3), _length(c["nodes_mm"])))  # ties: the longer, then tracked
     length = _length(best["nodes_mm"])
     if length < 5 * segment_mm:
         raise TendrilLostError(f"the curve that two views explain is only {length:.1f} mm long")

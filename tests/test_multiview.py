@@ -1030,3 +1030,29 @@ def test_a_crossing_of_another_colour_is_not_followed_dev_scene_1053(tmp_path):
     off = with_overrides(exp, {"reconstruction": {"colour_px": 0.0}})
     o = _errors(reconstruct_frame(images, cams, off, frame=2, fit=False).points_mm, X)
     assert o["mean"] >= e["mean"] + 1.0 or o["tip"] >= 10.0, (o, e)
+
+
+def test_a_tracked_curve_that_shrank_is_not_weighed_against_the_acquisition(monkeypatch):
+    """Dev seed 1072 frame 3: tracked from a right 138 mm curve, the refit kept 49 mm of it, which the views
+    explain better (precision x coverage 0.79, one view 0.44) than the right fresh acquisition of the whole
+    tendril (0.72): a tendril does not shrink by 64 % between frames, the acquisition is the frame's curve.
+    A tracked curve that did not shrink is still weighed against it (and kept when the views explain it better).
+    The refit, the acquisition and the views' figures are stand-ins here: the rule is the choice's."""
+    import tendrilkit.multiview as M
+
+    def line(length_mm):
+        n = int(length_mm) + 1
+        return np.c_[np.linspace(0.0, length_mm, n), np.zeros(n), np.zeros(n)]
+
+    acquired = line(138.0) + np.array([0.0, 0.0, 0.1])
+    tracked = {"X": line(49.0)}
+    monkeypatch.setattr(M, "_fit", lambda X0, *a, **k: tracked["X"])
+    monkeypatch.setattr(M, "grow_curve", lambda *a, **k: [(acquired, 0.0)])
+    monkeypatch.setattr(M, "_choose_acquired", lambda grown, *a: grown[0][0])
+    monkeypatch.setattr(M, "curve_support",
+                        lambda X, ev: (np.full(3, 0.79 if X is tracked["X"] else 0.72), np.ones(3)))
+    r = M.reconstruct_multiview([None, None, None], np.zeros(3), previous_mm=line(138.0))
+    assert r.mode == "acquired" and r.nodes_mm is acquired and "tracking lost" in r.note, (r.mode, r.note)
+    tracked["X"] = line(136.0)  # 1.5 % shorter: within max_shrink, the better-explained tracked curve is kept
+    r = M.reconstruct_multiview([None, None, None], np.zeros(3), previous_mm=line(138.0))
+    assert r.mode == "tracked" and r.nodes_mm is tracked["X"]
