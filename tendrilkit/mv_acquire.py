@@ -497,6 +497,138 @@ def _self_near(pts, width, old, start):
 
 
 @njit(cache=True)
+def _self_near_nodes(pts, width, nodes, k):
+    """:func:`_self_near` of hypotheses with as many nodes each, ``nodes`` (h, m, 3): the candidates of hypothesis
+    ``h`` (rows ``h * width`` to ``(h + 1) * width`` of ``pts``) against its nodes but the last ``k`` (none with
+    ``k + 1`` nodes or fewer)."""
+    out = np.zeros(len(pts), np.bool_)
+    m = nodes.shape[1]
+    if m <= k + 1:
+        return out
+    for h in range(nodes.shape[0]):
+        dd = _nearest_distance(pts[h * width:(h + 1) * width], nodes[h, :m - k])
+        for i in range(len(dd)):
+            out[h * width + i] = dd[i] < 1.2
+    return out
+
+
+@njit(cache=True)
+def _new_and_colour(d, seen, near, adv, claims, own, on_px, use_col, chroma, follow, new, step_col, dev, known):
+    """One view's part of a growth step, for its ``n = len(adv)`` candidates (the first ``n`` of :func:`point_costs`'
+    rows ``d``, ``seen``, ``near``; ``adv`` :func:`advance`'s row), in place: ``new`` (n,) on the view's skeleton
+    (within ``on_px``) at a pixel the candidate's hypothesis (``own``) has not claimed (``claims`` (h, k)) and
+    moving in the image; with ``use_col``, ``step_col`` (n, 3) the skeleton's chromaticity ``chroma`` there (NaN
+    elsewhere, as given), ``known`` (n,) there and the hypothesis's colour ``follow`` (h, 3) known, and ``dev`` (n,)
+    the sum of the three channels' absolute differences there (0 elsewhere): the whole-array expressions they
+    replaced, point by point (``np.nan_to_num`` of the colour; the channels summed in order), bit for bit."""
+    big = np.finfo(np.float64).max
+    for i in range(len(adv)):
+        j = near[i]
+        on = seen[i] and d[i] <= on_px
+        new[i] = on and not (j >= 0 and claims[own[i], j]) and adv[i]
+        if use_col and on and j >= 0:
+            f = follow[own[i]]
+            for c in range(3):
+                step_col[i, c] = chroma[j, c]
+            if np.isfinite(f[0]):
+                known[i] = True
+                s = 0.0
+                for c in range(3):
+                    fc = f[c]
+                    if np.isnan(fc):
+                        fc = 0.0
+                    elif fc == np.inf:
+                        fc = big
+                    elif fc == -np.inf:
+                        fc = -big
+                    a = abs(chroma[j, c] - fc)
+                    s = a if c == 0 else s + a
+                dev[i] = s
+    return
+
+
+@njit(cache=True)
+def _step_costs(d, seen, bg, new, neutral):
+    """A growth step's costs from every view's rows (:func:`point_costs`' ``d``, ``seen``, ``bg`` (V, 2n): the
+    candidates' ends, then their midpoints; ``new`` (V, n)): ``m_end``, ``m_mid`` (:func:`_mean_seen`), ``vis``,
+    ``contradicted``, ``confirmed`` and ``cost`` as :func:`grow_curve`'s whole-array expressions had them (the
+    views summed in order), bit for bit."""
+    V, n2 = d.shape
+    n = n2 // 2
+    m = np.empty(n2)
+    cnt = np.zeros(n2, np.int64)
+    for i in range(n2):
+        s = 0.0
+        for v in range(V):
+            x = d[v, i] * (1.0 if seen[v, i] else 0.0)
+            s = x if v == 0 else s + x
+            cnt[i] += seen[v, i]
+        m[i] = s / max(cnt[i], 1) if cnt[i] > 0 else neutral
+    vis = np.empty(n, np.bool_)
+    contradicted = np.empty(n, np.bool_)
+    confirmed = np.empty(n, np.bool_)
+    cost = np.empty(n)
+    for i in range(n):
+        vis[i] = cnt[i] >= 2 and cnt[n + i] >= 2
+        c = False
+        k = 0
+        for v in range(V):
+            c = c or bg[v, i] or bg[v, n + i]
+            k += new[v, i]
+        contradicted[i] = c
+        confirmed[i] = vis[i] and k >= 2 and not c
+        h = 0.5 * (m[i] + m[n + i])
+        cost[i] = h if (confirmed[i] or h >= neutral or np.isnan(h)) else neutral
+    return m[:n], m[n:], vis, contradicted, confirmed, cost
+
+
+@njit(cache=True)
+def _step_finish(cost, use_col, dev, known, colour_px, tol, cap, turn, cone_deg, turn_px, self_near, confirmed, vis,
+                 contradicted, own, h_score, h_tail, h_blind, neutral, stop_px, max_unseen):
+    """The rest of a growth step's cost, per candidate, and what follows from it: the colour (per view ``dev``,
+    ``known`` of :func:`_new_and_colour`, with ``use_col``), the bending (``turn`` degrees; none when empty), the
+    self-return; the tails, acceptance ``ok``, ``score``, and per hypothesis whether it has an acceptable step
+    (``has``). Returns ``(cost, tail, blind_tail, ok, score, has)``: :func:`grow_curve`'s whole-array expressions,
+    point by point in the same order (the views summed in order; ``np.clip``, ``np.where``), bit for bit."""
+    n = len(cost)
+    out = cost.copy()
+    tail = np.empty(n, np.int64)
+    blind_tail = np.empty(n, np.int64)
+    ok = np.empty(n, np.bool_)
+    score = np.empty(n)
+    has = np.zeros(len(h_score), np.bool_)
+    V = dev.shape[0]
+    for i in range(n):
+        c = out[i]
+        if use_col:
+            s = 0.0
+            k = 0.0
+            for v in range(V):
+                s = s + (dev[v, i] if known[v, i] else 0.0)
+                k = k + (1.0 if known[v, i] else 0.0)
+            off = s / max(k, 1.0) if k >= 2 else 0.0
+            x = (off - tol) / tol
+            if x < 0.0:
+                x = 0.0
+            if x > cap:
+                x = cap
+            c = c + colour_px * x
+        if len(turn):
+            t = turn[i] / cone_deg
+            c = c + turn_px * (t * t)
+        c = c + (5.0 if self_near[i] else 0.0)
+        out[i] = c
+        h = own[i]
+        tail[i] = 0 if confirmed[i] else h_tail[h] + 1
+        blind_tail[i] = 0 if (confirmed[i] or vis[i]) else h_blind[h] + 1
+        ok[i] = c <= stop_px and blind_tail[i] <= max_unseen and tail[i] <= 3 * max_unseen and not contradicted[i]
+        score[i] = h_score[h] + c - neutral
+        if ok[i]:
+            has[h] = True
+    return out, tail, blind_tail, ok, score, has
+
+
+@njit(cache=True)
 def _per_parent(idx, own, n_parents, per_parent, beam):
     """The rows ``idx`` (best first) kept while their parent ``own[i]`` has fewer than ``per_parent`` kept, up to
     ``beam`` rows, in order."""
@@ -709,13 +841,20 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     if len(seeds) == 0:
         none_ = np.vstack([B, B])  # nothing any two views agree on
         return none_ if candidates <= 1 else [(none_, 0.0)]
-    # a hypothesis: (nodes (m, 3), score, unconfirmed tail, last direction, its row of claims, blind tail); claims:
-    # per view, the skeleton pixels each hypothesis explains (a row per hypothesis, a column per pixel)
+    # the hypotheses, a row each (they all have as many nodes): nodes (h, m, 3), score, unconfirmed tail, last
+    # direction, blind tail and, per view, the colour (chromaticity) followed so far (h, V, 3; NaN: none seen yet);
+    # claims: per view, the skeleton pixels each hypothesis explains (a row per hypothesis, a column per pixel)
     V = len(evidence)
     use_col = colour_px > 0 and all(ev.skeleton_chroma is not None for ev in evidence)
-    # ... and, last, per view the colour (chromaticity) the hypothesis followed so far (NaN: none seen yet)
-    hyps = [(B[None], 0.0, 0, d, h, 0, np.full((V, 3), np.nan)) for h, d in enumerate(seeds)]
+    H = len(seeds)
+    nodes = np.broadcast_to(B, (H, 1, 3)).copy()
+    h_score = np.zeros(H)
+    h_tail = np.zeros(H, np.int64)
+    lasts = np.array(seeds, float)
+    h_blind = np.zeros(H, np.int64)
+    h_col = np.full((H, V, 3), np.nan)
     claims = [np.zeros((len(seeds), len(ev.skeleton_xy)), bool) for ev in evidence]
+    no_chroma = np.zeros((0, 3))
     f_claim = np.linspace(0, 1, 5)[:, None]
     split_cos = np.cos(np.radians(SPLIT_DEG))
     finished: list[tuple[np.ndarray, float, int]] = []
@@ -723,65 +862,50 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     cone = _local_cone(cone_deg, 3)
     narrow = _local_cone(20.0, 2)
     for _ in range(int(max_length_mm / step_mm)):
-        first = len(hyps[0][0]) == 1
+        H, m_nodes = nodes.shape[:2]
+        first = m_nodes == 1
         local = narrow if first else cone
-        lasts = np.array([h[3] for h in hyps])
         dirs = np.einsum("hij,cj->hci", _frames(lasts), local).reshape(-1, 3)
-        own = np.repeat(np.arange(len(hyps)), len(local))
-        tips_h = np.array([h[0][-1] for h in hyps])
-        pts = tips_h[own] + step_mm * dirs
+        own = np.repeat(np.arange(H), len(local))
+        tips_h = nodes[:, -1]
+        A = tips_h[own]
+        pts = A + step_mm * dirs
         N = len(pts)
         mids = pts - 0.5 * step_mm * dirs
         d, seen, near, bg = point_costs(evidence, np.vstack([pts, mids]), nearest=True)
-        m, n = _mean_seen(d, seen)
-        m_end, n_end = m[:N], n[:N]
-        m_mid, n_mid = m[N:], n[N:]
-        vis = (n_end >= 2) & (n_mid >= 2)
-        # new evidence: on a view's skeleton at a pixel this hypothesis has not explained already
-        claimed = np.zeros((len(evidence), N), bool)
-        for v in range(len(evidence)):
-            i = near[v, :N]
-            claimed[v] = claims[v][own, np.maximum(i, 0)] & (i >= 0)
-        new = seen[:, :N] & (d[:, :N] <= ON_PX) & ~claimed & advance(evidence, tips_h[own], pts)
-        contradicted = bg[:, :N].any(axis=0) | bg[:, N:].any(axis=0)
-        confirmed = vis & (new.sum(axis=0) >= 2) & ~contradicted
-        cost = np.where(confirmed, 0.5 * (m_end + m_mid), np.maximum(0.5 * (m_end + m_mid), NEUTRAL_PX))
+        # per view: new evidence (on its skeleton at a pixel this hypothesis has not explained already, the step
+        # moving in its image), the colour there and its difference to the hypothesis's (compiled, per view)
+        adv = advance(evidence, A, pts)
+        new = np.empty((V, N), bool)
+        step_col = np.full((V, N, 3), np.nan)
+        col_dev = np.zeros((V, N))
+        col_known = np.zeros((V, N), bool)
+        for v, ev in enumerate(evidence):
+            _new_and_colour(d[v], seen[v], near[v], adv[v], claims[v], own, ON_PX, use_col,
+                            ev.skeleton_chroma if use_col else no_chroma, h_col[:, v], new[v], step_col[v],
+                            col_dev[v], col_known[v])
+        m_end, m_mid, vis, contradicted, confirmed, cost = _step_costs(d, seen, bg, new, NEUTRAL_PX)
         blind = ~vis
         if blind.any():  # fewer than two views see it: the evidence further along the direction
             ahead = pts[blind][:, None, :] + step_mm * (look[None, :, None] - 1) * dirs[blind][:, None, :]
             da, sa = point_costs(evidence, ahead.reshape(-1, 3))
             ma, na = _mean_seen(da, sa)
             cost[blind] = 0.5 * (NEUTRAL_PX + np.where(na >= 2, ma, NEUTRAL_PX).reshape(-1, len(look)).mean(axis=1))
-        if use_col:  # a step onto a line of another colour than its hypothesis's so far (a shoot, another tendril)
-            follow = np.stack([h[6] for h in hyps])[own]  # (N, V, 3)
-            step_col = np.full((N, V, 3), np.nan)
-            dev = np.zeros(N)
-            n_dev = np.zeros(N)
-            for v, ev in enumerate(evidence):
-                i = near[v, :N]
-                on = seen[v, :N] & (d[v, :N] <= ON_PX) & (i >= 0)
-                ch = ev.skeleton_chroma[np.maximum(i, 0)]
-                step_col[on, v] = ch[on]
-                known = on & np.isfinite(follow[:, v, 0])
-                dev += np.where(known, np.abs(ch - np.nan_to_num(follow[:, v])).sum(axis=1), 0.0)
-                n_dev += known
-            off_colour = np.where(n_dev >= 2, dev / np.maximum(n_dev, 1), 0.0)
-            cost = cost + colour_px * np.clip((off_colour - COLOUR_TOL) / COLOUR_TOL, 0.0, COLOUR_CAP)
-        if not first:  # bending
-            turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1)))
-            cost = cost + TURN_PX * (turn / cone_deg) ** 2
+        # bending (after the first step): the turn from the hypothesis's last direction, degrees
+        turn = (np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1))) if not first
+                else np.zeros(0))
         # self-avoidance: a candidate within 1.2 mm of its hypothesis's nodes but the last five
-        self_near = _self_near(pts, len(local), *_nodes_but_last(hyps, 5))
-        cost += np.where(self_near, 5.0, 0.0)
-        tail = np.where(confirmed, 0, np.array([h[2] for h in hyps])[own] + 1)
-        # steps no two views see (keep-out box, occlusion): at most max_unseen_steps in a row; steps the views
-        # see on pixels the curve explained already (passes over each other in two views): three times more
-        blind_tail = np.where(confirmed | vis, 0, np.array([h[5] for h in hyps])[own] + 1)
-        ok = ((cost <= STOP_PX) & (blind_tail <= max_unseen_steps) & (tail <= 3 * max_unseen_steps)
-              & ~contradicted)
-        score = np.array([h[1] for h in hyps])[own] + cost - NEUTRAL_PX
-        has = np.bincount(own[ok], minlength=len(hyps)) > 0
-        finished.extend(hyps[h][:3] for h in np.flatnonzero(~has))
+        self_near = _self_near_nodes(pts, len(local), nodes, 5)
+        # a step onto a line of another colour than its hypothesis's so far (a shoot, another tendril); the bending
+        # and self-return costs; steps no two views see (keep-out box, occlusion): at most max_unseen_steps in a row;
+        # steps the views see on pixels the curve explained already (passes over each other in two views): three
+        # times more
+        cost, tail, blind_tail, ok, score, has = _step_finish(
+            cost, use_col, col_dev, col_known, float(colour_px), COLOUR_TOL, COLOUR_CAP, turn, float(cone_deg),
+            TURN_PX, self_near, confirmed, vis, contradicted, own, h_score, h_tail, h_blind, NEUTRAL_PX, STOP_PX,
+            int(max_unseen_steps))
+        for h in np.flatnonzero(~has).tolist():
+            finished.append((nodes[h].copy(), float(h_score[h]), int(h_tail[h])))
         idx = np.flatnonzero(ok)
         idx = idx[np.argsort(score[idx], kind="stable")]
         ranked = idx
@@ -792,34 +916,39 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         both = _split_siblings(rows, own[idx], dirs[idx], split_cos)  # rank order
         diverse = idx[both]  # (the trace's)
         split = idx[np.setdiff1d(both, rows)]
-        count = np.zeros(len(hyps), np.int64)  # children kept per parent, the beam's and then the split's
+        count = np.zeros(H, np.int64)  # children kept per parent, the beam's and then the split's
         idx = _per_parent_counted(idx[rows], own, count, 2, beam)
         if len(split):  # the junctions' other branches besides the beam, not instead of its best
             idx = np.r_[idx, _per_parent_counted(split, own, count, 2, SPLIT_EXTRA)]
         if _TRACE is not None:
+            hyps = [(nodes[h], float(h_score[h]), int(h_tail[h]), lasts[h], h, int(h_blind[h]), h_col[h])
+                    for h in range(H)]
             _TRACE("step", hyps=hyps, own=own, pts=pts, ranked=ranked, diverse=diverse, kept=idx, cost=cost, ok=ok,
                    m_end=m_end, m_mid=m_mid, vis=vis, confirmed=confirmed, contradicted=contradicted,
                    blind_tail=blind_tail, tail=tail, self_near=self_near, dirs=dirs, d=d, seen=seen, bg=bg)
         # claim what each kept hypothesis explained two steps back (all at once: one projection per view)
-        parents = [hyps[i] for i in own[idx].tolist()]
-        claims = [c[own[idx]] for c in claims]  # each kept candidate starts from its parent's claims
-        grown = [k for k, h in enumerate(parents) if len(h[0]) >= 3]
-        if grown:
-            P = np.vstack([parents[k][0][-3] + f_claim * (parents[k][0][-2] - parents[k][0][-3]) for k in grown])
-            rows = np.repeat(np.asarray(grown, np.int64), len(f_claim))
+        par = own[idx]
+        claims = [c[par] for c in claims]  # each kept candidate starts from its parent's claims
+        if m_nodes >= 3 and len(idx):
+            a, b = nodes[par, -3], nodes[par, -2]
+            P = (a[:, None, :] + f_claim[None] * (b - a)[:, None, :]).reshape(-1, 3)
+            rows = np.repeat(np.arange(len(idx), dtype=np.int64), len(f_claim))
             for v, ev in enumerate(evidence):
                 mark_near_rows(ev, claims[v], rows, ev.camera.project(P), 4.0)
+        follow = h_col[par]
         if use_col:  # each kept step's views that see it on their skeleton update its colour (a running mean)
-            colours = [np.where(np.isfinite(step_col[i]), np.where(np.isfinite(follow[i]), (1.0 - COLOUR_EMA) * follow[i]
-                                                                   + COLOUR_EMA * step_col[i], step_col[i]), follow[i])
-                       for i in idx.tolist()]
+            sc = step_col.transpose(1, 0, 2)[idx]
+            h_col = np.where(np.isfinite(sc), np.where(np.isfinite(follow), (1.0 - COLOUR_EMA) * follow
+                                                       + COLOUR_EMA * sc, sc), follow)
         else:
-            colours = [hyps[0][6]] * len(idx)
-        hyps = [(np.concatenate([parents[j][0], pts[i][None]]), float(score[i]), int(tail[i]), dirs[i], j,
-                 int(blind_tail[i]), colours[j]) for j, i in enumerate(idx.tolist())]
-        if not hyps:
+            h_col = follow
+        grown = np.empty((len(idx), m_nodes + 1, 3))
+        grown[:, :m_nodes] = nodes[par]
+        grown[:, m_nodes] = pts[idx]
+        nodes, h_score, h_tail, lasts, h_blind = grown, score[idx], tail[idx], dirs[idx], blind_tail[idx]
+        if not len(idx):
             break
-    finished.extend(h[:3] for h in hyps)
+    finished.extend((nodes[h], float(h_score[h]), int(h_tail[h])) for h in range(len(nodes)))
 
     def trimmed(h):
         nodes, score, tail = h
