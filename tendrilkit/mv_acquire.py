@@ -208,7 +208,8 @@ from numba import njit
 
 from tendrilkit.camera import _project_brown
 from tendrilkit.geometry import resample_polyline
-from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, mark_near_rows, project_costs, skeleton_distance
+from tendrilkit.mv_evidence import (COVER_DEPTH_PX, COVER_PX, SkeletonEvidence, _project_costs, mark_near,
+                                    mark_near_rows, project_costs, skeleton_distance)
 
 __all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap", "light_band"]
 
@@ -500,15 +501,46 @@ def _self_near(pts, width, old, start):
 def _self_near_nodes(pts, width, nodes, k):
     """:func:`_self_near` of hypotheses with as many nodes each, ``nodes`` (h, m, 3): the candidates of hypothesis
     ``h`` (rows ``h * width`` to ``(h + 1) * width`` of ``pts``) against its nodes but the last ``k`` (none with
-    ``k + 1`` nodes or fewer)."""
+    ``k + 1`` nodes or fewer).
+
+    Only the nodes that can lie within 1.2 mm are measured: a candidate ``r`` from its hypothesis's tip lies at
+    least ``D - r`` from a node ``D`` from the tip (with a margin of 1e-6 mm over the roundings); the first within
+    1.2 mm answers. The same answers as :func:`_nearest_distance`'s minimum under 1.2 (its distances, the same
+    arithmetic); with a NaN among the nodes or the candidates, that minimum itself.
+    """
     out = np.zeros(len(pts), np.bool_)
     m = nodes.shape[1]
     if m <= k + 1:
         return out
+    n_old = m - k
+    D = np.empty(n_old)
     for h in range(nodes.shape[0]):
-        dd = _nearest_distance(pts[h * width:(h + 1) * width], nodes[h, :m - k])
-        for i in range(len(dd)):
-            out[h * width + i] = dd[i] < 1.2
+        old = nodes[h, :n_old]
+        t0, t1, t2 = nodes[h, m - 1, 0], nodes[h, m - 1, 1], nodes[h, m - 1, 2]
+        finite = True
+        for j in range(n_old):
+            a = old[j, 0] - t0
+            b = old[j, 1] - t1
+            c = old[j, 2] - t2
+            D[j] = np.sqrt(a * a + b * b + c * c)
+            finite = finite and np.isfinite(D[j])
+        for i in range(h * width, (h + 1) * width):
+            a = pts[i, 0] - t0
+            b = pts[i, 1] - t1
+            c = pts[i, 2] - t2
+            r = np.sqrt(a * a + b * b + c * c)
+            if not (finite and np.isfinite(r)):
+                out[i] = _nearest_distance(pts[i:i + 1], old)[0] < 1.2
+                continue
+            for j in range(n_old):
+                if D[j] - r > 1.2 + 1e-6:
+                    continue
+                a = pts[i, 0] - old[j, 0]
+                b = pts[i, 1] - old[j, 1]
+                c = pts[i, 2] - old[j, 2]
+                if np.sqrt(a * a + b * b + c * c) < 1.2:
+                    out[i] = True
+                    break
     return out
 
 
@@ -546,6 +578,21 @@ def _new_and_colour(d, seen, near, adv, claims, own, on_px, use_col, chroma, fol
                 dev[i] = s
     return
 
+
+@njit(cache=True)
+def _step_view(Xc, XB, XA, z, L, K, dist, distort, fraction, xy, off, start, items, cell, reach, cap_px, centre,
+               tangent, seen_px, near_fg, inside_px, cover_depth_px, cover_px, claims, own, on_px, use_col, chroma,
+               follow, d, seen, near, bg, cov, new, step_col, dev, known):
+    """One view's part of a growth step in one compiled call: :func:`tendrilkit.mv_evidence.project_costs` of the
+    candidates' ends and midpoints (camera frame ``Xc``), :func:`advance` of the steps (``XB``, ``XA``, ``z``,
+    ``L``) and :func:`_new_and_colour`, into the rows given; False, nothing written, where two skeleton pixels are
+    equally near a point (the caller's path)."""
+    if not _project_costs(Xc, K, dist, distort, xy, off, start, items, cell, reach, cap_px, centre, tangent, seen_px,
+                          near_fg, inside_px, cover_depth_px, cover_px, d, seen, near, bg, cov):
+        return False
+    adv = _advances(XB, XA, z, L, K, dist, distort, fraction)
+    _new_and_colour(d, seen, near, adv, claims, own, on_px, use_col, chroma, follow, new, step_col, dev, known)
+    return True
 
 @njit(cache=True)
 def _step_costs(d, seen, bg, new, neutral):
@@ -674,22 +721,55 @@ def _split_siblings(rows: np.ndarray, own: np.ndarray, dirs: np.ndarray, cos_max
         other: without it the branch that scores worse for a step or two (its next steps over a stretch the views
         see badly) loses its cell to its sibling and is gone from the beam.
     """
-    rows = np.asarray(rows, int)
-    if len(rows) == 0:
-        return rows
-    parents, at = np.unique(own[rows], return_index=True)
-    first = np.full(int(own.max()) + 1, -1)
-    first[parents] = rows[at]
-    f = first[own]
-    other = (f >= 0) & (np.einsum("ij,ij->i", dirs, dirs[np.maximum(f, 0)]) < cos_max)
-    kept = np.zeros(len(own), bool)
-    kept[rows] = True
-    split = np.zeros(len(first), bool)  # the parents with a kept child the other way already
-    split[own[other & kept]] = True
-    cand = np.flatnonzero(other & ~kept & ~split[own] & (np.arange(len(own)) > f))
-    _, at = np.unique(own[cand], return_index=True)
-    return np.sort(np.r_[rows, cand[at]])
+    return _siblings(rows, own, dirs, cos_max)[0]
 
+
+def _siblings(rows: np.ndarray, own: np.ndarray, dirs: np.ndarray, cos_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_split_siblings`'s rows and, apart, the rows it adds to ``rows`` (increasing), compiled but for the
+    directions' products (numpy's, as before): the numpy expressions' rows (``np.unique``'s first rows per parent)."""
+    rows = np.asarray(rows, np.int64)
+    if len(rows) == 0:
+        return rows, rows
+    f = _first_kept(rows, own)
+    return _split_rows(rows, own, f, np.einsum("ij,ij->i", dirs, dirs[np.maximum(f, 0)]) < cos_max)
+
+
+@njit(cache=True)
+def _first_kept(rows, own):
+    """(n,) int: per candidate (parent ``own``), its parent's first row in ``rows`` (-1: none)."""
+    first = np.full(own.max() + 1, -1, np.int64)
+    for r in rows:
+        if first[own[r]] < 0:
+            first[own[r]] = r
+    f = np.empty(len(own), np.int64)
+    for i in range(len(own)):
+        f[i] = first[own[i]]
+    return f
+
+
+@njit(cache=True)
+def _split_rows(rows, own, f, away):
+    """:func:`_siblings` from each candidate's parent's first kept row ``f`` and whether it heads ``away`` from it:
+    ``(both, extra)``, the rows kept with those added and those added, increasing."""
+    n = len(own)
+    n_par = own.max() + 1
+    kept = np.zeros(n, np.bool_)
+    for r in rows:
+        kept[r] = True
+    split = np.zeros(n_par, np.bool_)  # the parents with a kept child the other way already
+    for i in range(n):
+        if f[i] >= 0 and away[i] and kept[i]:
+            split[own[i]] = True
+    taken = np.zeros(n_par, np.bool_)
+    extra = np.empty(n, np.int64)
+    k = 0
+    for i in range(n):  # per parent its first such candidate
+        if f[i] >= 0 and away[i] and not kept[i] and not split[own[i]] and i > f[i] and not taken[own[i]]:
+            taken[own[i]] = True
+            extra[k] = i
+            k += 1
+    extra = extra[:k]
+    return np.sort(np.concatenate((rows, extra))), extra
 
 def _sphere(n: int) -> np.ndarray:
     i = np.arange(n) + 0.5
@@ -872,18 +952,36 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         pts = A + step_mm * dirs
         N = len(pts)
         mids = pts - 0.5 * step_mm * dirs
-        d, seen, near, bg = point_costs(evidence, np.vstack([pts, mids]), nearest=True)
-        # per view: new evidence (on its skeleton at a pixel this hypothesis has not explained already, the step
-        # moving in its image), the colour there and its difference to the hypothesis's (compiled, per view)
-        adv = advance(evidence, A, pts)
+        # per view, in one compiled call: point_costs of the ends and midpoints, new evidence (on its skeleton at a
+        # pixel this hypothesis has not explained already, the step moving in its image: advance), the colour there
+        # and its difference to the hypothesis's
+        P2 = np.vstack([pts, mids])
+        L = np.linalg.norm(pts - A, axis=1)
+        d = np.empty((V, 2 * N))
+        seen = np.empty((V, 2 * N), bool)
+        near = np.empty((V, 2 * N), np.int64)
+        bg = np.empty((V, 2 * N), bool)
+        cov = np.empty(2 * N, bool)
         new = np.empty((V, N), bool)
         step_col = np.full((V, N, 3), np.nan)
         col_dev = np.zeros((V, N))
         col_known = np.zeros((V, N), bool)
         for v, ev in enumerate(evidence):
-            _new_and_colour(d[v], seen[v], near[v], adv[v], claims[v], own, ON_PX, use_col,
-                            ev.skeleton_chroma if use_col else no_chroma, h_col[:, v], new[v], step_col[v],
-                            col_dev[v], col_known[v])
+            cam = ev.camera
+            chroma = ev.skeleton_chroma if use_col else no_chroma
+            done = False
+            if not (cam.has_distortion and cam.dist.size > 5):  # (the rotations numpy's, as there)
+                start, items, cell = ev._grid
+                done = _step_view(P2 @ cam.R.T + cam.t_mm, pts @ cam.R.T + cam.t_mm, A @ cam.R.T + cam.t_mm,
+                                  pts @ cam.R[2] + cam.t_mm[2], L, cam.K, cam.dist, cam.has_distortion, 0.3,
+                                  ev.skeleton_xy, ev.offset_xy.astype(float), start, items, cell, ev._grid_reach,
+                                  CAP_PX, ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground, ev.inside_px,
+                                  COVER_DEPTH_PX, COVER_PX, claims[v], own, ON_PX, use_col, chroma, h_col[:, v], d[v],
+                                  seen[v], near[v], bg[v], cov, new[v], step_col[v], col_dev[v], col_known[v])
+            if not done:  # OpenCV's longer models, or two skeleton pixels equally near a point (the k-d tree's)
+                project_costs(ev, P2, CAP_PX, d[v], seen[v], near[v], bg[v], cov)
+                _new_and_colour(d[v], seen[v], near[v], advance([ev], A, pts)[0], claims[v], own, ON_PX, use_col,
+                                chroma, h_col[:, v], new[v], step_col[v], col_dev[v], col_known[v])
         m_end, m_mid, vis, contradicted, confirmed, cost = _step_costs(d, seen, bg, new, NEUTRAL_PX)
         blind = ~vis
         if blind.any():  # fewer than two views see it: the evidence further along the direction
@@ -913,13 +1011,13 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         # children per parent, so that the branches of a crossing both stay in the beam; and besides the beam, up to
         # SPLIT_EXTRA children heading over SPLIT_DEG away from their parent's best kept one (a junction's branches)
         rows = _one_per_cell_and_way(pts[idx], dirs[idx], 1.5 * step_mm)
-        both = _split_siblings(rows, own[idx], dirs[idx], split_cos)  # rank order
+        both, extra = _siblings(rows, own[idx], dirs[idx], split_cos)  # rank order
         diverse = idx[both]  # (the trace's)
-        split = idx[np.setdiff1d(both, rows)]
+        split = idx[extra]
         count = np.zeros(H, np.int64)  # children kept per parent, the beam's and then the split's
         idx = _per_parent_counted(idx[rows], own, count, 2, beam)
         if len(split):  # the junctions' other branches besides the beam, not instead of its best
-            idx = np.r_[idx, _per_parent_counted(split, own, count, 2, SPLIT_EXTRA)]
+            idx = np.concatenate((idx, _per_parent_counted(split, own, count, 2, SPLIT_EXTRA)))
         if _TRACE is not None:
             hyps = [(nodes[h], float(h_score[h]), int(h_tail[h]), lasts[h], h, int(h_blind[h]), h_col[h])
                     for h in range(H)]

@@ -1148,11 +1148,13 @@ def test_grow_curve_is_the_d0679b9_loop(tube_views, colour_px):
 
 
 def test_step_kernels_are_the_d0679b9_numpy():
-    """grow_curve's compiled step (_new_and_colour, _step_costs, _step_finish, _self_near_nodes) on random rows
-    (NaN distances and colours, views seeing nothing, every tail): the old loop's whole-array expressions."""
+    """grow_curve's compiled step (_new_and_colour, _step_costs, _step_finish, _self_near_nodes: the nodes that can
+    be near only, :func:`_siblings`) on random rows (NaN distances, colours and nodes, views seeing nothing, every
+    tail): the old loop's whole-array expressions."""
     import tendrilkit.mv_acquire as A
 
     rng = np.random.default_rng(28)
+    n_near = 0
     for trial in range(60):
         V = int(rng.integers(1, 5))
         H = int(rng.integers(1, 10))
@@ -1224,11 +1226,19 @@ def test_step_kernels_are_the_d0679b9_numpy():
         if not first:
             cost = cost + A.TURN_PX * (turn / 40.0) ** 2
         nodes = np.cumsum(rng.normal(0.0, 1.0, (H, int(rng.integers(1, 30)), 3)), axis=1)
-        pts = nodes[own, -1] + rng.normal(0.0, 1.0, (N, 3))
+        pts = nodes[own, -1] + rng.normal(0.0, 1.0, (N, 3)) * rng.choice([0.5, 2.0], (N, 1))
+        if trial % 5 == 1:  # a NaN node, a NaN candidate
+            nodes[0, 0, 1] = np.nan
+            pts[-1, 2] = np.nan
         hyps = [(nodes[h],) for h in range(H)]
         self_near = A._self_near(pts, width, *A._nodes_but_last(hyps, 5))
         assert A._self_near_nodes(pts, width, nodes, 5).tobytes() == self_near.tobytes()
+        n_near += self_near.sum()
         cost += np.where(self_near, 5.0, 0.0)
+        rows = np.flatnonzero(rng.random(N) < 0.3)
+        both, extra = A._siblings(rows, own, dirs, np.cos(np.radians(A.SPLIT_DEG)))
+        want = _split_siblings_d0679b9(rows, own, dirs, np.cos(np.radians(A.SPLIT_DEG)))
+        assert both.tolist() == want.tolist() and extra.tolist() == np.setdiff1d(want, rows).tolist()
         h_tail, h_blind = rng.integers(0, 20, H), rng.integers(0, 8, H)
         h_score = rng.normal(0.0, 10.0, H)
         tail = np.where(confirmed, 0, h_tail[own] + 1)
@@ -1241,4 +1251,4 @@ def test_step_kernels_are_the_d0679b9_numpy():
                              own, h_score, h_tail, h_blind, A.NEUTRAL_PX, A.STOP_PX, 6)
         for a, b in zip(got, (cost, tail, blind_tail, ok, score, has)):
             assert a.tobytes() == b.tobytes() and a.dtype == b.dtype
-
+    assert n_near > 50  # candidates near their hypothesis's nodes, measured
