@@ -208,7 +208,7 @@ from numba import njit
 
 from tendrilkit.camera import _project_brown
 from tendrilkit.geometry import resample_polyline
-from tendrilkit.mv_evidence import (COVER_DEPTH_PX, COVER_PX, SkeletonEvidence, _project_costs, mark_near,
+from tendrilkit.mv_evidence import (COVER_DEPTH_PX, COVER_PX, SkeletonEvidence, _mark_point, _project_costs, mark_near,
                                     mark_near_rows, project_costs, skeleton_distance)
 
 __all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap", "light_band"]
@@ -594,6 +594,28 @@ def _step_view(Xc, XB, XA, z, L, K, dist, distort, fraction, xy, off, start, ite
     _new_and_colour(d, seen, near, adv, claims, own, on_px, use_col, chroma, follow, new, step_col, dev, known)
     return True
 
+
+def _step_fixed(ev: SkeletonEvidence):
+    """What :func:`_step_view` reads of a view besides the step's points: ``(R.T, t, R[2], t[2], args)``, ``args``
+    its arguments from ``K`` to ``cover_px``; None for OpenCV's longer distortion models (the general path)."""
+    cam = ev.camera
+    if cam.has_distortion and cam.dist.size > 5:
+        return None
+    start, items, cell = ev._grid
+    return (cam.R.T, cam.t_mm, cam.R[2], cam.t_mm[2],
+            (cam.K, cam.dist, cam.has_distortion, 0.3, ev.skeleton_xy, ev.offset_xy.astype(float), start, items, cell,
+             ev._grid_reach, CAP_PX, ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground, ev.inside_px,
+             COVER_DEPTH_PX, COVER_PX))
+
+
+@njit(cache=True)
+def _mark_projected(Xc, K, dist, distort, rows, xy, off, start, items, cell, radius, marked):
+    """:func:`tendrilkit.mv_evidence.mark_near_rows` of the camera-frame points ``Xc`` (n, 3), projected as
+    :meth:`~tendrilkit.camera.Camera.project` does (:func:`tendrilkit.camera._project_brown`), in one call."""
+    p = _project_brown(Xc, K, dist, distort)
+    for i in range(len(p)):
+        _mark_point(p[i, 0], p[i, 1], xy, off, start, items, cell, radius, marked[rows[i]])
+
 @njit(cache=True)
 def _step_costs(d, seen, bg, new, neutral):
     """A growth step's costs from every view's rows (:func:`point_costs`' ``d``, ``seen``, ``bg`` (V, 2n): the
@@ -935,6 +957,8 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     h_col = np.full((H, V, 3), np.nan)
     claims = [np.zeros((len(seeds), len(ev.skeleton_xy)), bool) for ev in evidence]
     no_chroma = np.zeros((0, 3))
+    # per view, what its compiled step reads (None: OpenCV's longer models, the general path)
+    fixed = [_step_fixed(ev) for ev in evidence]
     f_claim = np.linspace(0, 1, 5)[:, None]
     split_cos = np.cos(np.radians(SPLIT_DEG))
     finished: list[tuple[np.ndarray, float, int]] = []
@@ -967,17 +991,13 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         col_dev = np.zeros((V, N))
         col_known = np.zeros((V, N), bool)
         for v, ev in enumerate(evidence):
-            cam = ev.camera
             chroma = ev.skeleton_chroma if use_col else no_chroma
             done = False
-            if not (cam.has_distortion and cam.dist.size > 5):  # (the rotations numpy's, as there)
-                start, items, cell = ev._grid
-                done = _step_view(P2 @ cam.R.T + cam.t_mm, pts @ cam.R.T + cam.t_mm, A @ cam.R.T + cam.t_mm,
-                                  pts @ cam.R[2] + cam.t_mm[2], L, cam.K, cam.dist, cam.has_distortion, 0.3,
-                                  ev.skeleton_xy, ev.offset_xy.astype(float), start, items, cell, ev._grid_reach,
-                                  CAP_PX, ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground, ev.inside_px,
-                                  COVER_DEPTH_PX, COVER_PX, claims[v], own, ON_PX, use_col, chroma, h_col[:, v], d[v],
-                                  seen[v], near[v], bg[v], cov, new[v], step_col[v], col_dev[v], col_known[v])
+            if fixed[v] is not None:  # (the rotations numpy's, as there)
+                RT, t, R2, t2, args = fixed[v]
+                done = _step_view(P2 @ RT + t, pts @ RT + t, A @ RT + t, pts @ R2 + t2, L, *args, claims[v], own,
+                                  ON_PX, use_col, chroma, h_col[:, v], d[v], seen[v], near[v], bg[v], cov, new[v],
+                                  step_col[v], col_dev[v], col_known[v])
             if not done:  # OpenCV's longer models, or two skeleton pixels equally near a point (the k-d tree's)
                 project_costs(ev, P2, CAP_PX, d[v], seen[v], near[v], bg[v], cov)
                 _new_and_colour(d[v], seen[v], near[v], advance([ev], A, pts)[0], claims[v], own, ON_PX, use_col,
@@ -1032,7 +1052,12 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             P = (a[:, None, :] + f_claim[None] * (b - a)[:, None, :]).reshape(-1, 3)
             rows = np.repeat(np.arange(len(idx), dtype=np.int64), len(f_claim))
             for v, ev in enumerate(evidence):
-                mark_near_rows(ev, claims[v], rows, ev.camera.project(P), 4.0)
+                if fixed[v] is not None:  # projected and marked in one compiled call (Camera.project's arithmetic)
+                    RT, t, _, _, args = fixed[v]
+                    _mark_projected(P @ RT + t, args[0], args[1], args[2], rows, args[4], args[5], args[6], args[7],
+                                    args[8], 4.0, claims[v])
+                else:
+                    mark_near_rows(ev, claims[v], rows, ev.camera.project(P), 4.0)
         follow = h_col[par]
         if use_col:  # each kept step's views that see it on their skeleton update its colour (a running mean)
             sc = step_col.transpose(1, 0, 2)[idx]

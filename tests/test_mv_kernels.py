@@ -1128,14 +1128,18 @@ def _with_chroma(evidence, seed):
 def test_grow_curve_is_the_d0679b9_loop(tube_views, colour_px):
     """The beam search with its hypotheses in arrays and its step's arithmetic compiled: the old function's curve
     and candidates (nodes and scores), bit for bit, from the tube's base and from a point beside it, with the colour
-    off and on, on cameras without and with OpenCV's 5 coefficients, narrower beams and cones."""
+    off and on, on cameras without and with OpenCV's 5 coefficients and with 8 (the general path, in every view or
+    one), narrower beams and cones."""
     from tendrilkit.mv_acquire import grow_curve
 
     X, evidence = tube_views
-    views = [_with_chroma(evidence, 26), _with_chroma(_with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4]),
-                                                      27)]
-    runs = [dict(), dict(candidates=6), dict(beam=3, cone_deg=25.0, candidates=4), dict(step_mm=1.5, beam=12)]
-    for evs, kw in zip(views + views, runs):
+    five = _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4])
+    eight = _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4, 1e-3, 0.0, 0.0])  # the general path
+    views = [_with_chroma(evidence, 26), _with_chroma(five, 27), _with_chroma(evidence, 28),
+             _with_chroma(five, 29), _with_chroma(eight, 30), [_with_chroma(eight, 31)[0]] + _with_chroma(five, 31)[1:]]
+    runs = [dict(), dict(candidates=6), dict(beam=3, cone_deg=25.0, candidates=4), dict(step_mm=1.5, beam=12),
+            dict(candidates=3), dict()]
+    for evs, kw in zip(views, runs):
         for B in (X[0], X[0] + [0.3, 0.6, -0.4]):
             want = _grow_curve_d0679b9(evs, B, colour_px=colour_px, **kw)
             got = grow_curve(evs, B, colour_px=colour_px, **kw)
@@ -1252,3 +1256,26 @@ def test_step_kernels_are_the_d0679b9_numpy():
         for a, b in zip(got, (cost, tail, blind_tail, ok, score, has)):
             assert a.tobytes() == b.tobytes() and a.dtype == b.dtype
     assert n_near > 50  # candidates near their hypothesis's nodes, measured
+
+
+def test_mark_projected_is_mark_near_rows_of_the_projection(tube_views):
+    """grow_curve's claims, projected and marked in one compiled call: what ``mark_near_rows`` marks at
+    ``Camera.project``'s pixels (cameras without and with OpenCV's 5 coefficients; NaN points)."""
+    from tendrilkit.mv_acquire import _mark_projected, _step_fixed
+    from tendrilkit.mv_evidence import mark_near_rows
+
+    X, evidence = tube_views
+    rng = np.random.default_rng(32)
+    P = X[rng.integers(0, len(X), 400)] + rng.normal(0.0, 0.5, (400, 3))
+    P[5] = np.nan
+    rows = rng.integers(0, 6, len(P))
+    for ev in evidence + _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4]):
+        want = rng.random((6, len(ev.skeleton_xy))) < 0.05
+        got = want.copy()
+        mark_near_rows(ev, want, rows, ev.camera.project(P), 4.0)
+        RT, t, _, _, args = _step_fixed(ev)
+        _mark_projected(P @ RT + t, args[0], args[1], args[2], rows, args[4], args[5], args[6], args[7], args[8], 4.0,
+                        got)
+        np.testing.assert_array_equal(got, want)
+        assert want.sum() > 100
+    assert _step_fixed(_with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4, 1e-3, 0.0, 0.0])[0]) is None
