@@ -616,6 +616,7 @@ def _mark_projected(Xc, K, dist, distort, rows, xy, off, start, items, cell, rad
     for i in range(len(p)):
         _mark_point(p[i, 0], p[i, 1], xy, off, start, items, cell, radius, marked[rows[i]])
 
+
 @njit(cache=True)
 def _step_costs(d, seen, bg, new, neutral):
     """A growth step's costs from every view's rows (:func:`point_costs`' ``d``, ``seen``, ``bg`` (V, 2n): the
@@ -792,6 +793,7 @@ def _split_rows(rows, own, f, away):
             k += 1
     extra = extra[:k]
     return np.sort(np.concatenate((rows, extra))), extra
+
 
 def _sphere(n: int) -> np.ndarray:
     i = np.arange(n) + 0.5
