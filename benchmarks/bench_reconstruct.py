@@ -21,6 +21,50 @@ each frame tracked from the previous one when that one is ``ok`` and
 acquired otherwise, as ``tendrilkit reconstruct`` does: prints the median
 and the worst ms per frame over all of them (acquisitions included), wall
 and CPU (``time.process_time``), and the median per mode.
+
+Measured (2026-12-02, issue 12): the acquisition's beam search
+(:func:`tendrilkit.mv_acquire.grow_curve`) with its hypotheses in arrays
+instead of a tuple each and each step's arithmetic in a few compiled calls
+(per view one call: the ends' and midpoints' costs, ``advance``, the new
+evidence and the colour; then the step's costs, the self-return check on the
+nodes that can be near only, the junctions' siblings, the claims projected
+and marked at once), the rotations and products numpy's as before. The same
+curves: ``rerun_multiview.py --no-fit`` on dev seeds 1040-1079 (240 frames,
+``line_width_px`` 11), curves and CSV byte for byte after each of the three
+commits; tests pin every kernel and the whole search to d0679b9's numpy.
+Old (d0679b9) and new checkouts alternated, 3 rounds, one core, load 3.0-5.0
+on the 2 cores (other jobs): medians of the rounds.
+
+- ``grow_curve`` alone (the 45 acquisitions of dev scenes 1040-1047, their
+  inputs captured and replayed, each call's median of 3): mean 95.0 -> 58.4
+  ms CPU per acquisition (rounds 95.0 / 97.1 / 91.8 -> 58.4 / 61.5 / 47.2).
+- ``scenes 0:10`` (60 frames, 51 acquired, the default options): median
+  333 -> 285 ms CPU per frame (333 / 344 / 327 -> 285 / 293 / 276), worst
+  769 -> 521 (769 / 916 / 688 -> 583 / 521 / 514); acquired frames 348 ->
+  293; tracked ones (9, code unchanged) 186 -> 222, the machine's noise. The
+  issue's 150 ms median is not reached on this machine under this load.
+- ``/work/runs/scr/profmv.py 1040 1048`` (48 frames with the fit, under
+  cProfile): 368 -> 334 ms CPU per frame (386 / 368 / 353 -> 324 / 373 /
+  334); its multiview stage 200 -> 160 ms mean (287 / 200 / 183 -> 160 /
+  175 / 140).
+
+What is left in ``grow_curve`` (line profile of the replay, 58 ms per
+acquisition): each view's compiled step 41 % (within it the nearest skeleton
+pixel search 57 %, the line distances 19 %, the projection 6 %; the
+rotations before it numpy's), the look-ahead of steps fewer than two views see
+6 %, the seeds 6 %, the claims 5 %, numpy's products (the cone's directions,
+the turn, the cells' and siblings' directions) 3 % each.
+Tried and not kept: (a) the products and rotations compiled as loops
+(``np.einsum`` "ij,ij->i" and "hij,cj->hci", ``@ R.T``): numpy's einsum and
+OpenBLAS use fused multiply-adds, the loops' last bits differ (on nearly
+every one of about 300 random sizes); (b) the steps' ends rotated once for both their costs and
+``advance`` (the rows of ``vstack([ends, mids]) @ R.T``): BLAS gave the same
+rows in 3000 random trials but for single rows (numpy's gemv), no guarantee
+across BLAS kernels, for about 2 ms per acquisition; (c) the nearest-pixel
+search over the pixels' coordinates sorted by cell (a row of a ring one
+contiguous span): the same rows on 2304 captured calls, the search 15 %
+faster, about 2 ms per acquisition: not worth a second copy of
+:mod:`tendrilkit.mv_evidence`'s search.
 """
 
 from __future__ import annotations

@@ -208,7 +208,8 @@ from numba import njit
 
 from tendrilkit.camera import _project_brown
 from tendrilkit.geometry import resample_polyline
-from tendrilkit.mv_evidence import SkeletonEvidence, mark_near, mark_near_rows, project_costs, skeleton_distance
+from tendrilkit.mv_evidence import (COVER_DEPTH_PX, COVER_PX, SkeletonEvidence, _mark_point, _project_costs, mark_near,
+                                    mark_near_rows, project_costs, skeleton_distance)
 
 __all__ = ["point_costs", "grow_curve", "cone_directions", "claim", "advance", "runs_out", "bridge_gap", "light_band"]
 
@@ -497,6 +498,207 @@ def _self_near(pts, width, old, start):
 
 
 @njit(cache=True)
+def _self_near_nodes(pts, width, nodes, k):
+    """:func:`_self_near` of hypotheses with as many nodes each, ``nodes`` (h, m, 3): the candidates of hypothesis
+    ``h`` (rows ``h * width`` to ``(h + 1) * width`` of ``pts``) against its nodes but the last ``k`` (none with
+    ``k + 1`` nodes or fewer).
+
+    Only the nodes that can lie within 1.2 mm are measured: a candidate ``r`` from its hypothesis's tip lies at
+    least ``D - r`` from a node ``D`` from the tip (with a margin of 1e-6 mm over the roundings); the first within
+    1.2 mm answers. The same answers as :func:`_nearest_distance`'s minimum under 1.2 (its distances, the same
+    arithmetic); with a NaN among the nodes or the candidates, that minimum itself.
+    """
+    out = np.zeros(len(pts), np.bool_)
+    m = nodes.shape[1]
+    if m <= k + 1:
+        return out
+    n_old = m - k
+    D = np.empty(n_old)
+    for h in range(nodes.shape[0]):
+        old = nodes[h, :n_old]
+        t0, t1, t2 = nodes[h, m - 1, 0], nodes[h, m - 1, 1], nodes[h, m - 1, 2]
+        finite = True
+        for j in range(n_old):
+            a = old[j, 0] - t0
+            b = old[j, 1] - t1
+            c = old[j, 2] - t2
+            D[j] = np.sqrt(a * a + b * b + c * c)
+            finite = finite and np.isfinite(D[j])
+        for i in range(h * width, (h + 1) * width):
+            a = pts[i, 0] - t0
+            b = pts[i, 1] - t1
+            c = pts[i, 2] - t2
+            r = np.sqrt(a * a + b * b + c * c)
+            if not (finite and np.isfinite(r)):
+                out[i] = _nearest_distance(pts[i:i + 1], old)[0] < 1.2
+                continue
+            for j in range(n_old):
+                if D[j] - r > 1.2 + 1e-6:
+                    continue
+                a = pts[i, 0] - old[j, 0]
+                b = pts[i, 1] - old[j, 1]
+                c = pts[i, 2] - old[j, 2]
+                if np.sqrt(a * a + b * b + c * c) < 1.2:
+                    out[i] = True
+                    break
+    return out
+
+
+@njit(cache=True)
+def _new_and_colour(d, seen, near, adv, claims, own, on_px, use_col, chroma, follow, new, step_col, dev, known):
+    """One view's part of a growth step, for its ``n = len(adv)`` candidates (the first ``n`` of :func:`point_costs`'
+    rows ``d``, ``seen``, ``near``; ``adv`` :func:`advance`'s row), in place: ``new`` (n,) on the view's skeleton
+    (within ``on_px``) at a pixel the candidate's hypothesis (``own``) has not claimed (``claims`` (h, k)) and
+    moving in the image; with ``use_col``, ``step_col`` (n, 3) the skeleton's chromaticity ``chroma`` there (NaN
+    elsewhere, as given), ``known`` (n,) there and the hypothesis's colour ``follow`` (h, 3) known, and ``dev`` (n,)
+    the sum of the three channels' absolute differences there (0 elsewhere): the whole-array expressions they
+    replaced, point by point (``np.nan_to_num`` of the colour; the channels summed in order), bit for bit."""
+    big = np.finfo(np.float64).max
+    for i in range(len(adv)):
+        j = near[i]
+        on = seen[i] and d[i] <= on_px
+        new[i] = on and not (j >= 0 and claims[own[i], j]) and adv[i]
+        if use_col and on and j >= 0:
+            f = follow[own[i]]
+            for c in range(3):
+                step_col[i, c] = chroma[j, c]
+            if np.isfinite(f[0]):
+                known[i] = True
+                s = 0.0
+                for c in range(3):
+                    fc = f[c]
+                    if np.isnan(fc):
+                        fc = 0.0
+                    elif fc == np.inf:
+                        fc = big
+                    elif fc == -np.inf:
+                        fc = -big
+                    a = abs(chroma[j, c] - fc)
+                    s = a if c == 0 else s + a
+                dev[i] = s
+    return
+
+
+@njit(cache=True)
+def _step_view(Xc, XB, XA, z, L, K, dist, distort, fraction, xy, off, start, items, cell, reach, cap_px, centre,
+               tangent, seen_px, near_fg, inside_px, cover_depth_px, cover_px, claims, own, on_px, use_col, chroma,
+               follow, d, seen, near, bg, cov, new, step_col, dev, known):
+    """One view's part of a growth step in one compiled call: :func:`tendrilkit.mv_evidence.project_costs` of the
+    candidates' ends and midpoints (camera frame ``Xc``), :func:`advance` of the steps (``XB``, ``XA``, ``z``,
+    ``L``) and :func:`_new_and_colour`, into the rows given; False, nothing written, where two skeleton pixels are
+    equally near a point (the caller's path)."""
+    if not _project_costs(Xc, K, dist, distort, xy, off, start, items, cell, reach, cap_px, centre, tangent, seen_px,
+                          near_fg, inside_px, cover_depth_px, cover_px, d, seen, near, bg, cov):
+        return False
+    adv = _advances(XB, XA, z, L, K, dist, distort, fraction)
+    _new_and_colour(d, seen, near, adv, claims, own, on_px, use_col, chroma, follow, new, step_col, dev, known)
+    return True
+
+
+def _step_fixed(ev: SkeletonEvidence):
+    """What :func:`_step_view` reads of a view besides the step's points: ``(R.T, t, R[2], t[2], args)``, ``args``
+    its arguments from ``K`` to ``cover_px``; None for OpenCV's longer distortion models (the general path)."""
+    cam = ev.camera
+    if cam.has_distortion and cam.dist.size > 5:
+        return None
+    start, items, cell = ev._grid
+    return (cam.R.T, cam.t_mm, cam.R[2], cam.t_mm[2],
+            (cam.K, cam.dist, cam.has_distortion, 0.3, ev.skeleton_xy, ev.offset_xy.astype(float), start, items, cell,
+             ev._grid_reach, CAP_PX, ev.centre_xy, ev.tangent_xy, ev.seen, ev.near_foreground, ev.inside_px,
+             COVER_DEPTH_PX, COVER_PX))
+
+
+@njit(cache=True)
+def _mark_projected(Xc, K, dist, distort, rows, xy, off, start, items, cell, radius, marked):
+    """:func:`tendrilkit.mv_evidence.mark_near_rows` of the camera-frame points ``Xc`` (n, 3), projected as
+    :meth:`~tendrilkit.camera.Camera.project` does (:func:`tendrilkit.camera._project_brown`), in one call."""
+    p = _project_brown(Xc, K, dist, distort)
+    for i in range(len(p)):
+        _mark_point(p[i, 0], p[i, 1], xy, off, start, items, cell, radius, marked[rows[i]])
+
+
+@njit(cache=True)
+def _step_costs(d, seen, bg, new, neutral):
+    """A growth step's costs from every view's rows (:func:`point_costs`' ``d``, ``seen``, ``bg`` (V, 2n): the
+    candidates' ends, then their midpoints; ``new`` (V, n)): ``m_end``, ``m_mid`` (:func:`_mean_seen`), ``vis``,
+    ``contradicted``, ``confirmed`` and ``cost`` as :func:`grow_curve`'s whole-array expressions had them (the
+    views summed in order), bit for bit."""
+    V, n2 = d.shape
+    n = n2 // 2
+    m = np.empty(n2)
+    cnt = np.zeros(n2, np.int64)
+    for i in range(n2):
+        s = 0.0
+        for v in range(V):
+            x = d[v, i] * (1.0 if seen[v, i] else 0.0)
+            s = x if v == 0 else s + x
+            cnt[i] += seen[v, i]
+        m[i] = s / max(cnt[i], 1) if cnt[i] > 0 else neutral
+    vis = np.empty(n, np.bool_)
+    contradicted = np.empty(n, np.bool_)
+    confirmed = np.empty(n, np.bool_)
+    cost = np.empty(n)
+    for i in range(n):
+        vis[i] = cnt[i] >= 2 and cnt[n + i] >= 2
+        c = False
+        k = 0
+        for v in range(V):
+            c = c or bg[v, i] or bg[v, n + i]
+            k += new[v, i]
+        contradicted[i] = c
+        confirmed[i] = vis[i] and k >= 2 and not c
+        h = 0.5 * (m[i] + m[n + i])
+        cost[i] = h if (confirmed[i] or h >= neutral or np.isnan(h)) else neutral
+    return m[:n], m[n:], vis, contradicted, confirmed, cost
+
+
+@njit(cache=True)
+def _step_finish(cost, use_col, dev, known, colour_px, tol, cap, turn, cone_deg, turn_px, self_near, confirmed, vis,
+                 contradicted, own, h_score, h_tail, h_blind, neutral, stop_px, max_unseen):
+    """The rest of a growth step's cost, per candidate, and what follows from it: the colour (per view ``dev``,
+    ``known`` of :func:`_new_and_colour`, with ``use_col``), the bending (``turn`` degrees; none when empty), the
+    self-return; the tails, acceptance ``ok``, ``score``, and per hypothesis whether it has an acceptable step
+    (``has``). Returns ``(cost, tail, blind_tail, ok, score, has)``: :func:`grow_curve`'s whole-array expressions,
+    point by point in the same order (the views summed in order; ``np.clip``, ``np.where``), bit for bit."""
+    n = len(cost)
+    out = cost.copy()
+    tail = np.empty(n, np.int64)
+    blind_tail = np.empty(n, np.int64)
+    ok = np.empty(n, np.bool_)
+    score = np.empty(n)
+    has = np.zeros(len(h_score), np.bool_)
+    V = dev.shape[0]
+    for i in range(n):
+        c = out[i]
+        if use_col:
+            s = 0.0
+            k = 0.0
+            for v in range(V):
+                s = s + (dev[v, i] if known[v, i] else 0.0)
+                k = k + (1.0 if known[v, i] else 0.0)
+            off = s / max(k, 1.0) if k >= 2 else 0.0
+            x = (off - tol) / tol
+            if x < 0.0:
+                x = 0.0
+            if x > cap:
+                x = cap
+            c = c + colour_px * x
+        if len(turn):
+            t = turn[i] / cone_deg
+            c = c + turn_px * (t * t)
+        c = c + (5.0 if self_near[i] else 0.0)
+        out[i] = c
+        h = own[i]
+        tail[i] = 0 if confirmed[i] else h_tail[h] + 1
+        blind_tail[i] = 0 if (confirmed[i] or vis[i]) else h_blind[h] + 1
+        ok[i] = c <= stop_px and blind_tail[i] <= max_unseen and tail[i] <= 3 * max_unseen and not contradicted[i]
+        score[i] = h_score[h] + c - neutral
+        if ok[i]:
+            has[h] = True
+    return out, tail, blind_tail, ok, score, has
+
+
+@njit(cache=True)
 def _per_parent(idx, own, n_parents, per_parent, beam):
     """The rows ``idx`` (best first) kept while their parent ``own[i]`` has fewer than ``per_parent`` kept, up to
     ``beam`` rows, in order."""
@@ -542,21 +744,55 @@ def _split_siblings(rows: np.ndarray, own: np.ndarray, dirs: np.ndarray, cos_max
         other: without it the branch that scores worse for a step or two (its next steps over a stretch the views
         see badly) loses its cell to its sibling and is gone from the beam.
     """
-    rows = np.asarray(rows, int)
+    return _siblings(rows, own, dirs, cos_max)[0]
+
+
+def _siblings(rows: np.ndarray, own: np.ndarray, dirs: np.ndarray, cos_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_split_siblings`'s rows and, apart, the rows it adds to ``rows`` (increasing), compiled but for the
+    directions' products (numpy's, as before): the numpy expressions' rows (``np.unique``'s first rows per parent)."""
+    rows = np.asarray(rows, np.int64)
     if len(rows) == 0:
-        return rows
-    parents, at = np.unique(own[rows], return_index=True)
-    first = np.full(int(own.max()) + 1, -1)
-    first[parents] = rows[at]
-    f = first[own]
-    other = (f >= 0) & (np.einsum("ij,ij->i", dirs, dirs[np.maximum(f, 0)]) < cos_max)
-    kept = np.zeros(len(own), bool)
-    kept[rows] = True
-    split = np.zeros(len(first), bool)  # the parents with a kept child the other way already
-    split[own[other & kept]] = True
-    cand = np.flatnonzero(other & ~kept & ~split[own] & (np.arange(len(own)) > f))
-    _, at = np.unique(own[cand], return_index=True)
-    return np.sort(np.r_[rows, cand[at]])
+        return rows, rows
+    f = _first_kept(rows, own)
+    return _split_rows(rows, own, f, np.einsum("ij,ij->i", dirs, dirs[np.maximum(f, 0)]) < cos_max)
+
+
+@njit(cache=True)
+def _first_kept(rows, own):
+    """(n,) int: per candidate (parent ``own``), its parent's first row in ``rows`` (-1: none)."""
+    first = np.full(own.max() + 1, -1, np.int64)
+    for r in rows:
+        if first[own[r]] < 0:
+            first[own[r]] = r
+    f = np.empty(len(own), np.int64)
+    for i in range(len(own)):
+        f[i] = first[own[i]]
+    return f
+
+
+@njit(cache=True)
+def _split_rows(rows, own, f, away):
+    """:func:`_siblings` from each candidate's parent's first kept row ``f`` and whether it heads ``away`` from it:
+    ``(both, extra)``, the rows kept with those added and those added, increasing."""
+    n = len(own)
+    n_par = own.max() + 1
+    kept = np.zeros(n, np.bool_)
+    for r in rows:
+        kept[r] = True
+    split = np.zeros(n_par, np.bool_)  # the parents with a kept child the other way already
+    for i in range(n):
+        if f[i] >= 0 and away[i] and kept[i]:
+            split[own[i]] = True
+    taken = np.zeros(n_par, np.bool_)
+    extra = np.empty(n, np.int64)
+    k = 0
+    for i in range(n):  # per parent its first such candidate
+        if f[i] >= 0 and away[i] and not kept[i] and not split[own[i]] and i > f[i] and not taken[own[i]]:
+            taken[own[i]] = True
+            extra[k] = i
+            k += 1
+    extra = extra[:k]
+    return np.sort(np.concatenate((rows, extra))), extra
 
 
 def _sphere(n: int) -> np.ndarray:
@@ -709,13 +945,22 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     if len(seeds) == 0:
         none_ = np.vstack([B, B])  # nothing any two views agree on
         return none_ if candidates <= 1 else [(none_, 0.0)]
-    # a hypothesis: (nodes (m, 3), score, unconfirmed tail, last direction, its row of claims, blind tail); claims:
-    # per view, the skeleton pixels each hypothesis explains (a row per hypothesis, a column per pixel)
+    # the hypotheses, a row each (they all have as many nodes): nodes (h, m, 3), score, unconfirmed tail, last
+    # direction, blind tail and, per view, the colour (chromaticity) followed so far (h, V, 3; NaN: none seen yet);
+    # claims: per view, the skeleton pixels each hypothesis explains (a row per hypothesis, a column per pixel)
     V = len(evidence)
     use_col = colour_px > 0 and all(ev.skeleton_chroma is not None for ev in evidence)
-    # ... and, last, per view the colour (chromaticity) the hypothesis followed so far (NaN: none seen yet)
-    hyps = [(B[None], 0.0, 0, d, h, 0, np.full((V, 3), np.nan)) for h, d in enumerate(seeds)]
+    H = len(seeds)
+    nodes = np.broadcast_to(B, (H, 1, 3)).copy()
+    h_score = np.zeros(H)
+    h_tail = np.zeros(H, np.int64)
+    lasts = np.array(seeds, float)
+    h_blind = np.zeros(H, np.int64)
+    h_col = np.full((H, V, 3), np.nan)
     claims = [np.zeros((len(seeds), len(ev.skeleton_xy)), bool) for ev in evidence]
+    no_chroma = np.zeros((0, 3))
+    # per view, what its compiled step reads (None: OpenCV's longer models, the general path)
+    fixed = [_step_fixed(ev) for ev in evidence]
     f_claim = np.linspace(0, 1, 5)[:, None]
     split_cos = np.cos(np.radians(SPLIT_DEG))
     finished: list[tuple[np.ndarray, float, int]] = []
@@ -723,65 +968,64 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
     cone = _local_cone(cone_deg, 3)
     narrow = _local_cone(20.0, 2)
     for _ in range(int(max_length_mm / step_mm)):
-        first = len(hyps[0][0]) == 1
+        H, m_nodes = nodes.shape[:2]
+        first = m_nodes == 1
         local = narrow if first else cone
-        lasts = np.array([h[3] for h in hyps])
         dirs = np.einsum("hij,cj->hci", _frames(lasts), local).reshape(-1, 3)
-        own = np.repeat(np.arange(len(hyps)), len(local))
-        tips_h = np.array([h[0][-1] for h in hyps])
-        pts = tips_h[own] + step_mm * dirs
+        own = np.repeat(np.arange(H), len(local))
+        tips_h = nodes[:, -1]
+        A = tips_h[own]
+        pts = A + step_mm * dirs
         N = len(pts)
         mids = pts - 0.5 * step_mm * dirs
-        d, seen, near, bg = point_costs(evidence, np.vstack([pts, mids]), nearest=True)
-        m, n = _mean_seen(d, seen)
-        m_end, n_end = m[:N], n[:N]
-        m_mid, n_mid = m[N:], n[N:]
-        vis = (n_end >= 2) & (n_mid >= 2)
-        # new evidence: on a view's skeleton at a pixel this hypothesis has not explained already
-        claimed = np.zeros((len(evidence), N), bool)
-        for v in range(len(evidence)):
-            i = near[v, :N]
-            claimed[v] = claims[v][own, np.maximum(i, 0)] & (i >= 0)
-        new = seen[:, :N] & (d[:, :N] <= ON_PX) & ~claimed & advance(evidence, tips_h[own], pts)
-        contradicted = bg[:, :N].any(axis=0) | bg[:, N:].any(axis=0)
-        confirmed = vis & (new.sum(axis=0) >= 2) & ~contradicted
-        cost = np.where(confirmed, 0.5 * (m_end + m_mid), np.maximum(0.5 * (m_end + m_mid), NEUTRAL_PX))
+        # per view, in one compiled call: point_costs of the ends and midpoints, new evidence (on its skeleton at a
+        # pixel this hypothesis has not explained already, the step moving in its image: advance), the colour there
+        # and its difference to the hypothesis's
+        P2 = np.vstack([pts, mids])
+        L = np.linalg.norm(pts - A, axis=1)
+        d = np.empty((V, 2 * N))
+        seen = np.empty((V, 2 * N), bool)
+        near = np.empty((V, 2 * N), np.int64)
+        bg = np.empty((V, 2 * N), bool)
+        cov = np.empty(2 * N, bool)
+        new = np.empty((V, N), bool)
+        step_col = np.full((V, N, 3), np.nan)
+        col_dev = np.zeros((V, N))
+        col_known = np.zeros((V, N), bool)
+        for v, ev in enumerate(evidence):
+            chroma = ev.skeleton_chroma if use_col else no_chroma
+            done = False
+            if fixed[v] is not None:  # (the rotations numpy's, as there)
+                RT, t, R2, t2, args = fixed[v]
+                done = _step_view(P2 @ RT + t, pts @ RT + t, A @ RT + t, pts @ R2 + t2, L, *args, claims[v], own,
+                                  ON_PX, use_col, chroma, h_col[:, v], d[v], seen[v], near[v], bg[v], cov, new[v],
+                                  step_col[v], col_dev[v], col_known[v])
+            if not done:  # OpenCV's longer models, or two skeleton pixels equally near a point (the k-d tree's)
+                project_costs(ev, P2, CAP_PX, d[v], seen[v], near[v], bg[v], cov)
+                _new_and_colour(d[v], seen[v], near[v], advance([ev], A, pts)[0], claims[v], own, ON_PX, use_col,
+                                chroma, h_col[:, v], new[v], step_col[v], col_dev[v], col_known[v])
+        m_end, m_mid, vis, contradicted, confirmed, cost = _step_costs(d, seen, bg, new, NEUTRAL_PX)
         blind = ~vis
         if blind.any():  # fewer than two views see it: the evidence further along the direction
             ahead = pts[blind][:, None, :] + step_mm * (look[None, :, None] - 1) * dirs[blind][:, None, :]
             da, sa = point_costs(evidence, ahead.reshape(-1, 3))
             ma, na = _mean_seen(da, sa)
             cost[blind] = 0.5 * (NEUTRAL_PX + np.where(na >= 2, ma, NEUTRAL_PX).reshape(-1, len(look)).mean(axis=1))
-        if use_col:  # a step onto a line of another colour than its hypothesis's so far (a shoot, another tendril)
-            follow = np.stack([h[6] for h in hyps])[own]  # (N, V, 3)
-            step_col = np.full((N, V, 3), np.nan)
-            dev = np.zeros(N)
-            n_dev = np.zeros(N)
-            for v, ev in enumerate(evidence):
-                i = near[v, :N]
-                on = seen[v, :N] & (d[v, :N] <= ON_PX) & (i >= 0)
-                ch = ev.skeleton_chroma[np.maximum(i, 0)]
-                step_col[on, v] = ch[on]
-                known = on & np.isfinite(follow[:, v, 0])
-                dev += np.where(known, np.abs(ch - np.nan_to_num(follow[:, v])).sum(axis=1), 0.0)
-                n_dev += known
-            off_colour = np.where(n_dev >= 2, dev / np.maximum(n_dev, 1), 0.0)
-            cost = cost + colour_px * np.clip((off_colour - COLOUR_TOL) / COLOUR_TOL, 0.0, COLOUR_CAP)
-        if not first:  # bending
-            turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1)))
-            cost = cost + TURN_PX * (turn / cone_deg) ** 2
+        # bending (after the first step): the turn from the hypothesis's last direction, degrees
+        turn = (np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1))) if not first
+                else np.zeros(0))
         # self-avoidance: a candidate within 1.2 mm of its hypothesis's nodes but the last five
-        self_near = _self_near(pts, len(local), *_nodes_but_last(hyps, 5))
-        cost += np.where(self_near, 5.0, 0.0)
-        tail = np.where(confirmed, 0, np.array([h[2] for h in hyps])[own] + 1)
-        # steps no two views see (keep-out box, occlusion): at most max_unseen_steps in a row; steps the views
-        # see on pixels the curve explained already (passes over each other in two views): three times more
-        blind_tail = np.where(confirmed | vis, 0, np.array([h[5] for h in hyps])[own] + 1)
-        ok = ((cost <= STOP_PX) & (blind_tail <= max_unseen_steps) & (tail <= 3 * max_unseen_steps)
-              & ~contradicted)
-        score = np.array([h[1] for h in hyps])[own] + cost - NEUTRAL_PX
-        has = np.bincount(own[ok], minlength=len(hyps)) > 0
-        finished.extend(hyps[h][:3] for h in np.flatnonzero(~has))
+        self_near = _self_near_nodes(pts, len(local), nodes, 5)
+        # a step onto a line of another colour than its hypothesis's so far (a shoot, another tendril); the bending
+        # and self-return costs; steps no two views see (keep-out box, occlusion): at most max_unseen_steps in a row;
+        # steps the views see on pixels the curve explained already (passes over each other in two views): three
+        # times more
+        cost, tail, blind_tail, ok, score, has = _step_finish(
+            cost, use_col, col_dev, col_known, float(colour_px), COLOUR_TOL, COLOUR_CAP, turn, float(cone_deg),
+            TURN_PX, self_near, confirmed, vis, contradicted, own, h_score, h_tail, h_blind, NEUTRAL_PX, STOP_PX,
+            int(max_unseen_steps))
+        for h in np.flatnonzero(~has).tolist():
+            finished.append((nodes[h].copy(), float(h_score[h]), int(h_tail[h])))
         idx = np.flatnonzero(ok)
         idx = idx[np.argsort(score[idx], kind="stable")]
         ranked = idx
@@ -789,37 +1033,47 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
         # children per parent, so that the branches of a crossing both stay in the beam; and besides the beam, up to
         # SPLIT_EXTRA children heading over SPLIT_DEG away from their parent's best kept one (a junction's branches)
         rows = _one_per_cell_and_way(pts[idx], dirs[idx], 1.5 * step_mm)
-        both = _split_siblings(rows, own[idx], dirs[idx], split_cos)  # rank order
+        both, extra = _siblings(rows, own[idx], dirs[idx], split_cos)  # rank order
         diverse = idx[both]  # (the trace's)
-        split = idx[np.setdiff1d(both, rows)]
-        count = np.zeros(len(hyps), np.int64)  # children kept per parent, the beam's and then the split's
+        split = idx[extra]
+        count = np.zeros(H, np.int64)  # children kept per parent, the beam's and then the split's
         idx = _per_parent_counted(idx[rows], own, count, 2, beam)
         if len(split):  # the junctions' other branches besides the beam, not instead of its best
-            idx = np.r_[idx, _per_parent_counted(split, own, count, 2, SPLIT_EXTRA)]
+            idx = np.concatenate((idx, _per_parent_counted(split, own, count, 2, SPLIT_EXTRA)))
         if _TRACE is not None:
+            hyps = [(nodes[h], float(h_score[h]), int(h_tail[h]), lasts[h], h, int(h_blind[h]), h_col[h])
+                    for h in range(H)]
             _TRACE("step", hyps=hyps, own=own, pts=pts, ranked=ranked, diverse=diverse, kept=idx, cost=cost, ok=ok,
                    m_end=m_end, m_mid=m_mid, vis=vis, confirmed=confirmed, contradicted=contradicted,
                    blind_tail=blind_tail, tail=tail, self_near=self_near, dirs=dirs, d=d, seen=seen, bg=bg)
         # claim what each kept hypothesis explained two steps back (all at once: one projection per view)
-        parents = [hyps[i] for i in own[idx].tolist()]
-        claims = [c[own[idx]] for c in claims]  # each kept candidate starts from its parent's claims
-        grown = [k for k, h in enumerate(parents) if len(h[0]) >= 3]
-        if grown:
-            P = np.vstack([parents[k][0][-3] + f_claim * (parents[k][0][-2] - parents[k][0][-3]) for k in grown])
-            rows = np.repeat(np.asarray(grown, np.int64), len(f_claim))
+        par = own[idx]
+        claims = [c[par] for c in claims]  # each kept candidate starts from its parent's claims
+        if m_nodes >= 3 and len(idx):
+            a, b = nodes[par, -3], nodes[par, -2]
+            P = (a[:, None, :] + f_claim[None] * (b - a)[:, None, :]).reshape(-1, 3)
+            rows = np.repeat(np.arange(len(idx), dtype=np.int64), len(f_claim))
             for v, ev in enumerate(evidence):
-                mark_near_rows(ev, claims[v], rows, ev.camera.project(P), 4.0)
+                if fixed[v] is not None:  # projected and marked in one compiled call (Camera.project's arithmetic)
+                    RT, t, _, _, args = fixed[v]
+                    _mark_projected(P @ RT + t, args[0], args[1], args[2], rows, args[4], args[5], args[6], args[7],
+                                    args[8], 4.0, claims[v])
+                else:
+                    mark_near_rows(ev, claims[v], rows, ev.camera.project(P), 4.0)
+        follow = h_col[par]
         if use_col:  # each kept step's views that see it on their skeleton update its colour (a running mean)
-            colours = [np.where(np.isfinite(step_col[i]), np.where(np.isfinite(follow[i]), (1.0 - COLOUR_EMA) * follow[i]
-                                                                   + COLOUR_EMA * step_col[i], step_col[i]), follow[i])
-                       for i in idx.tolist()]
+            sc = step_col.transpose(1, 0, 2)[idx]
+            h_col = np.where(np.isfinite(sc), np.where(np.isfinite(follow), (1.0 - COLOUR_EMA) * follow
+                                                       + COLOUR_EMA * sc, sc), follow)
         else:
-            colours = [hyps[0][6]] * len(idx)
-        hyps = [(np.concatenate([parents[j][0], pts[i][None]]), float(score[i]), int(tail[i]), dirs[i], j,
-                 int(blind_tail[i]), colours[j]) for j, i in enumerate(idx.tolist())]
-        if not hyps:
+            h_col = follow
+        grown = np.empty((len(idx), m_nodes + 1, 3))
+        grown[:, :m_nodes] = nodes[par]
+        grown[:, m_nodes] = pts[idx]
+        nodes, h_score, h_tail, lasts, h_blind = grown, score[idx], tail[idx], dirs[idx], blind_tail[idx]
+        if not len(idx):
             break
-    finished.extend(h[:3] for h in hyps)
+    finished.extend((nodes[h], float(h_score[h]), int(h_tail[h])) for h in range(len(nodes)))
 
     def trimmed(h):
         nodes, score, tail = h

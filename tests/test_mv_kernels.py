@@ -935,3 +935,347 @@ def test_front_line_pixels_are_the_f6a558a_pieces(seed):
     rr, cc, hh = front_line_pixels(img, fg, skeleton, seen, contrast=0.09)
     assert len(rr) > 0
     assert np.array_equal(rr, rb + y0) and np.array_equal(cc, cb + x0) and np.array_equal(hh, half)
+
+
+# ---- grow_curve's step on arrays and compiled kernels, against the Python / numpy of d0679b9 ----
+
+def _split_siblings_d0679b9(rows, own, dirs, cos_max):
+    """mv_acquire._split_siblings as it was at d0679b9 (numpy), copied unchanged (its docstring left out)."""
+    rows = np.asarray(rows, int)
+    if len(rows) == 0:
+        return rows
+    parents, at = np.unique(own[rows], return_index=True)
+    first = np.full(int(own.max()) + 1, -1)
+    first[parents] = rows[at]
+    f = first[own]
+    other = (f >= 0) & (np.einsum("ij,ij->i", dirs, dirs[np.maximum(f, 0)]) < cos_max)
+    kept = np.zeros(len(own), bool)
+    kept[rows] = True
+    split = np.zeros(len(first), bool)  # the parents with a kept child the other way already
+    split[own[other & kept]] = True
+    cand = np.flatnonzero(other & ~kept & ~split[own] & (np.arange(len(own)) > f))
+    _, at = np.unique(own[cand], return_index=True)
+    return np.sort(np.r_[rows, cand[at]])
+
+
+def _grow_curve_d0679b9(evidence, base_mm, *, step_mm=2.0, beam=8, n_seeds=6, cone_deg=40.0, max_length_mm=400.0,
+                        max_unseen_steps=6, candidates=1, colour_px=0.0):
+    """mv_acquire.grow_curve as it was at d0679b9 (a tuple per hypothesis, numpy per step), copied unchanged but
+    for its module's names (``A.``) and its docstring."""
+    import tendrilkit.mv_acquire as A
+    from tendrilkit.mv_evidence import mark_near_rows
+
+    B = np.asarray(base_mm, float)
+    seeds = A._seeds(evidence, B, n_seeds)
+    if len(seeds) == 0:
+        none_ = np.vstack([B, B])  # nothing any two views agree on
+        return none_ if candidates <= 1 else [(none_, 0.0)]
+    # a hypothesis: (nodes (m, 3), score, unconfirmed tail, last direction, its row of claims, blind tail); claims:
+    # per view, the skeleton pixels each hypothesis explains (a row per hypothesis, a column per pixel)
+    V = len(evidence)
+    use_col = colour_px > 0 and all(ev.skeleton_chroma is not None for ev in evidence)
+    # ... and, last, per view the colour (chromaticity) the hypothesis followed so far (NaN: none seen yet)
+    hyps = [(B[None], 0.0, 0, d, h, 0, np.full((V, 3), np.nan)) for h, d in enumerate(seeds)]
+    claims = [np.zeros((len(seeds), len(ev.skeleton_xy)), bool) for ev in evidence]
+    f_claim = np.linspace(0, 1, 5)[:, None]
+    split_cos = np.cos(np.radians(A.SPLIT_DEG))
+    finished: list[tuple[np.ndarray, float, int]] = []
+    look = np.array([2.0, 3.0, 4.0])
+    cone = A._local_cone(cone_deg, 3)
+    narrow = A._local_cone(20.0, 2)
+    for _ in range(int(max_length_mm / step_mm)):
+        first = len(hyps[0][0]) == 1
+        local = narrow if first else cone
+        lasts = np.array([h[3] for h in hyps])
+        dirs = np.einsum("hij,cj->hci", A._frames(lasts), local).reshape(-1, 3)
+        own = np.repeat(np.arange(len(hyps)), len(local))
+        tips_h = np.array([h[0][-1] for h in hyps])
+        pts = tips_h[own] + step_mm * dirs
+        N = len(pts)
+        mids = pts - 0.5 * step_mm * dirs
+        d, seen, near, bg = A.point_costs(evidence, np.vstack([pts, mids]), nearest=True)
+        m, n = A._mean_seen(d, seen)
+        m_end, n_end = m[:N], n[:N]
+        m_mid, n_mid = m[N:], n[N:]
+        vis = (n_end >= 2) & (n_mid >= 2)
+        # new evidence: on a view's skeleton at a pixel this hypothesis has not explained already
+        claimed = np.zeros((len(evidence), N), bool)
+        for v in range(len(evidence)):
+            i = near[v, :N]
+            claimed[v] = claims[v][own, np.maximum(i, 0)] & (i >= 0)
+        new = seen[:, :N] & (d[:, :N] <= A.ON_PX) & ~claimed & A.advance(evidence, tips_h[own], pts)
+        contradicted = bg[:, :N].any(axis=0) | bg[:, N:].any(axis=0)
+        confirmed = vis & (new.sum(axis=0) >= 2) & ~contradicted
+        cost = np.where(confirmed, 0.5 * (m_end + m_mid), np.maximum(0.5 * (m_end + m_mid), A.NEUTRAL_PX))
+        blind = ~vis
+        if blind.any():  # fewer than two views see it: the evidence further along the direction
+            ahead = pts[blind][:, None, :] + step_mm * (look[None, :, None] - 1) * dirs[blind][:, None, :]
+            da, sa = A.point_costs(evidence, ahead.reshape(-1, 3))
+            ma, na = A._mean_seen(da, sa)
+            cost[blind] = 0.5 * (A.NEUTRAL_PX + np.where(na >= 2, ma, A.NEUTRAL_PX).reshape(-1, len(look)).mean(
+                axis=1))
+        if use_col:  # a step onto a line of another colour than its hypothesis's so far (a shoot, another tendril)
+            follow = np.stack([h[6] for h in hyps])[own]  # (N, V, 3)
+            step_col = np.full((N, V, 3), np.nan)
+            dev = np.zeros(N)
+            n_dev = np.zeros(N)
+            for v, ev in enumerate(evidence):
+                i = near[v, :N]
+                on = seen[v, :N] & (d[v, :N] <= A.ON_PX) & (i >= 0)
+                ch = ev.skeleton_chroma[np.maximum(i, 0)]
+                step_col[on, v] = ch[on]
+                known = on & np.isfinite(follow[:, v, 0])
+                dev += np.where(known, np.abs(ch - np.nan_to_num(follow[:, v])).sum(axis=1), 0.0)
+                n_dev += known
+            off_colour = np.where(n_dev >= 2, dev / np.maximum(n_dev, 1), 0.0)
+            cost = cost + colour_px * np.clip((off_colour - A.COLOUR_TOL) / A.COLOUR_TOL, 0.0, A.COLOUR_CAP)
+        if not first:  # bending
+            turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1)))
+            cost = cost + A.TURN_PX * (turn / cone_deg) ** 2
+        # self-avoidance: a candidate within 1.2 mm of its hypothesis's nodes but the last five
+        self_near = A._self_near(pts, len(local), *A._nodes_but_last(hyps, 5))
+        cost += np.where(self_near, 5.0, 0.0)
+        tail = np.where(confirmed, 0, np.array([h[2] for h in hyps])[own] + 1)
+        # steps no two views see (keep-out box, occlusion): at most max_unseen_steps in a row; steps the views
+        # see on pixels the curve explained already (passes over each other in two views): three times more
+        blind_tail = np.where(confirmed | vis, 0, np.array([h[5] for h in hyps])[own] + 1)
+        ok = ((cost <= A.STOP_PX) & (blind_tail <= max_unseen_steps) & (tail <= 3 * max_unseen_steps)
+              & ~contradicted)
+        score = np.array([h[1] for h in hyps])[own] + cost - A.NEUTRAL_PX
+        has = np.bincount(own[ok], minlength=len(hyps)) > 0
+        finished.extend(hyps[h][:3] for h in np.flatnonzero(~has))
+        idx = np.flatnonzero(ok)
+        idx = idx[np.argsort(score[idx], kind="stable")]
+        ranked = idx
+        # diversity: per cell of 1.5 steps the best hypothesis and the best heading against it, at most two
+        # children per parent, so that the branches of a crossing both stay in the beam; and besides the beam, up to
+        # SPLIT_EXTRA children heading over SPLIT_DEG away from their parent's best kept one (a junction's branches)
+        rows = A._one_per_cell_and_way(pts[idx], dirs[idx], 1.5 * step_mm)
+        both = _split_siblings_d0679b9(rows, own[idx], dirs[idx], split_cos)  # rank order
+        diverse = idx[both]  # (the trace's)
+        split = idx[np.setdiff1d(both, rows)]
+        count = np.zeros(len(hyps), np.int64)  # children kept per parent, the beam's and then the split's
+        idx = A._per_parent_counted(idx[rows], own, count, 2, beam)
+        if len(split):  # the junctions' other branches besides the beam, not instead of its best
+            idx = np.r_[idx, A._per_parent_counted(split, own, count, 2, A.SPLIT_EXTRA)]
+        if A._TRACE is not None:
+            A._TRACE("step", hyps=hyps, own=own, pts=pts, ranked=ranked, diverse=diverse, kept=idx, cost=cost, ok=ok,
+                   m_end=m_end, m_mid=m_mid, vis=vis, confirmed=confirmed, contradicted=contradicted,
+                   blind_tail=blind_tail, tail=tail, self_near=self_near, dirs=dirs, d=d, seen=seen, bg=bg)
+        # claim what each kept hypothesis explained two steps back (all at once: one projection per view)
+        parents = [hyps[i] for i in own[idx].tolist()]
+        claims = [c[own[idx]] for c in claims]  # each kept candidate starts from its parent's claims
+        grown = [k for k, h in enumerate(parents) if len(h[0]) >= 3]
+        if grown:
+            P = np.vstack([parents[k][0][-3] + f_claim * (parents[k][0][-2] - parents[k][0][-3]) for k in grown])
+            rows = np.repeat(np.asarray(grown, np.int64), len(f_claim))
+            for v, ev in enumerate(evidence):
+                mark_near_rows(ev, claims[v], rows, ev.camera.project(P), 4.0)
+        if use_col:  # each kept step's views that see it on their skeleton update its colour (a running mean)
+            colours = [np.where(np.isfinite(step_col[i]), np.where(np.isfinite(follow[i]), (1.0 - A.COLOUR_EMA)
+                                                                   * follow[i] + A.COLOUR_EMA * step_col[i],
+                                                                   step_col[i]), follow[i])
+                       for i in idx.tolist()]
+        else:
+            colours = [hyps[0][6]] * len(idx)
+        hyps = [(np.concatenate([parents[j][0], pts[i][None]]), float(score[i]), int(tail[i]), dirs[i], j,
+                 int(blind_tail[i]), colours[j]) for j, i in enumerate(idx.tolist())]
+        if not hyps:
+            break
+    finished.extend(h[:3] for h in hyps)
+
+    def trimmed(h):
+        nodes, score, tail = h
+        keep = len(nodes) - tail
+        return nodes[:max(keep, 2)], score
+
+    ends = [trimmed(h) for h in finished]
+    cut = A.runs_out(evidence, [np.asarray(n, float) for n, _ in ends], step_mm)
+    length = np.array([len(n) for n, _ in ends], float)
+    inside = [e for e, c, n in zip(ends, cut, length) if not c and n >= 0.5 * length.max()]
+    best = min(inside or ends, key=lambda t: t[1])
+    if A._TRACE is not None:
+        A._TRACE("ends", ends=ends, cut=cut, best=best)
+    if candidates <= 1:
+        return np.asarray(best[0], float)
+    listed = [best]
+    for e in sorted(inside or ends, key=lambda t: t[1]):
+        if len(listed) == candidates:
+            break
+        if all(np.linalg.norm(np.asarray(e[0][-1]) - np.asarray(o[0][-1])) >= A.SAME_TIP_MM for o in listed):
+            listed.append(e)
+    return [(np.asarray(n, float), float(sc)) for n, sc in listed]
+
+
+def _with_chroma(evidence, seed):
+    """The views with a chromaticity per skeleton pixel (smooth across the image, noisy, a few NaN rows: black
+    pixels), so that the colour a hypothesis follows changes its steps' costs."""
+    from dataclasses import replace
+
+    rng = np.random.default_rng(seed)
+    out = []
+    for ev in evidence:
+        xy = ev.skeleton_xy
+        c = np.c_[1.0 + np.sin(xy[:, 0] / 40.0), 1.0 + np.cos(xy[:, 1] / 30.0), np.ones(len(xy))]
+        c = c * rng.uniform(0.9, 1.1, c.shape)
+        c /= c.sum(axis=1, keepdims=True)
+        c[rng.random(len(c)) < 0.02] = np.nan
+        out.append(replace(ev, skeleton_chroma=c))
+    return out
+
+
+@pytest.mark.parametrize("colour_px", [0.0, 1.0, 3.0])
+def test_grow_curve_is_the_d0679b9_loop(tube_views, colour_px):
+    """The beam search with its hypotheses in arrays and its step's arithmetic compiled: the old function's curve
+    and candidates (nodes and scores), bit for bit, from the tube's base and from a point beside it, with the colour
+    off and on, on cameras without and with OpenCV's 5 coefficients and with 8 (the general path, in every view or
+    one), narrower beams and cones."""
+    from tendrilkit.mv_acquire import grow_curve
+
+    X, evidence = tube_views
+    five = _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4])
+    eight = _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4, 1e-3, 0.0, 0.0])  # the general path
+    views = [_with_chroma(evidence, 26), _with_chroma(five, 27), _with_chroma(evidence, 28),
+             _with_chroma(five, 29), _with_chroma(eight, 30), [_with_chroma(eight, 31)[0]] + _with_chroma(five, 31)[1:]]
+    runs = [dict(), dict(candidates=6), dict(beam=3, cone_deg=25.0, candidates=4), dict(step_mm=1.5, beam=12),
+            dict(candidates=3), dict()]
+    for evs, kw in zip(views, runs):
+        for B in (X[0], X[0] + [0.3, 0.6, -0.4]):
+            want = _grow_curve_d0679b9(evs, B, colour_px=colour_px, **kw)
+            got = grow_curve(evs, B, colour_px=colour_px, **kw)
+            if kw.get("candidates", 1) <= 1:
+                want, got = [(want, 0.0)], [(got, 0.0)]
+            assert len(got) == len(want)
+            for (g, gs), (w, ws) in zip(got, want):
+                assert g.tobytes() == w.tobytes() and g.shape == w.shape and gs == ws
+            assert len(want[0][0]) > 10 or B is not X[0]
+
+
+def test_step_kernels_are_the_d0679b9_numpy():
+    """grow_curve's compiled step (_new_and_colour, _step_costs, _step_finish, _self_near_nodes: the nodes that can
+    be near only, :func:`_siblings`) on random rows (NaN distances, colours and nodes, views seeing nothing, every
+    tail): the old loop's whole-array expressions."""
+    import tendrilkit.mv_acquire as A
+
+    rng = np.random.default_rng(28)
+    n_near = 0
+    for trial in range(60):
+        V = int(rng.integers(1, 5))
+        H = int(rng.integers(1, 10))
+        width = int(rng.integers(1, 40))
+        N = H * width
+        own = np.repeat(np.arange(H), width)
+        d = rng.choice([0.0, 1.0, 2.5, 3.0, 10.0], (V, 2 * N)) * rng.random((V, 2 * N))
+        d[rng.random(d.shape) < 0.02] = np.nan
+        seen = rng.random((V, 2 * N)) < rng.uniform(0.2, 1.0)
+        bg = rng.random((V, 2 * N)) < 0.05
+        k = int(rng.integers(1, 50))
+        near = np.where(rng.random((V, 2 * N)) < 0.8, rng.integers(0, k, (V, 2 * N)), -1)
+        adv = rng.random((V, N)) < 0.9
+        claims = [rng.random((H, k)) < 0.3 for _ in range(V)]
+        chroma = [rng.dirichlet([3.0, 3.0, 3.0], k) for _ in range(V)]
+        for c in chroma:
+            c[rng.random(k) < 0.1] = np.nan
+        h_col = np.where(rng.random((H, V, 1)) < 0.3, np.nan, rng.dirichlet([3.0, 3.0, 3.0], (H, V)))
+        h_col[0, 0, 1] = np.inf  # np.nan_to_num's largest double
+        use_col = trial % 3 > 0
+        # the old loop's expressions
+        claimed = np.zeros((V, N), bool)
+        for v in range(V):
+            i = near[v, :N]
+            claimed[v] = claims[v][own, np.maximum(i, 0)] & (i >= 0)
+        new_w = seen[:, :N] & (d[:, :N] <= A.ON_PX) & ~claimed & adv
+        m, n = A._mean_seen(d, seen)
+        m_end, n_end, m_mid, n_mid = m[:N], n[:N], m[N:], n[N:]
+        vis = (n_end >= 2) & (n_mid >= 2)
+        contradicted = bg[:, :N].any(axis=0) | bg[:, N:].any(axis=0)
+        confirmed = vis & (new_w.sum(axis=0) >= 2) & ~contradicted
+        cost_w = np.where(confirmed, 0.5 * (m_end + m_mid), np.maximum(0.5 * (m_end + m_mid), A.NEUTRAL_PX))
+        got = A._step_costs(d, seen, bg, new_w, A.NEUTRAL_PX)
+        for a, b in zip(got, (m_end, m_mid, vis, contradicted, confirmed, cost_w)):
+            assert a.tobytes() == b.tobytes() and a.dtype == b.dtype
+        follow = h_col[own]
+        step_col_w = np.full((N, V, 3), np.nan)
+        dev = np.zeros(N)
+        n_dev = np.zeros(N)
+        new = np.empty((V, N), bool)
+        step_col = np.full((V, N, 3), np.nan)
+        col_dev, col_known = np.zeros((V, N)), np.zeros((V, N), bool)
+        for v in range(V):
+            i = near[v, :N]
+            on = seen[v, :N] & (d[v, :N] <= A.ON_PX) & (i >= 0)
+            ch = chroma[v][np.maximum(i, 0)]
+            step_col_w[on, v] = ch[on]
+            known = on & np.isfinite(follow[:, v, 0])
+            dev += np.where(known, np.abs(ch - np.nan_to_num(follow[:, v])).sum(axis=1), 0.0)
+            n_dev += known
+            A._new_and_colour(d[v], seen[v], near[v], adv[v], claims[v], own, A.ON_PX, use_col,
+                              chroma[v] if use_col else np.zeros((0, 3)), h_col[:, v], new[v], step_col[v],
+                              col_dev[v], col_known[v])
+        np.testing.assert_array_equal(new, new_w)
+        cost = cost_w.copy()
+        if use_col:
+            assert step_col.transpose(1, 0, 2).tobytes() == step_col_w.tobytes()
+            off_colour = np.where(n_dev >= 2, dev / np.maximum(n_dev, 1), 0.0)
+            with np.errstate(over="ignore"):  # the largest double's differences
+                cost = cost + 1.5 * np.clip((off_colour - A.COLOUR_TOL) / A.COLOUR_TOL, 0.0, A.COLOUR_CAP)
+        else:
+            assert np.isnan(step_col).all() and not col_known.any()
+        first = trial % 4 == 0
+        lasts = rng.normal(size=(H, 3))
+        lasts /= np.linalg.norm(lasts, axis=1, keepdims=True)
+        dirs = rng.normal(size=(N, 3))
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", dirs, lasts[own]), -1, 1)))
+        if not first:
+            cost = cost + A.TURN_PX * (turn / 40.0) ** 2
+        nodes = np.cumsum(rng.normal(0.0, 1.0, (H, int(rng.integers(1, 30)), 3)), axis=1)
+        pts = nodes[own, -1] + rng.normal(0.0, 1.0, (N, 3)) * rng.choice([0.5, 2.0], (N, 1))
+        if trial % 5 == 1:  # a NaN node, a NaN candidate
+            nodes[0, 0, 1] = np.nan
+            pts[-1, 2] = np.nan
+        hyps = [(nodes[h],) for h in range(H)]
+        self_near = A._self_near(pts, width, *A._nodes_but_last(hyps, 5))
+        assert A._self_near_nodes(pts, width, nodes, 5).tobytes() == self_near.tobytes()
+        n_near += self_near.sum()
+        cost += np.where(self_near, 5.0, 0.0)
+        rows = np.flatnonzero(rng.random(N) < 0.3)
+        both, extra = A._siblings(rows, own, dirs, np.cos(np.radians(A.SPLIT_DEG)))
+        want = _split_siblings_d0679b9(rows, own, dirs, np.cos(np.radians(A.SPLIT_DEG)))
+        assert both.tolist() == want.tolist() and extra.tolist() == np.setdiff1d(want, rows).tolist()
+        h_tail, h_blind = rng.integers(0, 20, H), rng.integers(0, 8, H)
+        h_score = rng.normal(0.0, 10.0, H)
+        tail = np.where(confirmed, 0, h_tail[own] + 1)
+        blind_tail = np.where(confirmed | vis, 0, h_blind[own] + 1)
+        ok = (cost <= A.STOP_PX) & (blind_tail <= 6) & (tail <= 3 * 6) & ~contradicted
+        score = h_score[own] + cost - A.NEUTRAL_PX
+        has = np.bincount(own[ok], minlength=H) > 0
+        got = A._step_finish(cost_w, use_col, col_dev, col_known, 1.5, A.COLOUR_TOL, A.COLOUR_CAP,
+                             np.zeros(0) if first else turn, 40.0, A.TURN_PX, self_near, confirmed, vis, contradicted,
+                             own, h_score, h_tail, h_blind, A.NEUTRAL_PX, A.STOP_PX, 6)
+        for a, b in zip(got, (cost, tail, blind_tail, ok, score, has)):
+            assert a.tobytes() == b.tobytes() and a.dtype == b.dtype
+    assert n_near > 50  # candidates near their hypothesis's nodes, measured
+
+
+def test_mark_projected_is_mark_near_rows_of_the_projection(tube_views):
+    """grow_curve's claims, projected and marked in one compiled call: what ``mark_near_rows`` marks at
+    ``Camera.project``'s pixels (cameras without and with OpenCV's 5 coefficients; NaN points)."""
+    from tendrilkit.mv_acquire import _mark_projected, _step_fixed
+    from tendrilkit.mv_evidence import mark_near_rows
+
+    X, evidence = tube_views
+    rng = np.random.default_rng(32)
+    P = X[rng.integers(0, len(X), 400)] + rng.normal(0.0, 0.5, (400, 3))
+    P[5] = np.nan
+    rows = rng.integers(0, 6, len(P))
+    for ev in evidence + _with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4]):
+        want = rng.random((6, len(ev.skeleton_xy))) < 0.05
+        got = want.copy()
+        mark_near_rows(ev, want, rows, ev.camera.project(P), 4.0)
+        RT, t, _, _, args = _step_fixed(ev)
+        _mark_projected(P @ RT + t, args[0], args[1], args[2], rows, args[4], args[5], args[6], args[7], args[8], 4.0,
+                        got)
+        np.testing.assert_array_equal(got, want)
+        assert want.sum() > 100
+    assert _step_fixed(_with_distortion(evidence, [-0.04, 0.003, -5e-4, 3e-4, 1e-4, 1e-3, 0.0, 0.0])[0]) is None
