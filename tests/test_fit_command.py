@@ -230,6 +230,31 @@ def test_fit_command_loads_blas_without_scipy_linalg(tmp_path, imported_first):
         assert (other / name).read_bytes() == (tmp_path / "out" / name).read_bytes()
 
 
+def test_fit_command_fits_without_the_cyclic_collector(tmp_path, monkeypatch):
+    """The fit command runs its fits with Python's cyclic garbage collector off (its collections walked numba's
+    objects for nothing) and leaves it as it found it: on again after a run, still off if it was off."""
+    import gc
+
+    from tendrilkit import cli, fitting
+
+    csv = tmp_path / "curves.csv"
+    write_curves(csv, seeds=(3,), degenerate=False)
+    seen = []
+    fit = fitting.run_fit
+    monkeypatch.setattr(fitting, "run_fit", lambda *a, **k: seen.append(gc.isenabled()) or fit(*a, **k))
+    assert gc.isenabled()
+    assert cli.main(["fit", str(csv), "--out", str(tmp_path / "a"), "--workers", "1"]) == 0
+    assert seen == [False] and gc.isenabled()
+    gc.disable()
+    try:
+        assert cli.main(["fit", str(csv), "--out", str(tmp_path / "b"), "--workers", "1"]) == 0
+        assert seen == [False, False] and not gc.isenabled()
+    finally:
+        gc.enable()
+    for name in ("pwc_curves.csv", "pwc_segments.csv", "pwc_metrics.csv"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+
+
 @pytest.mark.parametrize("x_cells", [["1.5", "-2e-3", "+4", "5."], ["1.5", "", "3", "NA"], ["1", "-nan", "NaN", "2"],
                                      ["1", " 2 ", "3E0", "4"], ["1", "1_0", "2", "3"], ["1", "2", "x", "3"]])
 def test_curves_are_read_as_cell_by_cell(tmp_path, x_cells):
