@@ -147,6 +147,31 @@ def test_l2_costs_are_least_squares_lines():
     assert np.isinf(C[0, 2])
 
 
+def test_l2_cost_table_is_the_one_interval_at_a_time_table_bit_for_bit():
+    """``_line_costs`` grows the sums of all the intervals ending at a sample together (vectorised): the same
+    bits as one interval start at a time (``_line_costs_one_by_one``, the absolute error's route), zero
+    weights (intervals of no weight cost 0), repeated positions (no slope) and constant signals included."""
+    from tendrilkit.pwc.costs import _line_costs, _line_costs_one_by_one
+
+    rng = np.random.default_rng(17)
+    for t in range(400):
+        n = int(rng.integers(2, 120))
+        x = np.sort(rng.random(n)) - 0.5
+        if t % 7 == 0:
+            x = np.round(x, 1)
+        y = rng.standard_normal(n) * 10.0 ** int(rng.integers(-3, 3))
+        if t % 13 == 0:
+            y[:] = 1.0
+        w = rng.random(n)
+        if t % 3 == 0:
+            w[rng.random(n) < 0.5] = 0.0
+        if t % 11 == 0:
+            w[:] = 0.0
+        w = w / max(w.sum(), 1e-300)
+        ms = int(rng.integers(2, 6))
+        assert _line_costs(x, y, w, ms, False).tobytes() == _line_costs_one_by_one(x, y, w, ms, False).tobytes()
+
+
 def test_penalties_do_not_depend_on_units_or_point_count():
     s = np.linspace(0, 100, 201)
     y = np.interp(s, [0, 40, 100], [0.02, 0.08, 0.03]) + np.random.default_rng(2).normal(0, 0.003, s.size)
