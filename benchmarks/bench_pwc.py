@@ -77,7 +77,8 @@
    361 -> 84 ms); a table of numbers' columns written by joining its cells (csv's bytes without its
    per-cell search for commas, quotes and line breaks, which numbers never hold: pwc_curves' rows 19 -> 5 ms). On /work/runs/fitcmd/curves.csv (100 reconstructed frames), 7 alternate runs at load
    5.7: 3.66 -> 2.97 s wall, 2.45 -> 1.89 s CPU (0.81, 0.77); on the benchmark's 100 seeded curves at load
-   5.0: 3.60 -> 3.03 s wall, 2.37 -> 2.09 s CPU. Where such a run's CPU goes now (parts apart, load 1):
+   5.0: 3.60 -> 3.03 s wall, 2.37 -> 2.09 s CPU; at last on an idle machine (load 0-0.4), 6 alternate runs of
+   /usr/bin/time on curves.csv: 2.27 -> 2.12 s wall, 2.13 -> 2.01 s user (target 2 s not reached). Where such a run's CPU goes now (parts apart, load 1):
    imports 0.32 s (numpy 0.07, numba 0.20, tendrilkit 0.06), numba's set-up at its first compiled call
    0.13 s, its ten cache loads 0.10 s (_refine_best 35 ms, _score_gains 24 ms, _join_core 11 ms: most of
    it llvmlite's calls over each library's few hundred symbols), the CSV 0.04 s, the fits about 1.0 s, the
