@@ -55,6 +55,44 @@
    memo key made once (functools.cached_property's lock at each first read cost more than the bytes).
    The 5 ms target is out of reach at the same bits: Levenberg-Marquardt and the score test alone are
    about 6 ms (BLAS products and libm calls fix their last bits); fewer of them changes the fits;
+   2026-12-02, evening (branch pwc-speed2, alternated with main d0679b9 in a clone; the fits bit-identical:
+   ``benchmarks/pwc_identity.py``, 440 fits and the fit command's three tables, after every change; the
+   machine at load 4-5.5 on its 2 cores throughout, other jobs running): the least-squares cost table with
+   the sums of every interval ending at a sample grown together (costs._line_costs: loops over the interval
+   starts that vectorise, numpy's error model; each interval's sums take the same terms in the same order:
+   150 -> 80 us a table, the same bits on 3000 random signals); the Jacobian's arrays written once
+   (_frame_columns and _rigid_columns write their zeros, no clearing pass; the residuals straight into the
+   normal equations' last column; the score test's projection without its C_perp array); a start that
+   repeats an earlier one not evaluated again (11 % of the starts on the fit command's frames). Per frame
+   (40 seeded curves, 7 alternate runs of --baseline): 10.1 -> 9.7 ms CPU at load 4.5, 9.9 -> 10.2 at load
+   4.6: no change beyond the noise (the _refine_best calls of 100 fits replayed, best of 8, alternated 4
+   times: 0.47-0.49 s either side; the score test's 542 calls 0.100 -> 0.095 s). The fit command (--workers
+   1): its curves.csv read in one pass by numpy's reader when every cell is a plain number
+   (fitting._numeric_table; numpy reads a cell with PyOS_string_to_double, as float does: the same doubles,
+   checked on 300000 texts; anything else, '_', quotes, CR, short rows, NaN, text, read cell by cell as
+   before: 90 -> 40 ms for 100 frames); its fits without Python's cyclic collector, the objects then alive
+   frozen on the way out (cli._without_cyclic_gc: the run's 270 young, 25 middle and 2 full collections
+   walked numba's objects, 80-90 ms, for no garbage: none over 100 fits; and the interpreter's exit walked
+   them all again: from the command's last line to the process's end, 5 alternate runs at load 5.4, median
+   361 -> 84 ms); a table of numbers' columns written by joining its cells (csv's bytes without its
+   per-cell search for commas, quotes and line breaks, which numbers never hold: pwc_curves' rows 19 -> 5 ms). On /work/runs/fitcmd/curves.csv (100 reconstructed frames), 7 alternate runs at load
+   5.7: 3.66 -> 2.97 s wall, 2.45 -> 1.89 s CPU (0.81, 0.77); on the benchmark's 100 seeded curves at load
+   5.0: 3.60 -> 3.03 s wall, 2.37 -> 2.09 s CPU; at last on an idle machine (load 0-0.4), 6 alternate runs of
+   /usr/bin/time on curves.csv: 2.27 -> 2.12 s wall, 2.13 -> 2.01 s user (target 2 s not reached). Where such a run's CPU goes now (parts apart, load 1):
+   imports 0.32 s (numpy 0.07, numba 0.20, tendrilkit 0.06), numba's set-up at its first compiled call
+   0.13 s, its ten cache loads 0.10 s (_refine_best 35 ms, _score_gains 24 ms, _join_core 11 ms: most of
+   it llvmlite's calls over each library's few hundred symbols), the CSV 0.04 s, the fits about 1.0 s, the
+   tables 0.06 s (pwc_curves: repr of 80000 floats 35 ms). Of a fit's CPU (perf, by
+   library, 500 warm fits): compiled code 37 %, the interpreter 30 %, numpy's C 9 %, OpenBLAS 9.5 %, malloc
+   and memset 7.5 %, libm 2.7 %, the cyclic collector 3 % (in a process that keeps it on). Tried and not
+   kept: numpy's error model (no zero-division checks) on the step means, the law columns and the
+   integration (1-3 % of their microseconds, within the noise; a zero division would no longer raise); a
+   higher collector threshold instead of none (10000 or 50000: fewer collections, each walking more, the
+   same total; gc.freeze() alone before the fits would miss numba's objects, made at the first fit);
+   NUMBA_ENABLE_PROFILING for perf's names of the compiled functions (it bypasses the cache: the profile is
+   numba compiling). The 5 ms target stays out of reach at the same bits (the rest is spread: no Python
+   function above 3 % of a fit, the compiled steps near their arithmetic), and the fits' changes tried
+   before moved the accuracy the wrong way;
 2. the paper's grid search on the same frames;
 3. ``python -m tendrilkit fit`` on a 100-frame curves.csv, process start included
    (issue 17 target: <= 2 s; on the 100 reconstructed frames of the S3 + S4 site outputs (S3's 60,

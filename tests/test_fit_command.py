@@ -230,6 +230,31 @@ def test_fit_command_loads_blas_without_scipy_linalg(tmp_path, imported_first):
         assert (other / name).read_bytes() == (tmp_path / "out" / name).read_bytes()
 
 
+def test_fit_command_fits_without_the_cyclic_collector(tmp_path, monkeypatch):
+    """The fit command runs its fits with Python's cyclic garbage collector off (its collections walked numba's
+    objects for nothing) and leaves it as it found it: on again after a run, still off if it was off."""
+    import gc
+
+    from tendrilkit import cli, fitting
+
+    csv = tmp_path / "curves.csv"
+    write_curves(csv, seeds=(3,), degenerate=False)
+    seen = []
+    fit = fitting.run_fit
+    monkeypatch.setattr(fitting, "run_fit", lambda *a, **k: seen.append(gc.isenabled()) or fit(*a, **k))
+    assert gc.isenabled()
+    assert cli.main(["fit", str(csv), "--out", str(tmp_path / "a"), "--workers", "1"]) == 0
+    assert seen == [False] and gc.isenabled()
+    gc.disable()
+    try:
+        assert cli.main(["fit", str(csv), "--out", str(tmp_path / "b"), "--workers", "1"]) == 0
+        assert seen == [False, False] and not gc.isenabled()
+    finally:
+        gc.enable()
+    for name in ("pwc_curves.csv", "pwc_segments.csv", "pwc_metrics.csv"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+
+
 @pytest.mark.parametrize("x_cells", [["1.5", "-2e-3", "+4", "5."], ["1.5", "", "3", "NA"], ["1", "-nan", "NaN", "2"],
                                      ["1", " 2 ", "3E0", "4"], ["1", "1_0", "2", "3"], ["1", "2", "x", "3"]])
 def test_curves_are_read_as_cell_by_cell(tmp_path, x_cells):
@@ -251,6 +276,42 @@ def test_curves_are_read_as_cell_by_cell(tmp_path, x_cells):
     assert got.xyz_mm[:, 0].tobytes() == np.array(expected, dtype=float).tobytes()  # NaN's sign bit too
     assert np.isnan(got.xyz_mm[1, 2]) and np.array_equal(got.xyz_mm[[0, 2, 3], 2], [3.0, 3.0, 3.0])
     assert (F._plain_numbers(x_cells) is None) == (x_cells not in (["1.5", "-2e-3", "+4", "5."], ["1", " 2 ", "3E0", "4"]))
+
+
+@pytest.mark.parametrize("text, one_pass", [
+    ("frame,time_s,point,x_mm,y_mm,z_mm\n0,1.0,0,1.5,-2e-3,+4\n0,1.0,1,5.,1E300,-0.0\n", True),
+    ("\ufeffz_mm,point,frame,y_mm,x_mm,extra\n\n3, 0 ,7,2.0,1.0,9\n\n4,1,7,2.5,0.1,1e-320\n\n", True),  # BOM, blank lines
+    ("frame,point,x_mm,y_mm,z_mm\n0,0,1,2,3\n0,1,1,2,inf\n", True),  # no time_s; an infinite coordinate
+    ("frame,point,x_mm,y_mm,z_mm\n0,0,1,2,3\n0,1,1_0,2,3\n", False),  # '_': Python's float reads it
+    ("frame,point,x_mm,y_mm,z_mm\n0,0,1,2,3\n0,1,\"4\",2,3\n", False),  # quoted
+    ("frame,point,x_mm,y_mm,z_mm\r\n0,0,1,2,3\r\n", False),  # CR LF
+    ("frame,point,x_mm,y_mm,z_mm\n0,0,1,2,3\n0,1,1,2\n", False),  # a short row
+    ("frame,point,x_mm,y_mm,z_mm\n0,0,1,2,3\n \n", False),  # a row of one blank cell
+    ("frame,point,x_mm,y_mm,z_mm\n0,0,1,2,NaN\n", False),  # NaN written out
+    ("frame,point,x_mm,y_mm,z_mm\n0,0,1,2,x\n", False),  # text
+    ("frame,point,x_mm,y_mm,z_mm,note\n0,0,1,2,3,a\n", False),  # a column of text
+    ("frame,point,x_mm,y_mm,z_mm\n0,0,1,2,\u0663\n", False),  # a digit Python reads, numpy's reader does not
+])
+def test_curves_read_in_one_pass_as_cell_by_cell(tmp_path, monkeypatch, text, one_pass):
+    """A curves.csv of plain numbers is read in one pass (_numeric_table, numpy's reader): the same arrays, bytes
+    and dtypes, as the rows read cell by cell; any other file (a cell Python's float and numpy's reader could read
+    apart, a quote, CR, short rows, NaN, text) is left to the cells' reading, which reads or reports it as before."""
+    from tendrilkit import fitting as F
+
+    csv = tmp_path / "curves.csv"
+    csv.write_bytes(text.encode("utf-8"))
+    assert (F._numeric_table(csv) is not None) == one_pass
+
+    def read():
+        try:
+            c = F._read_curves(csv)
+        except ExperimentError as e:
+            return str(e)
+        return [(a.dtype.str, a.shape, a.tobytes()) for a in (c.frame, c.point, c.time_s, c.xyz_mm)]
+
+    fast = read()
+    monkeypatch.setattr(F, "_numeric_table", lambda path: None)
+    assert read() == fast
 
 
 def test_fit_over_workers_writes_the_same_tables(tmp_path, monkeypatch):

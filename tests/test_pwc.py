@@ -147,6 +147,31 @@ def test_l2_costs_are_least_squares_lines():
     assert np.isinf(C[0, 2])
 
 
+def test_l2_cost_table_is_the_one_interval_at_a_time_table_bit_for_bit():
+    """``_line_costs`` grows the sums of all the intervals ending at a sample together (vectorised): the same
+    bits as one interval start at a time (``_line_costs_one_by_one``, the absolute error's route), zero
+    weights (intervals of no weight cost 0), repeated positions (no slope) and constant signals included."""
+    from tendrilkit.pwc.costs import _line_costs, _line_costs_one_by_one
+
+    rng = np.random.default_rng(17)
+    for t in range(400):
+        n = int(rng.integers(2, 120))
+        x = np.sort(rng.random(n)) - 0.5
+        if t % 7 == 0:
+            x = np.round(x, 1)
+        y = rng.standard_normal(n) * 10.0 ** int(rng.integers(-3, 3))
+        if t % 13 == 0:
+            y[:] = 1.0
+        w = rng.random(n)
+        if t % 3 == 0:
+            w[rng.random(n) < 0.5] = 0.0
+        if t % 11 == 0:
+            w[:] = 0.0
+        w = w / max(w.sum(), 1e-300)
+        ms = int(rng.integers(2, 6))
+        assert _line_costs(x, y, w, ms, False).tobytes() == _line_costs_one_by_one(x, y, w, ms, False).tobytes()
+
+
 def test_penalties_do_not_depend_on_units_or_point_count():
     s = np.linspace(0, 100, 201)
     y = np.interp(s, [0, 40, 100], [0.02, 0.08, 0.03]) + np.random.default_rng(2).normal(0, 0.003, s.size)
@@ -616,6 +641,46 @@ def test_best_of_starts_is_the_starts_evaluated_one_by_one():
                 assert i == j and (sse == ref[4] or (np.isinf(sse) and np.isinf(ref[4])))
                 for x, y in zip(laws + end[1:], ref[:4] + ref[5:]):
                     assert x.tobytes() == y.tobytes()
+
+
+def test_frame_columns_write_every_entry_once():
+    """``_frame_columns`` fills an uncleared array: with ``ak``, ``at`` short of the columns (the score test's
+    hinges, which move only the points after them) the columns they leave out are +0.0 and the others the bits
+    of the full computation; ``_rigid_columns`` writes every entry of its six columns (its zeros too)."""
+    from tendrilkit.pwc.refine import _frame_columns, _hinge_means, _law_state, _rigid_columns
+    from tendrilkit.pwc.laws import join_segments
+    from tendrilkit.pwc.signals import _prepare
+
+    prep = _prepare(random_pwc_curve(7).points_mm, None, "l2", None, None)
+    s, L = prep.s, prep.s[-1]
+    lk = join_segments(s, prep.fr.kappa, np.searchsorted(s, [0, L / 3, L + 1]), kind="kappa")
+    lt = join_segments(s, prep.fr.tau, np.array([0, s.size]), weights=prep.wt, kind="tau")
+    f, P, T, B, R, X = _law_state(prep, lk, lt)
+    xk, xt = np.linspace(5.0, L - 5.0, 17), np.linspace(3.0, L - 3.0, 9)
+    Mk, Mt = _hinge_means(s, xk), _hinge_means(s, xt)
+    n = s.size
+    for _ in range(3):  # fresh (uncleared) arrays each time: the same bits
+        part = _frame_columns(s, P, T, B, Mk, Mt, np.searchsorted(xk, s), np.searchsorted(xt, s))
+        full = _frame_columns(s, P, T, B, Mk, Mt, np.full(n, xk.size), np.full(n, xt.size))
+        left = np.zeros(part.shape, bool)  # the entries not visited
+        for j in range(n):
+            left[3 * j:3 * j + 3, np.searchsorted(xk, s[j]):xk.size] = True
+            left[3 * j:3 * j + 3, xk.size + np.searchsorted(xt, s[j]):] = True
+        left[:3] = True
+        assert left.any() and (~left).any()
+        assert part[left].tobytes() == np.zeros(int(left.sum())).tobytes()
+        assert part[~left].tobytes() == full[~left].tobytes()
+    out = np.full((3 * n, 8), np.nan)
+    _rigid_columns(P, out, 1)
+    y = P - P.mean(axis=0)
+    ref = np.zeros((3 * n, 6))
+    for j in range(n):
+        ref[3 * j:3 * j + 3, :3] = np.eye(3)
+        for k in range(3):
+            ref[3 * j:3 * j + 3, 3 + k] = np.cross(np.eye(3)[k], y[j])
+    assert np.isnan(out[:, [0, 7]]).all() and not np.isnan(out[:, 1:7]).any()
+    np.testing.assert_allclose(out[:, 1:7], ref, rtol=0, atol=1e-12)
+    assert (out[:, 1:7] == 0).sum() == (ref == 0).sum()
 
 
 def test_compiled_score_test_matches_its_numpy_form():

@@ -66,7 +66,13 @@ def write_columns(columns: dict, path: str | Path, table: Table) -> None:
         with open(tmp, "w", newline="", encoding="utf-8") as fh:
             w = csv.writer(fh, lineterminator="\n")
             w.writerow(table.columns)
-            w.writerows(zip(*cells))
+            if len(cells) > 1 and all(kind != "str" for kind in table.kinds):
+                # numbers' cells (repr, str of an int, True/False, or empty) hold no comma, quote or line
+                # break, and a row of several cells is quoted only for those: csv's bytes, joined without
+                # its per-cell search for them (a third of the time of pwc_curves' 120000 cells)
+                fh.writelines([",".join(row) + "\n" for row in zip(*cells)])
+            else:
+                w.writerows(zip(*cells))
 
 
 def read_rows(path: Path) -> tuple[list[str], list[list[str]]]:

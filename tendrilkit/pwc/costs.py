@@ -17,8 +17,62 @@ __all__ = ["line_costs"]
 _SIGMA_FLOOR_RAD = 1e-2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _line_costs(x, y, w, min_size, l1):
+    """``C[i, j]`` of :func:`line_costs` on the normalised signal (``l1``: the absolute error's).
+
+    Least squares: the sums of every interval ``i .. j`` grown together, one sample ``j`` at a time over
+    all the intervals that end there (each interval's sums take the same terms in the same order as
+    one interval at a time, :func:`_line_costs_one_by_one`: the same bits), so that the loops over
+    ``i`` vectorise (numpy's error model: a division by a zero weight gives NaN, not an exception, and
+    is not taken).
+    """
+    if l1:
+        return _line_costs_one_by_one(x, y, w, min_size, l1)
+    n = x.shape[0]
+    C = np.full((n + 1, n + 1), np.inf)
+    Sw = np.zeros(n)
+    Sx = np.zeros(n)
+    Sy = np.zeros(n)
+    Sxx = np.zeros(n)
+    Sxy = np.zeros(n)
+    Syy = np.zeros(n)
+    row = np.empty(n)
+    for j in range(n):
+        wj = w[j]
+        tx = wj * x[j]
+        ty = wj * y[j]
+        txx = tx * x[j]
+        txy = tx * y[j]
+        tyy = ty * y[j]
+        for i in range(j + 1):
+            Sw[i] += wj
+            Sx[i] += tx
+            Sy[i] += ty
+            Sxx[i] += txx
+            Sxy[i] += txy
+            Syy[i] += tyy
+        m = j - min_size + 2  # the intervals i .. j of at least min_size samples: i < m
+        for i in range(m):
+            sw = Sw[i]
+            mx = Sx[i] / sw
+            my = Sy[i] / sw
+            cxx = Sxx[i] - Sx[i] * mx
+            cxy = Sxy[i] - Sx[i] * my
+            cyy = Syy[i] - Sy[i] * my
+            slope = 0.0 if cxx <= 1e-12 * sw else cxy / cxx
+            v = cyy - slope * cxy
+            v = v if v > 0.0 else 0.0
+            row[i] = 0.0 if sw <= 1e-300 else v
+        for i in range(m):
+            C[i, j + 1] = row[i]
+    return C
+
+
+@njit(cache=True)
+def _line_costs_one_by_one(x, y, w, min_size, l1):
+    """:func:`_line_costs` one interval start at a time (the absolute error's costs; the reference of the
+    least squares' bits)."""
     n = x.shape[0]
     C = np.full((n + 1, n + 1), np.inf)
     for i in range(n):

@@ -71,13 +71,15 @@ def _frame_columns(s, P, T, B, Mk, Mt, ak, at):
     start one after another); all of them for the laws' columns. One pass over the points, every
     parameter's two running sums updated per step; the sums are kept per component in separate
     arrays and the curvature and torsion parameters in separate loops, so that the loops over
-    parameters vectorise.
+    parameters vectorise. Each entry is written once (the zeros too: no pass over the whole array
+    to clear it first).
     """
     n = P.shape[0]
     nk = Mk.shape[1]
     nt = Mt.shape[1]
     p = nk + nt
-    D = np.zeros((3 * n, p))  # the first point does not move
+    D = np.empty((3 * n, p))
+    D[:3, :] = 0.0  # the first point does not move
     A0 = np.zeros(p)
     A1 = np.zeros(p)
     A2 = np.zeros(p)
@@ -128,10 +130,18 @@ def _frame_columns(s, P, T, B, Mk, Mt, ak, at):
             D[r0, q] = A1[q] * pz - A2[q] * py - C0[q]
             D[r0 + 1, q] = A2[q] * px - A0[q] * pz - C1[q]
             D[r0 + 2, q] = A0[q] * py - A1[q] * px - C2[q]
+        for q in range(ek, nk):
+            D[r0, q] = 0.0
+            D[r0 + 1, q] = 0.0
+            D[r0 + 2, q] = 0.0
         for q in range(nk, nk + et):
             D[r0, q] = A1[q] * pz - A2[q] * py - C0[q]
             D[r0 + 1, q] = A2[q] * px - A0[q] * pz - C1[q]
             D[r0 + 2, q] = A0[q] * py - A1[q] * px - C2[q]
+        for q in range(nk + et, p):
+            D[r0, q] = 0.0
+            D[r0 + 1, q] = 0.0
+            D[r0 + 2, q] = 0.0
     return D
 
 
@@ -141,7 +151,8 @@ def _rigid_columns(P, out, o):
 
     Translations ``e_l``, then rotations ``e_l x y`` about the centroid (``y``: the centred points):
     :func:`_lm_jacobian`'s six columns rotated back by ``R``, for freedoms rotated alike (the same
-    span, the same products once rotated back). Other entries of those columns are left as they are.
+    span, the same products once rotated back). Every entry of the six columns is written, the zeros
+    too (``out`` need not be cleared).
     """
     n = P.shape[0]
     pm0 = pm1 = pm2 = 0.0
@@ -158,15 +169,24 @@ def _rigid_columns(P, out, o):
         y2 = P[j, 2] - pm2
         r0 = 3 * j
         out[r0, o] = 1.0
+        out[r0 + 1, o] = 0.0
+        out[r0 + 2, o] = 0.0
+        out[r0, o + 1] = 0.0
         out[r0 + 1, o + 1] = 1.0
+        out[r0 + 2, o + 1] = 0.0
+        out[r0, o + 2] = 0.0
+        out[r0 + 1, o + 2] = 0.0
         out[r0 + 2, o + 2] = 1.0
         # e_0 x y = (0, -y2, y1), e_1 x y = (y2, 0, -y0), e_2 x y = (-y1, y0, 0)
+        out[r0, o + 3] = 0.0
         out[r0 + 1, o + 3] = -y2
         out[r0 + 2, o + 3] = y1
         out[r0, o + 4] = y2
+        out[r0 + 1, o + 4] = 0.0
         out[r0 + 2, o + 4] = -y0
         out[r0, o + 5] = -y1
         out[r0 + 1, o + 5] = y0
+        out[r0 + 2, o + 5] = 0.0
 
 
 @njit(cache=True)
@@ -200,11 +220,9 @@ def _lm_normal(s, P, T, B, R, X, data, Mk, Mt):
     D = _frame_columns(s, P, T, B, Mk, Mt, np.full(n, nk), np.full(n, nt))
     # seven columns in the integration's frame: translations e_l, rotations e_l x y (y: the
     # centred points there), the residuals rotated back R^T r
-    W = np.zeros((3 * n, 7))
+    W = np.empty((3 * n, 7))
     _rigid_columns(P, W, 0)
-    u = np.empty(3 * n)
-    _back_rotated_residuals(R, X, data, u)
-    W[:, 6] = u
+    _back_rotated_residuals(R, X, data, W[:, 6])
     xm = np.zeros(3)
     for j in range(n):
         for c3 in range(3):
@@ -532,6 +550,17 @@ def _lm_from(s, data, kk, vk, kt, vt, free_knots, min_gap, iterations, rtol, f, 
 
 
 @njit(cache=True)
+def _same_numbers(a, b):
+    """Do the float arrays ``a`` and ``b`` hold the same numbers (zeros of the same sign; NaN: never)?"""
+    if a.shape[0] != b.shape[0]:
+        return False
+    for i in range(a.shape[0]):
+        if not (a[i] == b[i] and np.copysign(1.0, a[i]) == np.copysign(1.0, b[i])):
+            return False
+    return True
+
+
+@njit(cache=True)
 def _refine_best(s, data, knots_k, ends_k, values_k, knots_t, ends_t, values_t, free_knots, min_gap, iterations,
                  rtol, have_state, f, P, T, B, R, X):
     """The best of several starts refined: one compiled call for a candidate of the search.
@@ -539,14 +568,27 @@ def _refine_best(s, data, knots_k, ends_k, values_k, knots_t, ends_t, values_t, 
     Start ``i`` is the laws ``knots_k[ends_k[i]:ends_k[i + 1]]`` (values ``values_k`` alike) and
     ``knots_t[ends_t[i]:ends_t[i + 1]]``. Each start is evaluated (:func:`_lm_evaluate`; with
     ``have_state`` and one start, ``f, P, T, B, R, X`` is its evaluation, not computed again), the
-    first of least SSE is refined (:func:`_lm_from`, ``iterations`` 0: not refined). Returns its index,
-    then :func:`_lm_from`'s results: the same bits as those functions called one by one.
+    first of least SSE is refined (:func:`_lm_from`, ``iterations`` 0: not refined). A start that repeats
+    an earlier one (the same numbers: the search's union of knot sets is often the new set itself) is
+    not evaluated again: its SSE would be the earlier one's, and a later start is taken only for less.
+    Returns the index of the start refined, then :func:`_lm_from`'s results: the same bits as those
+    functions called one by one.
     """
     best = -1
     m = ends_k.shape[0] - 1
     if not (have_state and m == 1):
         for i in range(m):
             a0, a1, b0, b1 = ends_k[i], ends_k[i + 1], ends_t[i], ends_t[i + 1]
+            repeat = False
+            for j in range(i):
+                c0, c1, d0, d1 = ends_k[j], ends_k[j + 1], ends_t[j], ends_t[j + 1]
+                if (_same_numbers(knots_k[a0:a1], knots_k[c0:c1]) and _same_numbers(values_k[a0:a1], values_k[c0:c1])
+                        and _same_numbers(knots_t[b0:b1], knots_t[d0:d1])
+                        and _same_numbers(values_t[b0:b1], values_t[d0:d1])):
+                    repeat = True
+                    break
+            if repeat:
+                continue
             fi, Pi, Ti, Bi, Ri, Xi = _lm_evaluate(s, knots_k[a0:a1], values_k[a0:a1], knots_t[b0:b1],
                                                   values_t[b0:b1], data)
             if best < 0 or fi < f:
@@ -716,7 +758,7 @@ def _score_gains(s, data, P, T, B, R, X, kk, vk, kt, vt, free_knots, xk, xt):
     D = _frame_columns(s, P, T, B, Gk, Gt, np.full(n, Gk.shape[1]), np.full(n, Gt.shape[1]))
     rows, pl = D.shape
     p = pl + 6
-    J = np.zeros((rows, p))
+    J = np.empty((rows, p))
     J[:, :pl] = D
     _rigid_columns(P, J, pl)
     sc = np.zeros(p)
@@ -738,13 +780,13 @@ def _score_gains(s, data, P, T, B, R, X, kk, vk, kt, vt, free_knots, xk, xt):
     # both laws' hinge columns in one pass; a hinge moves the points after it only
     C = _frame_columns(s, P, T, B, _hinge_means(s, xk), _hinge_means(s, xt), np.searchsorted(xk, s),
                        np.searchsorted(xt, s))
-    Cp = C - J @ np.linalg.solve(H, JT @ C)
+    JY = J @ np.linalg.solve(H, JT @ C)  # the hinges' columns projected off C_perp = C - JY
     num = np.zeros(nk + nt)
     den = np.zeros(nk + nt)
     for i in range(rows):
         ui = u[i]
         for q in range(nk + nt):
-            v = Cp[i, q]
+            v = C[i, q] - JY[i, q]
             num[q] += v * ui
             den[q] += v * v
     gk = np.empty(nk)
