@@ -1075,6 +1075,15 @@ def grow_curve(evidence: list[SkeletonEvidence], base_mm: np.ndarray, *, step_mm
             break
     finished.extend((nodes[h], float(h_score[h]), int(h_tail[h])) for h in range(len(nodes)))
 
+    return _best_finished(evidence, finished, step_mm, candidates)
+
+
+
+def _best_finished(evidence: list[SkeletonEvidence], finished: list, step_mm: float, candidates: int):
+    """:func:`grow_curve`'s result from its finished hypotheses ``(nodes, score, unconfirmed tail)``: each without
+    its unconfirmed tail, the best-scoring one among those whose tip the views see (not run out of two views'
+    ROIs) and at least half as long as the longest (all of them if none is), and with ``candidates`` over one the
+    next best ones, tips ``SAME_TIP_MM`` apart (see :func:`grow_curve`'s Returns)."""
     def trimmed(h):
         nodes, score, tail = h
         keep = len(nodes) - tail

@@ -1084,27 +1084,7 @@ def _grow_curve_d0679b9(evidence, base_mm, *, step_mm=2.0, beam=8, n_seeds=6, co
             break
     finished.extend(h[:3] for h in hyps)
 
-    def trimmed(h):
-        nodes, score, tail = h
-        keep = len(nodes) - tail
-        return nodes[:max(keep, 2)], score
-
-    ends = [trimmed(h) for h in finished]
-    cut = A.runs_out(evidence, [np.asarray(n, float) for n, _ in ends], step_mm)
-    length = np.array([len(n) for n, _ in ends], float)
-    inside = [e for e, c, n in zip(ends, cut, length) if not c and n >= 0.5 * length.max()]
-    best = min(inside or ends, key=lambda t: t[1])
-    if A._TRACE is not None:
-        A._TRACE("ends", ends=ends, cut=cut, best=best)
-    if candidates <= 1:
-        return np.asarray(best[0], float)
-    listed = [best]
-    for e in sorted(inside or ends, key=lambda t: t[1]):
-        if len(listed) == candidates:
-            break
-        if all(np.linalg.norm(np.asarray(e[0][-1]) - np.asarray(o[0][-1])) >= A.SAME_TIP_MM for o in listed):
-            listed.append(e)
-    return [(np.asarray(n, float), float(sc)) for n, sc in listed]
+    return A._best_finished(evidence, finished, step_mm, candidates)  # the ends' choice: not what is pinned
 
 
 def _with_chroma(evidence, seed):
