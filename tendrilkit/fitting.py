@@ -332,7 +332,7 @@ def _fit_in_pool(frames, times, xyz, cuts, options, workers):
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
-    from tendrilkit.pools import ignore_interrupts, stop_pool
+    from tendrilkit.pools import ignore_interrupts, signals_held, stop_pool
 
     done = _fit_cut(frames, times, xyz, cuts[:1], options)
     rest = cuts[1:]
@@ -341,10 +341,11 @@ def _fit_in_pool(frames, times, xyz, cuts, options, workers):
     pool = ProcessPoolExecutor(workers, mp_context=mp.get_context("fork"), initializer=ignore_interrupts)
     try:
         jobs = []
-        for c in chunks:  # each job gets its frames' rows only
-            a0, b1 = c[0][0], c[-1][1]
-            jobs.append(pool.submit(_fit_cut, frames[a0:b1], times[a0:b1], xyz[a0:b1],
-                                    [(a - a0, b - a0) for a, b in c], options))
+        with signals_held():  # the workers are forked at the first submit
+            for c in chunks:  # each job gets its frames' rows only
+                a0, b1 = c[0][0], c[-1][1]
+                jobs.append(pool.submit(_fit_cut, frames[a0:b1], times[a0:b1], xyz[a0:b1],
+                                        [(a - a0, b - a0) for a, b in c], options))
         for job in jobs:
             done.extend(job.result())
     except BaseException:  # Ctrl-C, SIGTERM or an error: the workers end with the parent

@@ -90,7 +90,7 @@ from tendrilkit.exceptions import ExperimentError, FrameError, FrameReadError
 from tendrilkit.options import stage_options
 from tendrilkit.assembly import assemble_tables, with_run_checks, with_temporal_checks
 from tendrilkit.pipeline import RESULT_FILES, FrameResult, reconstruct_frame
-from tendrilkit.pools import ignore_interrupts, stop_pool
+from tendrilkit.pools import ignore_interrupts, signals_held, stop_pool
 from tendrilkit.segmentation import segment_view
 
 __all__ = ["ReconstructSummary", "run_reconstruct", "frame_fingerprint", "RESULT_FILES"]
@@ -396,10 +396,11 @@ def run_reconstruct(experiment_path: str | Path, out_dir: str | Path, *, workers
                 stop_pool(pool)
 
     def _collect(pool: Executor, sources):
-        if multiview:
-            jobs = [pool.submit(_run_chunk, (c, state_before(c[0]), exp, cameras, fit)) for c in chunks]
-        else:
-            jobs = [pool.submit(_run_chunk, (c, [None] * V, exp, cameras, fit)) for c in chunks]
+        with signals_held():  # a pool of ours forks its workers at the first submit
+            if multiview:
+                jobs = [pool.submit(_run_chunk, (c, state_before(c[0]), exp, cameras, fit)) for c in chunks]
+            else:
+                jobs = [pool.submit(_run_chunk, (c, [None] * V, exp, cameras, fit)) for c in chunks]
         for chunk, job in zip(chunks, jobs):
             results = job.result()
             state = state_before(chunk[0]) if not multiview else None
